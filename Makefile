@@ -1,0 +1,31 @@
+PY ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: demo demos test bench clean
+
+$(STAMP): pyproject.toml
+	test -d $(VENV) || $(PY) -m venv $(VENV)
+	$(BIN)/pip install -q --upgrade pip
+	$(BIN)/pip install -q -e ".[test]"
+	touch $(STAMP)
+
+## make demo: set everything up and run the default demo (writes out/pile.mp4)
+demo: $(STAMP)
+	$(BIN)/python demos/pile.py
+
+## make demos: run every demo
+demos: $(STAMP)
+	for d in demos/*.py; do $(BIN)/python $$d || exit 1; done
+
+## make test: set everything up and run the test suite
+test: $(STAMP)
+	$(BIN)/python -m pytest -q tests
+
+## make bench: the performance benchmark (prints a table)
+bench: $(STAMP)
+	$(BIN)/python benchmarks/pile.py
+
+clean:
+	rm -rf $(VENV) out .pytest_cache
