@@ -1,0 +1,76 @@
+"""The one place where Taichi is initialised.
+
+Everything in taichi_fdem that needs Taichi calls :func:`ensure_init`, which calls
+:func:`init` with defaults the first time.  Call :func:`init` yourself, before building a
+scene, to choose the architecture or the precision.
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import taichi as ti
+
+_ARCHS = {"cpu": "cpu", "cuda": "cuda", "gpu": "gpu", "vulkan": "vulkan", "metal": "metal", "opengl": "opengl"}
+_PRECISIONS = {"f64": (ti.f64, np.float64), "f32": (ti.f32, np.float32)}
+
+_state = {"initialised": False, "arch": None, "precision": None}
+
+
+def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, debug: bool = False,
+         cpu_max_num_threads: int | None = None) -> None:
+    """Initialise Taichi for taichi_fdem.
+
+    Parameters
+    ----------
+    arch : "cpu" (default), "cuda", "gpu", "vulkan", "metal" or "opengl".  Only the CPU
+        backend is tested; GPU back ends are expected to work but are untested.
+    precision : "f64" (default) or "f32", the floating-point type of every real field.
+    offline_cache : keep compiled kernels on disk so that a second run starts fast.
+    debug : Taichi debug mode (bounds checks; slow).
+
+    Calling ``init`` again re-initialises Taichi: simulations built before become invalid.
+    """
+    if arch not in _ARCHS:
+        raise ValueError(f"fdem.init: unknown arch {arch!r}; choose one of {sorted(_ARCHS)}")
+    if precision not in _PRECISIONS:
+        raise ValueError(f"fdem.init: unknown precision {precision!r}; choose 'f64' or 'f32'")
+    kwargs = dict(arch=getattr(ti, _ARCHS[arch]), default_fp=_PRECISIONS[precision][0], default_ip=ti.i32,
+                  offline_cache=offline_cache, debug=debug, log_level=ti.WARN)
+    if cpu_max_num_threads is not None:
+        kwargs["cpu_max_num_threads"] = cpu_max_num_threads
+    cache_dir = os.environ.get("TAICHI_FDEM_CACHE")
+    if cache_dir:
+        kwargs["offline_cache_file_path"] = cache_dir
+    ti.init(**kwargs)
+    _state.update(initialised=True, arch=arch, precision=precision)
+
+
+def ensure_init() -> None:
+    """Initialise with defaults (CPU, f64) unless :func:`init` was already called."""
+    if not _state["initialised"]:
+        init()
+
+
+def is_initialised() -> bool:
+    return _state["initialised"]
+
+
+def precision() -> str:
+    """The active precision, "f64" or "f32" (initialising with defaults if needed)."""
+    ensure_init()
+    return _state["precision"]
+
+
+def arch() -> str:
+    ensure_init()
+    return _state["arch"]
+
+
+def real_np():
+    """NumPy dtype matching the active Taichi real type."""
+    return _PRECISIONS[precision()][1]
+
+
+def real_ti():
+    return _PRECISIONS[precision()][0]

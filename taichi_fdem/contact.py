@@ -1,0 +1,232 @@
+"""Narrow phase: the distributed potential contact force between two triangles.
+
+Implements FDEM_SPEC §2.3 (edge-by-edge discretisation of the book's eqs. 2.25–2.29) with
+Coulomb friction (§5.1, dimensionally clean variant) and optional normal contact damping
+(§5.2).  A couple (A, B) is resolved in two passes, contactor B against target A and then
+contactor A against target B; every contactor edge is clipped against the target, loaded by
+the target's piecewise-linear potential φ_T = 3 min_k β_k (integrated in closed form), and the
+reaction goes to the target nodes through the target's affine shape functions evaluated at
+the contactor nodes, so that force and moment are conserved to round-off.
+"""
+import taichi as ti
+
+from ._tiutil import mat2_cols, mat32_rows, vec2, vec3
+
+
+# Tolerance in barycentric space (values are O(1)), FDEM_SPEC §9.2.  Chosen per precision at
+# compile time: the kernel cache is keyed by the default float type, so this stays consistent.
+EPS = {"f64": 1e-10, "f32": 1e-6}
+
+
+def _eps():
+    from . import backend
+    return EPS[backend.precision()]
+
+
+@ti.func
+def perp(d):
+    """(d_y, −d_x): outward normal of a CCW edge with direction d, |perp(d)| = |d|."""
+    return vec2(d[1], -d[0])
+
+
+@ti.func
+def barycentric(P, t0, t1, t2, inv2A):
+    """β_k(P) = ((t_k − P)·m_k)/(2A), k = 0,1,2 (§2.2); β_k is the shape function of vertex k+2."""
+    return vec3((t0 - P).dot(perp(t1 - t0)), (t1 - P).dot(perp(t2 - t1)), (t2 - P).dot(perp(t0 - t2))) * inv2A
+
+
+@ti.func
+def min3(v):
+    return ti.min(v[0], ti.min(v[1], v[2]))
+
+
+@ti.func
+def edge_integrals(a, b, ci, cj, t0, t1, t2, inv2Ac):
+    """Clip contactor edge ci→cj against the target and integrate its potential (§2.3.1, 1–6).
+
+    a, b: target barycentrics of ci and cj.  Returns (Φ0, Φ1, s_min, s_max, s̄) with
+    Φ0 = ∫ φ_T ds, Φ1 = ∫ s φ_T ds over s ∈ [0, 1]; Φ0 = 0 when there is no overlap.
+    """
+    eps = ti.static(_eps())
+    Phi0 = 0.0
+    Phi1 = 0.0
+    smin = 0.0
+    smax = 1.0
+    sbar = 0.5
+    # 2.i: the target's vertices relative to the line of the edge
+    ne = perp(cj - ci)
+    g0 = (ci - t0).dot(ne) * inv2Ac
+    g1 = (ci - t1).dot(ne) * inv2Ac
+    g2 = (ci - t2).dot(ne) * inv2Ac
+    reject = (g0 > -eps and g1 > -eps and g2 > -eps) or (g0 < eps and g1 < eps and g2 < eps)
+    # 2.ii: both end points outside the same target edge (also rejects shared edges)
+    for k in ti.static(range(3)):
+        if a[k] < eps and b[k] < eps:
+            reject = True
+    if not reject:
+        # 3. clipping to the target
+        for k in ti.static(range(3)):
+            if a[k] < 0.0 and b[k] > eps:
+                smin = ti.max(smin, a[k] / (a[k] - b[k]))
+            if a[k] > eps and b[k] < 0.0:
+                smax = ti.min(smax, a[k] / (a[k] - b[k]))
+        if smax > smin:
+            # 4. breakpoints where the minimum switches (at most 2 inside the clipped span)
+            d = b - a
+            s1 = smax
+            s2 = smax
+            for kl in ti.static(range(3)):
+                k = kl
+                l = (kl + 1) % 3
+                m = (kl + 2) % 3
+                den = d[k] - d[l]
+                if ti.abs(den) > eps:
+                    s = (a[l] - a[k]) / den
+                    if smin < s < smax and a[k] + s * d[k] < a[m] + s * d[m]:
+                        if s < s1:
+                            s2 = s1
+                            s1 = s
+                        elif s < s2:
+                            s2 = s
+            # 5–6. φ is linear between smin ≤ s1 ≤ s2 ≤ smax: exact closed-form integrals
+            q0 = 3.0 * min3(a + smin * d)
+            q1 = 3.0 * min3(a + s1 * d)
+            q2 = 3.0 * min3(a + s2 * d)
+            q3 = 3.0 * min3(a + smax * d)
+            h0 = s1 - smin
+            h1 = s2 - s1
+            h2 = smax - s2
+            Phi0 = 0.5 * (h0 * (q0 + q1) + h1 * (q1 + q2) + h2 * (q2 + q3))
+            Phi1 = (h0 * (q0 * (2.0 * smin + s1) + q1 * (smin + 2.0 * s1))
+                    + h1 * (q1 * (2.0 * s1 + s2) + q2 * (s1 + 2.0 * s2))
+                    + h2 * (q2 * (2.0 * s2 + smax) + q3 * (s2 + 2.0 * smax))) / 6.0
+            sbar = (smin + s1 + s2 + smax) * 0.25
+    return Phi0, Phi1, smin, smax, sbar
+
+
+@ti.func
+def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, acc: ti.template(),
+                 friction: ti.template(), cdamping: ti.template()):
+    """One pass: contactor triangle C against target triangle T (§2.3.2 CONTACT_PASS).
+
+    C, T: 3×2 matrices of node positions (row r = node r) [m]; U, W: their node velocities
+    [m/s] (used with friction or contact damping only).  Returns (gC, gT), the 3×2 nodal
+    forces per unit thickness [N/m] on contactor and target.  ``hist[hslot + i]`` holds the
+    elastic slip [m] of contactor edge e; dissipated work goes to acc[0] (friction) and
+    acc[1] (contact damping) [J/m].
+    """
+    t0 = vec2(T[0, 0], T[0, 1])
+    t1 = vec2(T[1, 0], T[1, 1])
+    t2 = vec2(T[2, 0], T[2, 1])
+    c = [vec2(C[0, 0], C[0, 1]), vec2(C[1, 0], C[1, 1]), vec2(C[2, 0], C[2, 1])]
+    inv2At = 1.0 / (t1 - t0).cross(t2 - t0)
+    inv2Ac = 1.0 / (c[1] - c[0]).cross(c[2] - c[0])
+    beta = [barycentric(c[0], t0, t1, t2, inv2At), barycentric(c[1], t0, t1, t2, inv2At),
+            barycentric(c[2], t0, t1, t2, inv2At)]
+    gC = ti.Matrix.zero(float, 3, 2)
+    for i, j in ti.static(((0, 1), (1, 2), (2, 0))):
+        a = beta[i]
+        b = beta[j]
+        Phi0, Phi1, smin, smax, sbar = edge_integrals(a, b, c[i], c[j], t0, t1, t2, inv2Ac)
+        if Phi0 > 0.0:
+            te = c[j] - c[i]
+            n = perp(te)                     # outward normal, |n| = L
+            Fni = p * (Phi0 - Phi1)          # §2.3.1 step 7
+            Fnj = p * Phi1
+            gi = -Fni * n
+            gj = -Fnj * n
+            if ti.static(friction or cdamping):
+                ui = vec2(U[i, 0], U[i, 1])
+                uj = vec2(U[j, 0], U[j, 1])
+                # relative velocity at the representative point P(s̄) (§5.1 steps 1–2)
+                Nq = (1.0 - sbar) * a + sbar * b          # β_k(P̄): shape function of vertex k+2
+                vT = Nq[1] * vec2(W[0, 0], W[0, 1]) + Nq[2] * vec2(W[1, 0], W[1, 1]) \
+                    + Nq[0] * vec2(W[2, 0], W[2, 1])
+                vrel = vT - ((1.0 - sbar) * ui + sbar * uj)
+                L = te.norm()
+                if ti.static(friction):
+                    # dimensionally clean elastic–plastic Coulomb friction (§5.1)
+                    that = te / L
+                    slip = hist[hslot + i] + vrel.dot(that) * dt
+                    Ft = kt * slip
+                    Fcap = mu * p * Phi0 * L
+                    if ti.abs(Ft) > Fcap:
+                        Fs = ti.math.sign(Ft) * Fcap
+                        ti.atomic_add(acc[0], Fcap * ti.abs(slip - Fs / kt))
+                        Ft = Fs
+                        slip = Fs / kt
+                    hist[hslot + i] = slip
+                    wi = (Phi0 - Phi1) / Phi0
+                    gi += (Ft * wi) * that
+                    gj += (Ft * (1.0 - wi)) * that
+                if ti.static(cdamping):
+                    # normal viscous traction c_n ḋ on the clipped span (§5.2)
+                    nhat = n / L
+                    rate = -vrel.dot(nhat)                # penetration rate ḋ [m/s]
+                    span = (smax - smin) * L
+                    Fd = cn * rate * span
+                    wd = 1.0 - 0.5 * (smin + smax)
+                    gi += -(Fd * wd) * nhat
+                    gj += -(Fd * (1.0 - wd)) * nhat
+                    ti.atomic_add(acc[1], cn * rate * rate * span * dt)
+            gC[i, 0] += gi[0]
+            gC[i, 1] += gi[1]
+            gC[j, 0] += gj[0]
+            gC[j, 1] += gj[1]
+        else:
+            if ti.static(friction):
+                hist[hslot + i] = 0.0             # [Recommended] reset slip when the edge leaves
+    # step 9: reaction on the target through N_q(c_r) = β_{q+1}(c_r)
+    gT = ti.Matrix.zero(float, 3, 2)
+    for q in ti.static(range(3)):
+        for r in ti.static(range(3)):
+            N = beta[r][(q + 1) % 3]
+            gT[q, 0] -= gC[r, 0] * N
+            gT[q, 1] -= gC[r, 1] * N
+    return gC, gT
+
+
+@ti.func
+def boxes_overlap(a0, a1, a2, b0, b1, b2):
+    """Cheap pre-check: do the axis-aligned boxes of the two triangles overlap?"""
+    amin = ti.min(a0, ti.min(a1, a2))
+    amax = ti.max(a0, ti.max(a1, a2))
+    bmin = ti.min(b0, ti.min(b1, b2))
+    bmax = ti.max(b0, ti.max(b1, b2))
+    return amin[0] < bmax[0] and bmin[0] < amax[0] and amin[1] < bmax[1] and bmin[1] < amax[1]
+
+
+@ti.func
+def eval_couple(c, couple_a: ti.template(), couple_b: ti.template(), node_x: ti.template(), node_v: ti.template(), node_f: ti.template(), tri_nodes: ti.template(), tri_mat: ti.template(), pair_prop: ti.template(),
+                couple_hist: ti.template(), acc: ti.template(), dt, friction: ti.template(), cdamping: ti.template()):
+    """Contact forces of couple c (both passes) added to node_f (§2.3.2 COUPLE)."""
+    A = couple_a[c]
+    B = couple_b[c]
+    na = tri_nodes[A]
+    nb = tri_nodes[B]
+    a0, a1, a2 = node_x[na[0]], node_x[na[1]], node_x[na[2]]
+    b0, b1, b2 = node_x[nb[0]], node_x[nb[1]], node_x[nb[2]]
+    if boxes_overlap(a0, a1, a2, b0, b1, b2):
+        prop = pair_prop[tri_mat[A], tri_mat[B]]      # (p, k_t, μ_f, c_n)
+        XA = mat32_rows(a0, a1, a2)
+        XB = mat32_rows(b0, b1, b2)
+        VA = ti.Matrix.zero(float, 3, 2)
+        VB = ti.Matrix.zero(float, 3, 2)
+        if ti.static(friction or cdamping):
+            for r in ti.static(range(3)):
+                va = node_v[na[r]]
+                vb = node_v[nb[r]]
+                VA[r, 0], VA[r, 1] = va[0], va[1]
+                VB[r, 0], VB[r, 1] = vb[0], vb[1]
+        # pass 1: contactor B, target A; pass 2: contactor A, target B
+        gB1, gA1 = contact_pass(XB, VB, XA, VA, prop[0], prop[1], prop[2], prop[3], dt,
+                                couple_hist, c * 6, acc, friction, cdamping)
+        gA2, gB2 = contact_pass(XA, VA, XB, VB, prop[0], prop[1], prop[2], prop[3], dt,
+                                couple_hist, c * 6 + 3, acc, friction, cdamping)
+        for r in ti.static(range(3)):
+            ti.atomic_add(node_f[na[r]], vec2(gA1[r, 0] + gA2[r, 0], gA1[r, 1] + gA2[r, 1]))
+            ti.atomic_add(node_f[nb[r]], vec2(gB1[r, 0] + gB2[r, 0], gB1[r, 1] + gB2[r, 1]))
+    else:
+        if ti.static(friction):
+            for s in ti.static(range(6)):
+                couple_hist[c * 6 + s] = 0.0

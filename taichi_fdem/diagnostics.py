@@ -1,0 +1,115 @@
+"""Diagnostics kernels: energies and contact-overlap checks (not on the hot path)."""
+import taichi as ti
+
+from ._tiutil import mat2_cols, mat32_rows, vec2, vec3
+
+from .contact import boxes_overlap
+from .elastic import tri_strain_energy
+
+
+MAXV = 10   # a triangle clipped by a triangle has at most 6 vertices
+
+
+@ti.func
+def clip_moments(c0, c1, c2, s0, s1, s2):
+    """Area [m²] and first moment ∫x dA [m³] of triangle c ∩ triangle s (both CCW).
+
+    Sutherland–Hodgman clipping of c by the three half-planes of s.
+    """
+    px = ti.Vector.zero(float, MAXV)
+    py = ti.Vector.zero(float, MAXV)
+    px[0], py[0], px[1], py[1], px[2], py[2] = c0[0], c0[1], c1[0], c1[1], c2[0], c2[1]
+    n = 3
+    S = [s0, s1, s2]
+    for k in ti.static(range(3)):
+        a = S[k]
+        b = S[(k + 1) % 3]
+        qx = ti.Vector.zero(float, MAXV)
+        qy = ti.Vector.zero(float, MAXV)
+        m = 0
+        if n > 0:
+            for i in range(n):
+                j = (i + 1) % n
+                pi = vec2(px[i], py[i])
+                pj = vec2(px[j], py[j])
+                di = (b - a).cross(pi - a)       # > 0: inside (left of the CCW edge)
+                dj = (b - a).cross(pj - a)
+                if di >= 0.0:
+                    qx[m], qy[m] = pi[0], pi[1]
+                    m += 1
+                if (di >= 0.0) != (dj >= 0.0):
+                    t = di / (di - dj)
+                    q = pi + t * (pj - pi)
+                    qx[m], qy[m] = q[0], q[1]
+                    m += 1
+        px, py, n = qx, qy, m
+    area = 0.0
+    mom = vec2(0.0, 0.0)
+    if n >= 3:
+        for i in range(n):
+            j = (i + 1) % n
+            cr = px[i] * py[j] - px[j] * py[i]
+            area += 0.5 * cr
+            mom += cr * vec2(px[i] + px[j], py[i] + py[j]) / 6.0
+    return area, mom
+
+
+@ti.func
+def pass_potential(c0, c1, c2, t0, t1, t2):
+    """∫_{C∩T} φ_T dA [m²] for the Munjiza potential φ_T = 3 min_k β_k of target T (§2.2)."""
+    g = (t0 + t1 + t2) / 3.0
+    inv2A = 1.0 / (t1 - t0).cross(t2 - t0)
+    total = 0.0
+    T = [t0, t1, t2]
+    for k in ti.static(range(3)):
+        a = T[k]
+        b = T[(k + 1) % 3]
+        # in the sub-triangle (a, b, g) the minimum is β_k, affine: β_k(P) = ((a − P)·m_k)/(2A)
+        area, mom = clip_moments(c0, c1, c2, a, b, g)
+        mk = vec2(b[1] - a[1], -(b[0] - a[0]))
+        total += 3.0 * (a.dot(mk) * area - mk.dot(mom)) * inv2A
+    return total
+
+
+@ti.kernel
+def energy_terms(node_x: ti.types.ndarray(), node_v: ti.types.ndarray(), node_mass: ti.types.ndarray(),
+                 tri_nodes: ti.types.ndarray(), tri_rest_inv: ti.types.ndarray(), tri_area0: ti.types.ndarray(),
+                 tri_mat: ti.types.ndarray(), mat_mu: ti.types.ndarray(), mat_lam: ti.types.ndarray(),
+                 tri_diss: ti.types.ndarray(), couple_a: ti.types.ndarray(), couple_b: ti.types.ndarray(),
+                 pair_prop: ti.types.ndarray(), couple_hist: ti.types.ndarray(), couple_count: ti.i32,
+                 gx: float, gy: float, out: ti.types.ndarray(), friction: ti.template()):
+    """out = [kinetic, strain, contact (penalty + friction spring), gravity, damping dissipated], J/m."""
+    for i in range(5):
+        out[i] = 0.0
+    for i in range(node_x.shape[0]):
+        m = node_mass[i]
+        out[0] += 0.5 * m * node_v[i].norm_sqr()
+        out[3] -= m * (gx * node_x[i][0] + gy * node_x[i][1])
+    for e in range(tri_nodes.shape[0]):
+        out[1] += tri_strain_energy(e, node_x, tri_nodes, tri_rest_inv, tri_area0, tri_mat, mat_mu, mat_lam)
+        out[4] += tri_diss[e]
+    for c in range(couple_count):
+        A = couple_a[c]
+        B = couple_b[c]
+        na = tri_nodes[A]
+        nb = tri_nodes[B]
+        a0, a1, a2 = node_x[na[0]], node_x[na[1]], node_x[na[2]]
+        b0, b1, b2 = node_x[nb[0]], node_x[nb[1]], node_x[nb[2]]
+        prop = pair_prop[tri_mat[A], tri_mat[B]]
+        if boxes_overlap(a0, a1, a2, b0, b1, b2):
+            out[2] += prop[0] * (pass_potential(b0, b1, b2, a0, a1, a2) + pass_potential(a0, a1, a2, b0, b1, b2))
+        if ti.static(friction):
+            for q in ti.static(range(6)):
+                out[2] += 0.5 * prop[1] * couple_hist[6 * c + q] ** 2
+
+
+@ti.kernel
+def overlap_areas(node_x: ti.types.ndarray(), tri_nodes: ti.types.ndarray(), couple_a: ti.types.ndarray(),
+                  couple_b: ti.types.ndarray(), couple_count: ti.i32, out: ti.types.ndarray()):
+    """out[c] = overlap area [m²] of the two triangles of couple c."""
+    for c in range(couple_count):
+        na = tri_nodes[couple_a[c]]
+        nb = tri_nodes[couple_b[c]]
+        area, mom = clip_moments(node_x[na[0]], node_x[na[1]], node_x[na[2]],
+                                 node_x[nb[0]], node_x[nb[1]], node_x[nb[2]])
+        out[c] = area

@@ -1,0 +1,117 @@
+"""Materials: bulk elastic properties, viscous damping and contact properties (SI units)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+
+def _check_finite(name: str, value, where: str) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"{where}: {name} must be a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise ValueError(f"{where}: {name} must be finite, got {value!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class Material:
+    """A bulk material of the deformable triangles and its contact properties.
+
+    Parameters (SI units)
+    ---------------------
+    density : kg/m³, > 0.
+    young : Young's modulus E [Pa], > 0.
+    poisson : Poisson's ratio ν, −1 < ν < 0.5.
+    friction : Coulomb friction coefficient μ_f ≥ 0 of contacts (FDEM_SPEC §5.1).  The
+        coefficient of a couple of two materials is the smaller of the two unless
+        :meth:`Scene.set_interaction` says otherwise.
+    damping : viscous damping β in [0, 1], as a fraction of critical damping of the highest
+        element mode: k_s = 2 h β √(E ρ) (FDEM_SPEC §3.4).  0 (default) for wave and impact
+        problems, 0.1–1 for quasi-static runs.
+    penalty : normal contact penalty p [Pa].  Default ``10 · young``: by the book's estimate
+        (p. 79–80) the penetration is then about 1/10 of the element's own elastic
+        deformation, and the contact time-step limit h√(ρ/p) is ~3× below the elastic one.
+        Raise it (50–100 E) where contact stiffness matters (Hertz contact).
+    tangential_penalty : tangential (stick) stiffness k_t of friction [Pa = N/m per metre of
+        thickness per metre of slip].  Default: equal to ``penalty``.
+    contact_damping : normal contact damping ratio ξ in [0, 1] (FDEM_SPEC §5.2),
+        c_n = 4 ξ √(p ρ).  Default 0 (elastic contact).
+    name : free label.
+    """
+
+    density: float = 2700.0
+    young: float = 30e9
+    poisson: float = 0.25
+    friction: float = 0.0
+    damping: float = 0.0
+    penalty: float | None = None
+    tangential_penalty: float | None = None
+    contact_damping: float = 0.0
+    name: str = ""
+
+    def __post_init__(self):
+        where = f"Material{'(' + repr(self.name) + ')' if self.name else ''}"
+        for key in ("density", "young", "poisson", "friction", "damping", "contact_damping"):
+            object.__setattr__(self, key, _check_finite(key, getattr(self, key), where))
+        for key in ("penalty", "tangential_penalty"):
+            v = getattr(self, key)
+            if v is not None:
+                object.__setattr__(self, key, _check_finite(key, v, where))
+        if self.density <= 0:
+            raise ValueError(f"{where}: density must be > 0 kg/m³, got {self.density}")
+        if self.young <= 0:
+            raise ValueError(f"{where}: young (Young's modulus) must be > 0 Pa, got {self.young}")
+        if not -1.0 < self.poisson < 0.5:
+            raise ValueError(f"{where}: poisson must satisfy -1 < ν < 0.5, got {self.poisson}")
+        if self.friction < 0:
+            raise ValueError(f"{where}: friction coefficient must be >= 0, got {self.friction}")
+        if not 0.0 <= self.damping <= 1.0:
+            raise ValueError(f"{where}: damping (fraction of critical, β) must be in [0, 1], got {self.damping}")
+        if not 0.0 <= self.contact_damping <= 1.0:
+            raise ValueError(f"{where}: contact_damping (ξ) must be in [0, 1], got {self.contact_damping}")
+        if self.penalty is not None and self.penalty <= 0:
+            raise ValueError(f"{where}: penalty must be > 0 Pa, got {self.penalty}")
+        if self.tangential_penalty is not None and self.tangential_penalty <= 0:
+            raise ValueError(f"{where}: tangential_penalty must be > 0 Pa, got {self.tangential_penalty}")
+
+    # --- derived quantities -------------------------------------------------------------------
+    @property
+    def contact_penalty(self) -> float:
+        """Normal contact penalty p [Pa] (``penalty`` or the default 10·E)."""
+        return self.penalty if self.penalty is not None else 10.0 * self.young
+
+    @property
+    def contact_tangential_penalty(self) -> float:
+        """Tangential friction stiffness k_t [Pa] (``tangential_penalty`` or p)."""
+        return self.tangential_penalty if self.tangential_penalty is not None else self.contact_penalty
+
+    @property
+    def shear_modulus(self) -> float:
+        """μ = E / (2(1+ν)) [Pa]."""
+        return self.young / (2.0 * (1.0 + self.poisson))
+
+    def lambda_y(self, plane: str) -> float:
+        """λ_Y of the finite-strain law T = (μ/J)(B−I) + λ_Y (J − 1/J) I [Pa].
+
+        Because J − 1/J ≈ 2 tr ε, λ_Y is *half* the usual Lamé λ of the plane problem, so that
+        small strains reproduce Hooke's law with this E and ν (FDEM_SPEC §3.2, the factor-2 caveat).
+        """
+        E, nu = self.young, self.poisson
+        if plane == "stress":
+            return E * nu / (2.0 * (1.0 - nu * nu))
+        if plane == "strain":
+            return E * nu / (2.0 * (1.0 + nu) * (1.0 - 2.0 * nu))
+        raise ValueError(f"plane must be 'strain' or 'stress', got {plane!r}")
+
+    def p_wave_speed(self, plane: str) -> float:
+        """Dilatational wave speed c_p [m/s] of the plane problem (FDEM_SPEC §6.2)."""
+        E, nu, rho = self.young, self.poisson, self.density
+        if plane == "stress":
+            return math.sqrt(E / (rho * (1.0 - nu * nu)))
+        return math.sqrt(E * (1.0 - nu) / (rho * (1.0 + nu) * (1.0 - 2.0 * nu)))
+
+    def with_(self, **changes) -> "Material":
+        """A copy with some parameters changed (validated again)."""
+        return replace(self, **changes)
