@@ -481,6 +481,61 @@ class Simulation:
                 if bar is not None:
                     bar.update(task, completed=done, t=f"{self.time:.4g}")
 
+    def forces(self, contact_only: bool = False) -> np.ndarray:
+        """Total nodal forces [N] at the current state (elastic + contact), without stepping.
+
+        Shape (n, 2), multiplied by the thickness.  Gravity is not included.  With friction the
+        slip history is updated as in a step of length Δt (a diagnostic, not for use mid-run
+        when exact restarts matter).
+        """
+        self.node_f.fill(0)
+        if not contact_only:
+            self._launch("eval_elastic", stepping.eval_elastic, self.node_x, self.node_v, self.node_f,
+                         self.tri_nodes, self.tri_rest_inv, self.tri_mat, self.mat_mu, self.mat_lam,
+                         self.tri_visc, self.tri_diss, self.sim_real, self.sim_int, self.damping)
+        if self.contact:
+            self._launch("eval_contact", stepping.eval_contact, self.couple_a, self.couple_b, self.node_x,
+                         self.node_v, self.node_f, self.tri_nodes, self.tri_mat, self.pair_prop,
+                         self.couple_hist, self.acc, self.sim_real, self.sim_int, self.friction,
+                         self.contact_damping)
+        f = self.node_f.to_numpy().astype(np.float64) * self.thickness
+        self.node_f.fill(0)
+        return f
+
+    def profile(self, steps: int = 100) -> dict:
+        """Run ``steps`` steps with one launch per phase and time each phase [s].
+
+        Returns {"elastic", "detection", "contact", "integration", "total", "steps"}: wall
+        seconds spent in each phase (the state advances exactly as with :meth:`step`).
+        """
+        flags = self._flags()
+        t = {"elastic": 0.0, "detection": 0.0, "contact": 0.0, "integration": 0.0}
+        pc = _time.perf_counter
+        for _ in range(int(steps)):
+            if self.contact and self._detect_due:
+                t0 = pc(); self._detect(); t["detection"] += pc() - t0
+            t0 = pc()
+            stepping.eval_elastic(self.node_x, self.node_v, self.node_f, self.tri_nodes, self.tri_rest_inv,
+                                  self.tri_mat, self.mat_mu, self.mat_lam, self.tri_visc, self.tri_diss,
+                                  self.sim_real, self.sim_int, self.damping)
+            t1 = pc(); t["elastic"] += t1 - t0
+            if self.contact:
+                stepping.eval_contact(self.couple_a, self.couple_b, self.node_x, self.node_v, self.node_f,
+                                      self.tri_nodes, self.tri_mat, self.pair_prop, self.couple_hist, self.acc,
+                                      self.sim_real, self.sim_int, self.friction, self.contact_damping)
+            t2 = pc(); t["contact"] += t2 - t1
+            code = stepping.integrate(self.node_x, self.node_v, self.node_f, self.node_mass, self.node_free,
+                                      self.node_vbc, self.acc, self.sim_real, self.sim_int, flags[4], flags[5])
+            t["integration"] += pc() - t2
+            self.step_count += 1
+            self._detect_due = bool(code)
+        si = self.sim_int.to_numpy()
+        if si[I_NONFINITE] or si[I_INVERTED]:
+            self._raise_unstable()
+        t["total"] = sum(t.values())
+        t["steps"] = int(steps)
+        return t
+
     # ------------------------------------------------------------------------------------------
     # results
     # ------------------------------------------------------------------------------------------

@@ -251,3 +251,35 @@ def run_steps_serial(nsteps: ti.i32, node_x: ti.types.ndarray(), node_v: ti.type
         if stop != 0:
             break
     return done
+
+
+# ---------------------------------------------------------------------------------------------
+# single-phase kernels: force evaluation without a step, and per-phase profiling
+# ---------------------------------------------------------------------------------------------
+@ti.kernel
+def eval_elastic(node_x: ti.types.ndarray(), node_v: ti.types.ndarray(), node_f: ti.types.ndarray(),
+                 tri_nodes: ti.types.ndarray(), tri_rest_inv: ti.types.ndarray(), tri_mat: ti.types.ndarray(),
+                 mat_mu: ti.types.ndarray(), mat_lam: ti.types.ndarray(), tri_visc: ti.types.ndarray(),
+                 tri_diss: ti.types.ndarray(), sim_real: ti.types.ndarray(), sim_int: ti.types.ndarray(),
+                 damping: ti.template()):
+    phase_elastic(node_x, node_v, node_f, tri_nodes, tri_rest_inv, tri_mat, mat_mu, mat_lam, tri_visc,
+                  tri_diss, sim_real, sim_int, damping)
+
+
+@ti.kernel
+def eval_contact(couple_a: ti.types.ndarray(), couple_b: ti.types.ndarray(), node_x: ti.types.ndarray(),
+                 node_v: ti.types.ndarray(), node_f: ti.types.ndarray(), tri_nodes: ti.types.ndarray(),
+                 tri_mat: ti.types.ndarray(), pair_prop: ti.types.ndarray(), couple_hist: ti.types.ndarray(),
+                 acc: ti.types.ndarray(), sim_real: ti.types.ndarray(), sim_int: ti.types.ndarray(),
+                 friction: ti.template(), cdamping: ti.template()):
+    phase_contact(couple_a, couple_b, node_x, node_v, node_f, tri_nodes, tri_mat, pair_prop, couple_hist,
+                  acc, sim_real, sim_int, friction, cdamping)
+
+
+@ti.kernel
+def integrate(node_x: ti.types.ndarray(), node_v: ti.types.ndarray(), node_f: ti.types.ndarray(),
+              node_mass: ti.types.ndarray(), node_free: ti.types.ndarray(), node_vbc: ti.types.ndarray(),
+              acc: ti.types.ndarray(), sim_real: ti.types.ndarray(), sim_int: ti.types.ndarray(),
+              bc: ti.template(), bc_work: ti.template()) -> ti.i32:
+    phase_integrate(node_x, node_v, node_f, node_mass, node_free, node_vbc, acc, sim_real, sim_int, bc, bc_work)
+    return ti.cast(sim_real[R_DACC] >= sim_real[R_BUFFER], ti.i32)
