@@ -118,18 +118,22 @@ def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, acc:
     t0 = vec2(T[0, 0], T[0, 1])
     t1 = vec2(T[1, 0], T[1, 1])
     t2 = vec2(T[2, 0], T[2, 1])
-    c = [vec2(C[0, 0], C[0, 1]), vec2(C[1, 0], C[1, 1]), vec2(C[2, 0], C[2, 1])]
     inv2At = 1.0 / (t1 - t0).cross(t2 - t0)
-    inv2Ac = 1.0 / (c[1] - c[0]).cross(c[2] - c[0])
-    beta = [barycentric(c[0], t0, t1, t2, inv2At), barycentric(c[1], t0, t1, t2, inv2At),
-            barycentric(c[2], t0, t1, t2, inv2At)]
+    inv2Ac = 1.0 / vec2(C[1, 0] - C[0, 0], C[1, 1] - C[0, 1]).cross(vec2(C[2, 0] - C[0, 0], C[2, 1] - C[0, 1]))
+    Bm = ti.Matrix.zero(float, 3, 3)          # row r: target barycentrics of contactor node r
+    for r in ti.static(range(3)):
+        br = barycentric(vec2(C[r, 0], C[r, 1]), t0, t1, t2, inv2At)
+        Bm[r, 0], Bm[r, 1], Bm[r, 2] = br[0], br[1], br[2]
     gC = ti.Matrix.zero(float, 3, 2)
-    for i, j in ti.static(((0, 1), (1, 2), (2, 0))):
-        a = beta[i]
-        b = beta[j]
-        Phi0, Phi1, smin, smax, sbar = edge_integrals(a, b, c[i], c[j], t0, t1, t2, inv2Ac)
+    for i in range(3):                        # a runtime loop: one copy of the edge code
+        j = (i + 1) % 3
+        a = vec3(Bm[i, 0], Bm[i, 1], Bm[i, 2])
+        b = vec3(Bm[j, 0], Bm[j, 1], Bm[j, 2])
+        ci = vec2(C[i, 0], C[i, 1])
+        cj = vec2(C[j, 0], C[j, 1])
+        Phi0, Phi1, smin, smax, sbar = edge_integrals(a, b, ci, cj, t0, t1, t2, inv2Ac)
         if Phi0 > 0.0:
-            te = c[j] - c[i]
+            te = cj - ci
             n = perp(te)                     # outward normal, |n| = L
             Fni = p * (Phi0 - Phi1)          # §2.3.1 step 7
             Fnj = p * Phi1
@@ -180,7 +184,7 @@ def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, acc:
     gT = ti.Matrix.zero(float, 3, 2)
     for q in ti.static(range(3)):
         for r in ti.static(range(3)):
-            N = beta[r][(q + 1) % 3]
+            N = Bm[r, (q + 1) % 3]
             gT[q, 0] -= gC[r, 0] * N
             gT[q, 1] -= gC[r, 1] * N
     return gC, gT
@@ -218,14 +222,25 @@ def eval_couple(c, couple_a: ti.template(), couple_b: ti.template(), node_x: ti.
                 vb = node_v[nb[r]]
                 VA[r, 0], VA[r, 1] = va[0], va[1]
                 VB[r, 0], VB[r, 1] = vb[0], vb[1]
-        # pass 1: contactor B, target A; pass 2: contactor A, target B
-        gB1, gA1 = contact_pass(XB, VB, XA, VA, prop[0], prop[1], prop[2], prop[3], dt,
-                                couple_hist, c * 6, acc, friction, cdamping)
-        gA2, gB2 = contact_pass(XA, VA, XB, VB, prop[0], prop[1], prop[2], prop[3], dt,
-                                couple_hist, c * 6 + 3, acc, friction, cdamping)
+        # pass 0: contactor B, target A; pass 1: contactor A, target B (a runtime loop: one
+        # copy of the pass code, which keeps compile time down)
+        gA = ti.Matrix.zero(float, 3, 2)
+        gB = ti.Matrix.zero(float, 3, 2)
+        for ps in range(2):
+            C, U, T, W = XB, VB, XA, VA
+            if ps == 1:
+                C, U, T, W = XA, VA, XB, VB
+            gC, gT = contact_pass(C, U, T, W, prop[0], prop[1], prop[2], prop[3], dt,
+                                  couple_hist, c * 6 + 3 * ps, acc, friction, cdamping)
+            if ps == 0:
+                gB += gC
+                gA += gT
+            else:
+                gA += gC
+                gB += gT
         for r in ti.static(range(3)):
-            ti.atomic_add(node_f[na[r]], vec2(gA1[r, 0] + gA2[r, 0], gA1[r, 1] + gA2[r, 1]))
-            ti.atomic_add(node_f[nb[r]], vec2(gB1[r, 0] + gB2[r, 0], gB1[r, 1] + gB2[r, 1]))
+            ti.atomic_add(node_f[na[r]], vec2(gA[r, 0], gA[r, 1]))
+            ti.atomic_add(node_f[nb[r]], vec2(gB[r, 0], gB[r, 1]))
     else:
         if ti.static(friction):
             for s in ti.static(range(6)):

@@ -15,8 +15,13 @@ from .diagnostics import energy_terms, overlap_areas
 from .slots import (A_BOUNDARY, A_CDAMPING, A_FRICTION, I_COUPLES, I_DETECTIONS, I_FOUND, I_INVERTED,
                        I_NONFINITE, I_OVERFLOW, R_BUFFER, R_DACC, R_DT, R_GX, R_GY, R_VMAX)
 
-SERIAL_MAX_TRIANGLES = 6000     # "auto" strategy: below this, one launch runs many steps serially
-SERIAL_CHUNK_STEPS = 2000        # steps per serial launch (progress / frames / checks in between)
+# Execution strategy.  Measured on the 2-core CPU (benchmarks/pile.py): the serial many-step
+# kernel beats one-launch-per-step parallel loops at every size from 1k to 300k triangles,
+# because parallel loops pay for f64 atomic scatter (CAS loops on x86) and launch overhead
+# more than the second core gives back.  "auto" is therefore serial on the CPU and parallel
+# on GPU back ends (untested: no GPU here).
+SERIAL_MAX_STEPS = 2000          # at most this many steps per serial launch
+SERIAL_TRI_STEPS = 2_000_000     # ~50 ms of work per serial launch: responsive progress and Ctrl-C
 
 
 class SimulationError(RuntimeError):
@@ -215,7 +220,7 @@ class Simulation:
         self.buffer = buffer
 
         if strategy == "auto":
-            strategy = "serial" if self.tri_count <= SERIAL_MAX_TRIANGLES else "parallel"
+            strategy = "serial" if backend.arch() == "cpu" else "parallel"
         self.strategy = strategy
 
         # ---- Taichi arrays (allocated once; dummies of size 1 for unused features) -----------------
@@ -395,8 +400,9 @@ class Simulation:
 
     def _step_serial(self, n: int) -> None:
         flags = self._flags()
+        per_launch = max(1, min(SERIAL_MAX_STEPS, SERIAL_TRI_STEPS // max(1, self.tri_count)))
         while n > 0:
-            chunk = min(n, SERIAL_CHUNK_STEPS)
+            chunk = min(n, per_launch)
             done = self._launch("run_steps_serial", stepping.run_steps_serial, chunk, self.node_x, self.node_v,
                                 self.node_f, self.node_mass, self.node_free, self.node_vbc, self.tri_nodes,
                                 self.tri_rest_inv, self.tri_mat, self.mat_mu, self.mat_lam, self.tri_visc,
@@ -450,7 +456,7 @@ class Simulation:
                 frame_dt = duration / max(1, 5 * fps) if video is not None else duration / 100
             per_frame = max(1, int(round(float(frame_dt) / self.dt)))
         else:
-            per_frame = SERIAL_CHUNK_STEPS if self.strategy == "serial" else 50
+            per_frame = max(1, min(SERIAL_MAX_STEPS, SERIAL_TRI_STEPS // max(1, self.tri_count)))
         writer = None
         if video is not None:
             from .render import RendererImage, VideoWriter, body_colors
