@@ -381,8 +381,13 @@ class Simulation:
             self._step_parallel(n)
         self._stats["wall_steps"] += _time.perf_counter() - t0
 
+    def _sync_detect_due(self) -> None:
+        sr = self.sim_real.to_numpy()
+        self._detect_due = bool(self.contact and sr[R_DACC] >= sr[R_BUFFER])
+
     def _step_parallel(self, n: int) -> None:
         flags = self._flags()
+        self._sync_detect_due()
         for _ in range(n):
             if self.contact and self._detect_due:
                 self._detect()
@@ -517,6 +522,7 @@ class Simulation:
         flags = self._flags()
         t = {"elastic": 0.0, "detection": 0.0, "contact": 0.0, "integration": 0.0}
         pc = _time.perf_counter
+        self._sync_detect_due()
         for _ in range(int(steps)):
             if self.contact and self._detect_due:
                 t0 = pc(); self._detect(); t["detection"] += pc() - t0
