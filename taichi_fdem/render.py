@@ -1,0 +1,684 @@
+"""Off-screen rendering of FDEM meshes, colour maps and video output.
+
+* :class:`RendererImage` rasterises the triangles of a 2D mesh into an RGB image with Taichi
+  kernels (no window, no OpenGL): one thread per triangle fills the pixels of its bounding box
+  whose centres pass the (inclusive) edge-function test, optionally drawing the triangle
+  edges, with optional supersampling (box-filtered down on the device).
+* :func:`colormap` / :func:`body_colors` turn scalar fields and body ids into per-triangle
+  colours (built-in tables, no matplotlib).
+* :class:`VideoWriter` streams frames to ``.mp4`` (libx264), ``.gif`` or a PNG directory.
+* :func:`save_png`, :func:`annotate` are small image helpers.
+
+All kernels take ``ti.types.ndarray()`` arguments, so a new scene or image size never causes
+a recompilation (kernels are compiled once per dtype / dimensionality).
+"""
+
+import math
+import numbers
+import os
+from pathlib import Path
+
+import numpy as np
+import taichi as ti
+
+from taichi_fdem import backend
+
+__all__ = ["RendererImage", "colormap", "body_colors", "VideoWriter", "save_png", "annotate",
+           "COLORMAPS"]
+
+# Pixel coordinates are clamped to +-_PIX_LIMIT (also maps NaN to -_PIX_LIMIT) so that runaway
+# nodes can never produce absurd loop bounds.
+_PIX_LIMIT = 1.0e7
+
+_vec3f = ti.types.vector(3, ti.f32)
+
+
+# ----------------------------------------------------------------------------------------------
+# Kernels (module level; ndarray arguments only)
+# ----------------------------------------------------------------------------------------------
+@ti.kernel
+def _bbox_kernel(x: ti.types.ndarray(), out: ti.types.ndarray()):
+    """out[0..3] = xmin, xmax, ymin, ymax of the vector ndarray x (n >= 1)."""
+    out[0] = x[0][0]
+    out[1] = x[0][0]
+    out[2] = x[0][1]
+    out[3] = x[0][1]
+    for i in range(x.shape[0]):
+        ti.atomic_min(out[0], x[i][0])
+        ti.atomic_max(out[1], x[i][0])
+        ti.atomic_min(out[2], x[i][1])
+        ti.atomic_max(out[3], x[i][1])
+
+
+@ti.kernel
+def _to_pixels_kernel(x: ti.types.ndarray(), params: ti.types.ndarray(), p: ti.types.ndarray()):
+    """World -> (supersampled) pixel coordinates.  params = [x_left, y_top, pixels_per_metre].
+
+    Pixel x grows to the right, pixel y grows downwards (row 0 is the top of the image).
+    """
+    for i in range(x.shape[0]):
+        px = (x[i][0] - params[0]) * params[2]
+        py = (params[1] - x[i][1]) * params[2]
+        if not px > -_PIX_LIMIT:  # also catches NaN
+            px = -_PIX_LIMIT
+        if px > _PIX_LIMIT:
+            px = _PIX_LIMIT
+        if not py > -_PIX_LIMIT:
+            py = -_PIX_LIMIT
+        if py > _PIX_LIMIT:
+            py = _PIX_LIMIT
+        p[i] = ti.Vector([ti.cast(px, ti.f32), ti.cast(py, ti.f32)])
+
+
+@ti.kernel
+def _clear_kernel(img: ti.types.ndarray(), bg: _vec3f):
+    for i, j in ti.ndrange(img.shape[0], img.shape[1]):
+        img[i, j] = bg
+
+
+@ti.kernel
+def _raster_kernel(p: ti.types.ndarray(), tri: ti.types.ndarray(), col: ti.types.ndarray(),
+                   img: ti.types.ndarray(), edge_col: _vec3f, half_w: ti.f32, draw_edges: ti.i32):
+    """Fill every triangle; one thread per triangle, serial loops over its pixel box."""
+    H = img.shape[0]
+    W = img.shape[1]
+    n = p.shape[0]
+    for t in range(tri.shape[0]):
+        ia = tri[t][0]
+        ib = tri[t][1]
+        ic = tri[t][2]
+        if 0 <= ia < n and 0 <= ib < n and 0 <= ic < n:
+            a = p[ia]
+            b = p[ib]
+            c = p[ic]
+            area2 = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+            if area2 != 0.0:
+                sgn = 1.0 if area2 > 0.0 else -1.0
+                # pixel (row r, column q) has its centre at (q + 0.5, r + 0.5)
+                xlo = ti.min(a[0], b[0], c[0])
+                xhi = ti.max(a[0], b[0], c[0])
+                ylo = ti.min(a[1], b[1], c[1])
+                yhi = ti.max(a[1], b[1], c[1])
+                q0 = ti.cast(ti.max(ti.ceil(xlo - 0.5), 0.0), ti.i32)
+                q1 = ti.cast(ti.min(ti.floor(xhi - 0.5), W - 1.0), ti.i32)
+                r0 = ti.cast(ti.max(ti.ceil(ylo - 0.5), 0.0), ti.i32)
+                r1 = ti.cast(ti.min(ti.floor(yhi - 0.5), H - 1.0), ti.i32)
+                # inverse edge lengths: edge function / length = distance to the edge line
+                inv_a = 1.0 / ti.max((c - b).norm(), 1e-12)
+                inv_b = 1.0 / ti.max((a - c).norm(), 1e-12)
+                inv_c = 1.0 / ti.max((b - a).norm(), 1e-12)
+                fill = ti.Vector([col[t][0], col[t][1], col[t][2]], dt=ti.f32)
+                for r in range(r0, r1 + 1):
+                    yc = ti.cast(r, ti.f32) + 0.5
+                    for q in range(q0, q1 + 1):
+                        xc = ti.cast(q, ti.f32) + 0.5
+                        wa = sgn * ((c[0] - b[0]) * (yc - b[1]) - (c[1] - b[1]) * (xc - b[0]))
+                        wb = sgn * ((a[0] - c[0]) * (yc - c[1]) - (a[1] - c[1]) * (xc - c[0]))
+                        wc = sgn * ((b[0] - a[0]) * (yc - a[1]) - (b[1] - a[1]) * (xc - a[0]))
+                        if wa >= 0.0 and wb >= 0.0 and wc >= 0.0:
+                            colour = fill
+                            if draw_edges != 0:
+                                d = ti.min(wa * inv_a, wb * inv_b, wc * inv_c)
+                                if d < half_w:
+                                    colour = edge_col
+                            img[r, q] = colour
+
+
+@ti.kernel
+def _resolve_kernel(img: ti.types.ndarray(), out: ti.types.ndarray(), s: ti.i32):
+    """Box-filter the (s*H, s*W) float image down to the (H, W, 3) uint8 image."""
+    inv = ti.cast(1.0, ti.f32) / ti.cast(s * s, ti.f32)
+    for i, j in ti.ndrange(out.shape[0], out.shape[1]):
+        acc = ti.Vector([0.0, 0.0, 0.0], dt=ti.f32)
+        for di, dj in ti.ndrange(s, s):
+            acc += img[i * s + di, j * s + dj]
+        acc *= inv
+        for k in ti.static(range(3)):
+            v = ti.min(ti.max(acc[k], 0.0), 1.0)
+            out[i, j, k] = ti.cast(v * 255.0 + 0.5, ti.u8)
+
+
+# ----------------------------------------------------------------------------------------------
+# Argument validation helpers
+# ----------------------------------------------------------------------------------------------
+def _check_pos_int(name, v, lo=1, hi=None):
+    if isinstance(v, bool) or not isinstance(v, numbers.Integral):
+        raise ValueError(f"{name} must be an integer, got {v!r}")
+    v = int(v)
+    if v < lo or (hi is not None and v > hi):
+        rng = f">= {lo}" if hi is None else f"in {lo}..{hi}"
+        raise ValueError(f"{name} must be {rng}, got {v}")
+    return v
+
+
+def _check_color(name, c):
+    try:
+        arr = np.asarray(c, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be an RGB triple of floats in [0, 1], got {c!r}") from None
+    if arr.shape != (3,) or not np.all(np.isfinite(arr)) or np.any(arr < 0.0) or np.any(arr > 1.0):
+        raise ValueError(f"{name} must be an RGB triple of floats in [0, 1], got {c!r}")
+    return tuple(float(v) for v in arr)
+
+
+def _check_real(name, v, lo=None, hi=None):
+    if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(float(v)):
+        raise ValueError(f"{name} must be a finite number, got {v!r}")
+    v = float(v)
+    if (lo is not None and v < lo) or (hi is not None and v > hi):
+        raise ValueError(f"{name} must be in [{lo}, {hi}], got {v}")
+    return v
+
+
+def _check_view(view):
+    if isinstance(view, str):
+        if view != "fit":
+            raise ValueError(f"view must be 'fit' or a tuple (xmin, xmax, ymin, ymax), got {view!r}")
+        return "fit"
+    try:
+        vals = tuple(float(v) for v in view)
+    except (TypeError, ValueError):
+        raise ValueError(f"view must be 'fit' or a tuple (xmin, xmax, ymin, ymax), got {view!r}") from None
+    if len(vals) != 4 or not all(math.isfinite(v) for v in vals):
+        raise ValueError(f"view must be 'fit' or 4 finite numbers (xmin, xmax, ymin, ymax), got {view!r}")
+    xmin, xmax, ymin, ymax = vals
+    if not (xmax > xmin and ymax > ymin):
+        raise ValueError(f"view needs xmax > xmin and ymax > ymin, got {view!r}")
+    return vals
+
+
+def _is_ndarray(a):
+    return isinstance(a, ti.Ndarray)
+
+
+# ----------------------------------------------------------------------------------------------
+# Renderer
+# ----------------------------------------------------------------------------------------------
+class RendererImage:
+    """Off-screen triangle rasteriser producing ``(height, width, 3)`` uint8 images.
+
+    Parameters
+    ----------
+    width, height : image size in pixels.
+    view : ``"fit"`` (fit the bounding box of the nodes every frame, aspect preserved, with
+        ``margin``) or a fixed world box ``(xmin, xmax, ymin, ymax)`` [m], which is expanded in
+        one direction (letter-boxed) to match the image aspect ratio.
+    background, edge_color : RGB in [0, 1].
+    edge_width : edge line width in output pixels (0 disables edges).
+    draw_edges : draw triangle edges.
+    supersample : 1..4; rasterise at ``supersample`` times the resolution and box-filter down.
+    margin : fraction of the larger bounding-box extent added on every side in ``"fit"`` mode.
+
+    ``render(node_x, tri_nodes, tri_color)`` accepts Taichi vector ndarrays (as held by the
+    simulation) or NumPy arrays of shape (n, 2), (m, 3) and (m, 3) (``tri_color`` may also be
+    a single RGB triple, ``None`` for grey, or uint8 0..255).  The world y axis points up: row 0
+    of the image is the top of the view.
+    """
+
+    def __init__(self, width=960, height=540, view="fit", background=(1.0, 1.0, 1.0),
+                 edge_color=(0.1, 0.1, 0.1), edge_width=1.0, draw_edges=True, supersample=1,
+                 margin=0.05):
+        self.width = _check_pos_int("width", width)
+        self.height = _check_pos_int("height", height)
+        self.supersample = _check_pos_int("supersample", supersample, 1, 4)
+        self.background = _check_color("background", background)
+        self.edge_color = _check_color("edge_color", edge_color)
+        self.edge_width = _check_real("edge_width", edge_width, 0.0, 1.0e4)
+        self.draw_edges = bool(draw_edges)
+        self.margin = _check_real("margin", margin, 0.0, 10.0)
+        self.view = _check_view(view)
+        self.last_view = None  # (xmin, xmax, ymin, ymax) of the last rendered, letter-boxed view
+        self._img = None      # (s*H, s*W) vec3 f32 working image
+        self._out = None      # (H, W, 3) u8 image
+        self._img_key = None
+        self._cache = {}      # name -> ndarray converted from NumPy input (reused when shape fits)
+        self._small = {}      # (purpose, dtype) -> tiny ndarray (bbox, view params)
+
+    # -- configuration ---------------------------------------------------------------------
+    def set_view(self, view="fit", margin=None):
+        """Switch to ``"fit"`` or to a fixed world box ``(xmin, xmax, ymin, ymax)``."""
+        self.view = _check_view(view)
+        if margin is not None:
+            self.margin = _check_real("margin", margin, 0.0, 10.0)
+
+    def resize(self, width, height):
+        self.width = _check_pos_int("width", width)
+        self.height = _check_pos_int("height", height)
+
+    # -- buffers -----------------------------------------------------------------------------
+    def _buffers(self):
+        s = self.supersample
+        key = (self.width, self.height, s)
+        if self._img_key != key:
+            self._img = ti.ndarray(dtype=_vec3f, shape=(self.height * s, self.width * s))
+            self._out = ti.ndarray(dtype=ti.u8, shape=(self.height, self.width, 3))
+            self._img_key = key
+        return self._img, self._out
+
+    def _small_nd(self, purpose, dtype, size):
+        key = (purpose, str(dtype))
+        arr = self._small.get(key)
+        if arr is None:
+            arr = ti.ndarray(dtype=dtype, shape=(size,))
+            self._small[key] = arr
+        return arr
+
+    def _from_numpy(self, name, a, ncomp, np_dtype, ti_dtype):
+        arr = np.asarray(a)
+        if arr.ndim == 1 and arr.size == 0:
+            arr = arr.reshape(0, ncomp)
+        if arr.ndim != 2 or arr.shape[1] != ncomp:
+            raise ValueError(f"{name} must have shape (k, {ncomp}), got {arr.shape}")
+        arr = np.ascontiguousarray(arr, dtype=np_dtype)
+        k = arr.shape[0]
+        if k == 0:
+            return None  # Taichi has no empty ndarrays: callers treat None as "nothing"
+        nd = self._cache.get(name)
+        if nd is None or nd.shape != (k,) or nd.dtype != ti_dtype:
+            nd = ti.ndarray(dtype=ti.types.vector(ncomp, ti_dtype), shape=(k,))
+            self._cache[name] = nd
+        nd.from_numpy(arr)
+        return nd
+
+    def _prepare(self, node_x, tri_nodes, tri_color):
+        real_ti, real_np = backend.real_ti(), backend.real_np()
+        # nodes
+        if _is_ndarray(node_x) and getattr(node_x, "n", None) == 2 and len(node_x.shape) == 1:
+            x_nd = node_x
+        else:
+            x_nd = self._from_numpy("node_x", _to_np(node_x), 2, real_np, real_ti)
+        # triangles
+        if _is_ndarray(tri_nodes) and getattr(tri_nodes, "n", None) == 3 and len(tri_nodes.shape) == 1:
+            t_nd = tri_nodes
+        else:
+            t_np = np.asarray(_to_np(tri_nodes))
+            if t_np.size and not np.issubdtype(t_np.dtype, np.integer):
+                raise ValueError(f"tri_nodes must hold integers, got dtype {t_np.dtype}")
+            t_nd = self._from_numpy("tri_nodes", t_np, 3, np.int32, ti.i32)
+        m = 0 if t_nd is None else t_nd.shape[0]
+        if m == 0:
+            return x_nd, None, None
+        # colours
+        if _is_ndarray(tri_color) and getattr(tri_color, "n", None) == 3 and len(tri_color.shape) == 1:
+            c_nd = tri_color
+        else:
+            if tri_color is None:
+                c_np = np.full((m, 3), 0.7, np.float32)
+            else:
+                c_np = np.asarray(_to_np(tri_color))
+                if c_np.dtype == np.uint8:
+                    c_np = c_np.astype(np.float32) / 255.0
+                if c_np.shape == (3,):
+                    c_np = np.broadcast_to(c_np.astype(np.float32), (m, 3))
+            c_nd = self._from_numpy("tri_color", c_np, 3, np.float32, ti.f32)
+        if c_nd is None or c_nd.shape[0] != m:
+            raise ValueError(f"tri_color has {0 if c_nd is None else c_nd.shape[0]} entries but there are {m} triangles")
+        return x_nd, t_nd, c_nd
+
+    # -- view ------------------------------------------------------------------------------
+    def _world_box(self, x_nd):
+        """World box to show (before letter-boxing)."""
+        if self.view != "fit":
+            return self.view
+        if x_nd is None:
+            return self.last_view if self.last_view is not None else (-1.0, 1.0, -1.0, 1.0)
+        bb = self._small_nd("bbox", x_nd.dtype, 4)
+        _bbox_kernel(x_nd, bb)
+        xmin, xmax, ymin, ymax = (float(v) for v in bb.to_numpy())
+        if not all(math.isfinite(v) for v in (xmin, xmax, ymin, ymax)):
+            return self.last_view if self.last_view is not None else (-1.0, 1.0, -1.0, 1.0)
+        ext = max(xmax - xmin, ymax - ymin)
+        if ext <= 0.0:
+            ext = max(abs(xmin), abs(ymin), 1.0) * 1e-3  # a single point: show a small box
+        pad = self.margin * ext
+        cx, cy = 0.5 * (xmin + xmax), 0.5 * (ymin + ymax)
+        hw = 0.5 * (xmax - xmin) + pad
+        hh = 0.5 * (ymax - ymin) + pad
+        if hw <= 0.0:  # nodes on a vertical line and no margin
+            hw = 0.5 * ext
+        if hh <= 0.0:
+            hh = 0.5 * ext
+        return (cx - hw, cx + hw, cy - hh, cy + hh)
+
+    def _letterbox(self, box):
+        xmin, xmax, ymin, ymax = box
+        bw, bh = xmax - xmin, ymax - ymin
+        scale = min(self.width / bw, self.height / bh)  # output pixels per metre
+        cx, cy = 0.5 * (xmin + xmax), 0.5 * (ymin + ymax)
+        hw, hh = 0.5 * self.width / scale, 0.5 * self.height / scale
+        return (cx - hw, cx + hw, cy - hh, cy + hh), scale
+
+    def world_to_pixel(self, xy):
+        """Map world points (k, 2) to continuous output-pixel coordinates (col, row) using the
+        view of the last :meth:`render` call."""
+        if self.last_view is None:
+            raise RuntimeError("world_to_pixel: nothing rendered yet")
+        xmin, xmax, ymin, ymax = self.last_view
+        scale = self.width / (xmax - xmin)
+        xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+        return np.stack([(xy[:, 0] - xmin) * scale, (ymax - xy[:, 1]) * scale], axis=1)
+
+    # -- drawing ---------------------------------------------------------------------------
+    def render(self, node_x, tri_nodes, tri_color=None) -> np.ndarray:
+        """Rasterise the mesh and return a new ``(height, width, 3)`` uint8 array."""
+        backend.ensure_init()
+        x_nd, t_nd, c_nd = self._prepare(node_x, tri_nodes, tri_color)
+        img, out = self._buffers()
+        s = self.supersample
+        view, scale = self._letterbox(self._world_box(x_nd))
+        self.last_view = view
+
+        _clear_kernel(img, ti.Vector(self.background, dt=ti.f32))
+        if x_nd is not None and t_nd is not None:
+            n = x_nd.shape[0]
+            params = self._small_nd("params", x_nd.dtype, 3)
+            params.from_numpy(np.array([view[0], view[3], scale * s], dtype=_np_dtype(x_nd.dtype)))
+            pkey = "pixels"
+            p_nd = self._cache.get(pkey)
+            if p_nd is None or p_nd.shape != (n,):
+                p_nd = ti.ndarray(dtype=ti.types.vector(2, ti.f32), shape=(n,))
+                self._cache[pkey] = p_nd
+            _to_pixels_kernel(x_nd, params, p_nd)
+            draw = self.draw_edges and self.edge_width > 0.0
+            _raster_kernel(p_nd, t_nd, c_nd, img, ti.Vector(self.edge_color, dt=ti.f32),
+                           float(0.5 * self.edge_width * s), int(draw))
+        _resolve_kernel(img, out, s)
+        return out.to_numpy()
+
+    __call__ = render
+
+
+def _to_np(a):
+    if _is_ndarray(a):
+        return a.to_numpy()
+    return a
+
+
+def _np_dtype(ti_dtype):
+    if ti_dtype == ti.f64:
+        return np.float64
+    if ti_dtype == ti.f32:
+        return np.float32
+    raise ValueError(f"node positions must be f32 or f64, got {ti_dtype}")
+
+
+# ----------------------------------------------------------------------------------------------
+# Colour maps
+# ----------------------------------------------------------------------------------------------
+# matplotlib's viridis sampled at table indices 0, 8, ..., 248, 255 (max interpolation error
+# < 2/255 against the full 256-entry table).
+_VIRIDIS_IDX = np.array(list(range(0, 256, 8)) + [255], dtype=np.float64) / 255.0
+_VIRIDIS = np.array([
+    (0.267004, 0.004874, 0.329415), (0.277018, 0.050344, 0.375715), (0.282327, 0.094955, 0.417331),
+    (0.282884, 0.135920, 0.453427), (0.278826, 0.175490, 0.483397), (0.270595, 0.214069, 0.507052),
+    (0.258965, 0.251537, 0.524736), (0.244972, 0.287675, 0.537260), (0.229739, 0.322361, 0.545706),
+    (0.214298, 0.355619, 0.551184), (0.199430, 0.387607, 0.554642), (0.185556, 0.418570, 0.556753),
+    (0.172719, 0.448791, 0.557885), (0.160665, 0.478540, 0.558115), (0.149039, 0.508051, 0.557250),
+    (0.137770, 0.537492, 0.554906), (0.127568, 0.566949, 0.550556), (0.120565, 0.596422, 0.543611),
+    (0.120638, 0.625828, 0.533488), (0.132268, 0.655014, 0.519661), (0.157851, 0.683765, 0.501686),
+    (0.196571, 0.711827, 0.479221), (0.246070, 0.738910, 0.452024), (0.304148, 0.764704, 0.419943),
+    (0.369214, 0.788888, 0.382914), (0.440137, 0.811138, 0.340967), (0.515992, 0.831158, 0.294279),
+    (0.595839, 0.848717, 0.243329), (0.678489, 0.863742, 0.189503), (0.762373, 0.876424, 0.137064),
+    (0.845561, 0.887322, 0.099702), (0.926106, 0.897330, 0.104071), (0.993248, 0.906157, 0.143936),
+], dtype=np.float64)
+
+# Moreland's diverging cool-warm map (5 anchors), handy for signed quantities.
+_COOLWARM = np.array([(59, 76, 192), (141, 176, 254), (221, 221, 221), (244, 154, 123),
+                      (180, 4, 38)], dtype=np.float64) / 255.0
+
+COLORMAPS = {
+    "viridis": (_VIRIDIS_IDX, _VIRIDIS),
+    "gray": (np.array([0.0, 1.0]), np.array([(0.0, 0.0, 0.0), (1.0, 1.0, 1.0)])),
+    "coolwarm": (np.linspace(0.0, 1.0, len(_COOLWARM)), _COOLWARM),
+}
+COLORMAPS["grey"] = COLORMAPS["gray"]
+
+_NAN_COLOR = np.array([0.5, 0.5, 0.5], dtype=np.float32)
+
+
+def colormap(values, vmin=None, vmax=None, name="viridis") -> np.ndarray:
+    """Map scalars to RGB colours: ``values`` of shape S -> float32 array of shape S + (3,).
+
+    ``vmin``/``vmax`` default to the finite min/max of ``values``; values are clipped to
+    [vmin, vmax]; vmin maps to the first table colour, vmax to the last.  NaN maps to grey.
+    Available maps: ``viridis`` (default), ``gray``, ``coolwarm``.
+    """
+    if name not in COLORMAPS:
+        raise ValueError(f"colormap: unknown name {name!r}; choose one of {sorted(COLORMAPS)}")
+    pos, table = COLORMAPS[name]
+    v = np.asarray(_to_np(values), dtype=np.float64)
+    finite = np.isfinite(v)
+    if vmin is None:
+        vmin = float(v[finite].min()) if finite.any() else 0.0
+    if vmax is None:
+        vmax = float(v[finite].max()) if finite.any() else 1.0
+    vmin, vmax = float(vmin), float(vmax)
+    if not (math.isfinite(vmin) and math.isfinite(vmax)):
+        raise ValueError(f"colormap: vmin and vmax must be finite, got {vmin}, {vmax}")
+    if vmax < vmin:
+        raise ValueError(f"colormap: vmax ({vmax}) < vmin ({vmin})")
+    span = vmax - vmin
+    t = np.clip((v - vmin) / span, 0.0, 1.0) if span > 0 else np.zeros_like(v)
+    t = np.where(finite, t, 0.0)
+    out = np.empty(v.shape + (3,), dtype=np.float32)
+    flat_t = t.reshape(-1)
+    flat = out.reshape(-1, 3)
+    for k in range(3):
+        flat[:, k] = np.interp(flat_t, pos, table[:, k])
+    out[~finite] = _NAN_COLOR
+    return out
+
+
+# Tableau-10 qualitative palette (pleasant, distinct; cycles for more bodies).
+_BODY_PALETTE = np.array([
+    (78, 121, 167), (242, 142, 43), (225, 87, 89), (118, 183, 178), (89, 161, 79),
+    (237, 201, 72), (176, 122, 161), (255, 157, 167), (156, 117, 95), (186, 176, 172),
+], dtype=np.float32) / 255.0
+
+
+def body_colors(tri_body) -> np.ndarray:
+    """A distinct colour per body id: ``(m,)`` ints -> ``(m, 3)`` float32 (palette cycles)."""
+    ids = np.asarray(_to_np(tri_body))
+    if ids.size and not np.issubdtype(ids.dtype, np.integer):
+        raise ValueError(f"body_colors: body ids must be integers, got dtype {ids.dtype}")
+    ids = ids.astype(np.int64).reshape(-1)
+    return _BODY_PALETTE[np.mod(ids, len(_BODY_PALETTE))]
+
+
+# ----------------------------------------------------------------------------------------------
+# Images and video
+# ----------------------------------------------------------------------------------------------
+def _as_uint8_image(image) -> np.ndarray:
+    img = np.asarray(_to_np(image))
+    if img.ndim == 2:
+        img = np.repeat(img[:, :, None], 3, axis=2)
+    if img.ndim != 3 or img.shape[2] not in (3, 4) or img.shape[0] < 1 or img.shape[1] < 1:
+        raise ValueError(f"image must have shape (H, W, 3), got {img.shape}")
+    if img.shape[2] == 4:
+        img = img[:, :, :3]
+    if img.dtype != np.uint8:
+        if np.issubdtype(img.dtype, np.floating):
+            img = np.clip(np.nan_to_num(img), 0.0, 1.0) * 255.0 + 0.5
+        img = np.clip(img, 0, 255).astype(np.uint8)
+    return np.ascontiguousarray(img)
+
+
+def save_png(path, image) -> None:
+    """Write an (H, W, 3) uint8 (or float in [0, 1]) image as PNG, creating parent dirs."""
+    from PIL import Image
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray(_as_uint8_image(image)).save(path, format="PNG", compress_level=3)
+
+
+def annotate(image, text, xy=(4, 4), color=(0, 0, 0), size=None, box=True) -> np.ndarray:
+    """Return a copy of ``image`` with ``text`` stamped at pixel ``xy`` (top-left by default).
+
+    ``color`` is an RGB triple in 0..255; ``size`` the font height in pixels (default: about
+    1/30 of the image height, at least 10); ``box`` draws a translucent white box behind the
+    text for legibility.
+    """
+    from PIL import Image, ImageDraw, ImageFont
+
+    img = _as_uint8_image(image)
+    size = int(size) if size is not None else max(10, img.shape[0] // 30)
+    try:
+        font = ImageFont.load_default(size=size)
+    except TypeError:  # Pillow < 10.1: fixed-size bitmap font
+        font = ImageFont.load_default()
+    pil = Image.fromarray(img).convert("RGBA")
+    layer = Image.new("RGBA", pil.size, (0, 0, 0, 0))
+    draw = ImageDraw.Draw(layer)
+    if box:
+        l, t, r, b = draw.textbbox(tuple(xy), str(text), font=font)
+        draw.rectangle((l - 2, t - 2, r + 2, b + 2), fill=(255, 255, 255, 170))
+    draw.text(tuple(xy), str(text), font=font, fill=tuple(int(c) for c in color) + (255,))
+    return np.asarray(Image.alpha_composite(pil, layer).convert("RGB"))
+
+
+def _path_kind(path) -> str:
+    s = os.fspath(path)
+    p = Path(s)
+    if s.endswith(("/", os.sep)) or p.is_dir() or p.suffix == "":
+        return "png"
+    suf = p.suffix.lower()
+    if suf == ".mp4":
+        return "mp4"
+    if suf == ".gif":
+        return "gif"
+    raise ValueError(f"VideoWriter: unsupported output {s!r}; use a .mp4 or .gif file or a "
+                     "directory (PNG sequence)")
+
+
+class VideoWriter:
+    """Stream frames to an ``.mp4`` (libx264), a ``.gif`` or a PNG sequence directory.
+
+    Frames are handed to the encoder as they come, so memory does not grow with the number of
+    frames.  ``png_dir`` optionally also writes every frame as ``frame_00000.png`` ... there.
+    Use as a context manager: the file is closed (and therefore valid) even when the block is
+    left by an exception or KeyboardInterrupt.  All frames must have the same size; odd sizes
+    are padded by one edge row/column for mp4 (yuv420p needs even sizes).
+    """
+
+    def __init__(self, path, fps=30, png_dir=None, quality=7):
+        if isinstance(fps, bool) or not isinstance(fps, numbers.Real) or not (fps > 0 and math.isfinite(fps)):
+            raise ValueError(f"VideoWriter: fps must be a positive number, got {fps!r}")
+        if isinstance(quality, bool) or not isinstance(quality, numbers.Real) or not (1 <= quality <= 10):
+            raise ValueError(f"VideoWriter: quality must be in 1..10, got {quality!r}")
+        self.path = Path(path)
+        self.kind = _path_kind(path)
+        self.fps = float(fps)
+        self.quality = float(quality)
+        self.png_dir = Path(png_dir) if png_dir is not None else None
+        if self.kind == "png":
+            self.path.mkdir(parents=True, exist_ok=True)
+        else:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        if self.png_dir is not None:
+            self.png_dir.mkdir(parents=True, exist_ok=True)
+            if self.kind == "png" and self.png_dir.resolve() == self.path.resolve():
+                self.png_dir = None
+        self._count = 0
+        self._size = None      # (H, W) of the first frame
+        self._writer = None    # imageio writer (mp4, gif fallback)
+        self._gen = None       # imageio_ffmpeg write_frames generator (gif)
+        self._closed = False
+
+    @property
+    def frame_count(self) -> int:
+        return self._count
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    def _open(self, h, w):
+        if self.kind == "mp4":
+            import imageio.v2 as imageio
+
+            self._writer = imageio.get_writer(
+                os.fspath(self.path), format="FFMPEG", mode="I", fps=self.fps, codec="libx264",
+                quality=self.quality, macro_block_size=1, pixelformat="yuv420p",
+                ffmpeg_log_level="error")
+        elif self.kind == "gif":
+            try:
+                import imageio_ffmpeg
+
+                # per-frame palettes: good colours, and still a single streaming pass
+                vf = ("split[s0][s1];[s0]palettegen=stats_mode=single:reserve_transparent=0[p];"
+                      "[s1][p]paletteuse=new=1:dither=bayer")
+                gen = imageio_ffmpeg.write_frames(
+                    os.fspath(self.path), (w, h), fps=self.fps, codec="gif", pix_fmt_in="rgb24",
+                    pix_fmt_out="pal8", quality=None, macro_block_size=1, ffmpeg_log_level="error",
+                    output_params=["-vf", vf, "-loop", "0"])
+                gen.send(None)
+                self._gen = gen
+            except Exception:  # no usable ffmpeg: Pillow via imageio (buffers frames in memory)
+                import imageio.v2 as imageio
+
+                self._gen = None
+                self._writer = imageio.get_writer(os.fspath(self.path), mode="I",
+                                                  duration=1000.0 / self.fps, loop=0)
+
+    def append(self, image) -> None:
+        """Add one frame, an (H, W, 3) uint8 array (float in [0, 1] is converted)."""
+        if self._closed:
+            raise RuntimeError("VideoWriter.append: the writer is closed")
+        img = _as_uint8_image(image)
+        h, w = img.shape[:2]
+        if self._size is None:
+            self._size = (h, w)
+            self._open(*self._padded(h, w))
+        elif self._size != (h, w):
+            raise ValueError(f"VideoWriter.append: frame size {(h, w)} differs from the first "
+                             f"frame's {self._size}")
+        idx = self._count
+        if self.kind == "mp4":
+            ph, pw = self._padded(h, w)
+            if (ph, pw) != (h, w):
+                img = np.pad(img, ((0, ph - h), (0, pw - w), (0, 0)), mode="edge")
+            self._writer.append_data(img)
+        elif self.kind == "gif":
+            if self._gen is not None:
+                self._gen.send(img.tobytes())
+            else:
+                self._writer.append_data(img)
+        else:
+            save_png(self.path / f"frame_{idx:05d}.png", img)
+        if self.png_dir is not None:
+            save_png(self.png_dir / f"frame_{idx:05d}.png", img)
+        self._count += 1
+
+    def _padded(self, h, w):
+        if self.kind == "mp4":
+            return h + (h % 2), w + (w % 2)
+        return h, w
+
+    def close(self) -> None:
+        """Finish the file (idempotent)."""
+        if self._closed:
+            return
+        self._closed = True
+        gen, writer = self._gen, self._writer
+        self._gen = self._writer = None
+        if gen is not None:
+            gen.close()
+        if writer is not None:
+            writer.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        self.close()
+        return False
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
+
+    def __repr__(self):
+        return f"VideoWriter({os.fspath(self.path)!r}, kind={self.kind}, frames={self._count})"

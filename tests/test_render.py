@@ -1,0 +1,398 @@
+"""Golden-image style tests of taichi_fdem.render (rasteriser, colour maps, video output)."""
+import os
+
+import imageio.v2 as imageio_v2
+import imageio.v3 as iio
+import numpy as np
+import pytest
+import taichi as ti
+
+from taichi_fdem import backend, render
+
+RED = np.array([255, 0, 0], np.uint8)
+WHITE = np.array([255, 255, 255], np.uint8)
+BLACK = np.array([0, 0, 0], np.uint8)
+
+TRI_X = np.array([[0.1, 0.1], [0.9, 0.1], [0.1, 0.9]])
+TRI_T = np.array([[0, 1, 2]])
+TRI_C = np.array([[1.0, 0.0, 0.0]])
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _taichi():
+    backend.ensure_init()
+
+
+def _is(img, rgb):
+    return np.all(img == np.asarray(rgb, np.uint8), axis=-1)
+
+
+def _expected_mask(x, w=100, h=100, view=(0.0, 1.0, 0.0, 1.0), tol=0.0):
+    """Analytic pixel-centre-inside-triangle mask (float64, inclusive up to tol) for one triangle."""
+    xmin, xmax, ymin, ymax = view
+    cols = xmin + (np.arange(w) + 0.5) / w * (xmax - xmin)
+    rows = ymax - (np.arange(h) + 0.5) / h * (ymax - ymin)
+    X, Y = np.meshgrid(cols, rows)
+    a, b, c = x
+    def edge(p, q):
+        return (q[0] - p[0]) * (Y - p[1]) - (q[1] - p[1]) * (X - p[0])
+    e = np.stack([edge(a, b), edge(b, c), edge(c, a)])
+    return np.all(e >= -tol, axis=0) | np.all(e <= tol, axis=0)
+
+
+# ---------------------------------------------------------------------------------------------
+# rasteriser
+# ---------------------------------------------------------------------------------------------
+def test_single_triangle_golden():
+    r = render.RendererImage(100, 100, view=(0, 1, 0, 1), draw_edges=False)
+    img = r.render(TRI_X, TRI_T, TRI_C)
+    assert img.shape == (100, 100, 3) and img.dtype == np.uint8
+    red = _is(img, RED)
+    white = _is(img, WHITE)
+    assert np.all(red | white)                       # nothing else without edges/supersampling
+    # analytic area 0.32 of the view -> 3200 pixels
+    assert abs(red.sum() - 3200) <= 0.02 * 3200
+    # exact agreement with the analytic mask except possibly on the diagonal boundary
+    mism = red != _expected_mask(TRI_X)
+    assert mism.sum() <= 100
+    # well inside / well outside; y up: the right angle (0.1, 0.1) is bottom-left
+    assert red[85, 15] and red[89, 80] and red[15, 12]
+    assert white[10, 15] and white[15, 85] and white[50, 95] and white[95, 50] and white[5, 5]
+    # rows of the triangle: 10..89, columns 10..89
+    rows = np.nonzero(red.any(axis=1))[0]
+    cols = np.nonzero(red.any(axis=0))[0]
+    assert rows.min() == 10 and rows.max() == 89 and cols.min() == 10 and cols.max() == 89
+    # lower rows are wider (the base is at the bottom)
+    assert red[88].sum() > red[11].sum() + 60
+
+
+def test_y_axis_up():
+    r = render.RendererImage(100, 100, view=(0, 1, 0, 1), draw_edges=False)
+    x = np.array([[0.2, 0.05], [0.8, 0.05], [0.5, 0.4]])   # lower part of the world
+    img = r.render(x, TRI_T, TRI_C)
+    red = _is(img, RED)
+    rows = np.nonzero(red.any(axis=1))[0]
+    assert rows.min() >= 60 and rows.max() == 94
+    assert red.sum() == pytest.approx(0.5 * 0.6 * 0.35 * 1e4, rel=0.03)
+    # the apex (top) is narrow, the base (bottom) wide
+    assert red[rows.max()].sum() > 50 and red[rows.min()].sum() < 5
+
+
+def test_edges_drawn():
+    ec = (0.0, 0.0, 0.0)
+    r = render.RendererImage(100, 100, view=(0, 1, 0, 1), edge_color=ec, edge_width=2.0, draw_edges=True)
+    img = r.render(TRI_X, TRI_T, TRI_C)
+    black, red = _is(img, BLACK), _is(img, RED)
+    # bottom edge y = 0.1 is pixel y = 90: row 89 (centre 0.5 px from it) is edge, row 87 fill
+    assert black[89, 50] and red[87, 50]
+    # left edge x = 0.1 is pixel x = 10
+    assert black[50, 10] and red[50, 12]
+    # hypotenuse: pixel (row 50, col 49) has its centre on x + y = 1
+    assert black[50, 49]
+    assert red[60, 30]                                 # interior stays fill colour
+    # edge pixels lie within 1 px of an edge; their number is about perimeter * width
+    mask = _expected_mask(TRI_X, tol=1e-6)
+    assert np.all(mask[black])
+    perim_px = (0.8 + 0.8 + 0.8 * np.sqrt(2)) * 100
+    assert 0.7 * perim_px <= black.sum() <= 1.5 * perim_px
+    # draw_edges=False or edge_width=0 -> no edge colour
+    r2 = render.RendererImage(100, 100, view=(0, 1, 0, 1), edge_color=ec, edge_width=0.0)
+    assert not _is(r2.render(TRI_X, TRI_T, TRI_C), BLACK).any()
+
+
+def test_fit_view_contains_all_nodes():
+    x = np.array([[0, 0], [1, 0], [0, 1], [20, 8], [21, 8], [20, 9]], float)
+    t = np.array([[0, 1, 2], [3, 4, 5]])
+    c = np.array([[1, 0, 0], [0, 0, 1]], float)
+    r = render.RendererImage(160, 90, view="fit", draw_edges=False)
+    img = r.render(x, t, c)
+    assert _is(img, RED).sum() > 10 and _is(img, (0, 0, 255)).sum() > 10
+    xmin, xmax, ymin, ymax = r.last_view
+    assert xmin < 0 and xmax > 21 and ymin < 0 and ymax > 9
+    # aspect preserved (square pixels)
+    assert (xmax - xmin) / (ymax - ymin) == pytest.approx(160 / 90)
+    # each triangle's centroid lands on its colour
+    cent = np.array([x[:3].mean(0), x[3:].mean(0)])
+    pix = np.floor(r.world_to_pixel(cent)).astype(int)
+    assert np.all(img[pix[0, 1], pix[0, 0]] == (255, 0, 0))
+    assert np.all(img[pix[1, 1], pix[1, 0]] == (0, 0, 255))
+    # after the bodies move, the fit view follows
+    img2 = r.render(x + np.array([100.0, -50.0]), t, c)
+    assert r.last_view[0] > 90 and r.last_view[3] < -30
+    np.testing.assert_array_equal(img, img2)
+
+
+def test_fixed_view_letterbox():
+    r = render.RendererImage(200, 100, view=(0, 1, 0, 1), draw_edges=False)
+    img = r.render(TRI_X, TRI_T, TRI_C)
+    xmin, xmax, ymin, ymax = r.last_view
+    assert (ymin, ymax) == (0.0, 1.0) and xmin == pytest.approx(-0.5) and xmax == pytest.approx(1.5)
+    red = _is(img, RED)
+    assert abs(red.sum() - 0.32 * 100 * 100) <= 0.03 * 3200
+    cols = np.nonzero(red.any(axis=0))[0]
+    assert cols.min() == 60 and cols.max() == 139
+
+
+def test_supersample_antialiasing():
+    base = render.RendererImage(100, 100, view=(0, 1, 0, 1), draw_edges=False).render(TRI_X, TRI_T, TRI_C)
+    r = render.RendererImage(100, 100, view=(0, 1, 0, 1), draw_edges=False, supersample=2)
+    img = r.render(TRI_X, TRI_T, TRI_C)
+    red, white = _is(img, RED), _is(img, WHITE)
+    mixed = ~(red | white)
+    assert mixed.sum() > 50                            # intermediate colours on the hypotenuse
+    mix_px = img[mixed].astype(int)
+    assert np.all(mix_px[:, 0] == 255) and np.all((mix_px[:, 1] > 0) & (mix_px[:, 1] < 255))
+    coverage = (255 - img[:, :, 1].astype(float)).sum() / 255.0
+    assert coverage == pytest.approx(3200, rel=0.02)
+    assert abs(red.sum() + mixed.sum() - _is(base, RED).sum()) < 150
+    # with edges, supersampling mixes edge and fill colours too
+    r2 = render.RendererImage(100, 100, view=(0, 1, 0, 1), supersample=3, edge_color=(0, 0, 0))
+    img2 = r2.render(TRI_X, TRI_T, TRI_C)
+    assert np.any((img2[:, :, 0] > 0) & (img2[:, :, 0] < 255) & (img2[:, :, 1] == 0))
+
+
+def test_numpy_and_ndarray_inputs_identical():
+    rng = np.random.default_rng(0)
+    # a strip of 2 x 6 quads split into triangles, slightly perturbed
+    nx, ny = 7, 3
+    gx, gy = np.meshgrid(np.linspace(0, 3, nx), np.linspace(0, 1, ny))
+    x = np.stack([gx.ravel(), gy.ravel()], 1) + rng.normal(0, 0.02, (nx * ny, 2))
+    tris = []
+    for j in range(ny - 1):
+        for i in range(nx - 1):
+            a, b, c, d = j * nx + i, j * nx + i + 1, (j + 1) * nx + i + 1, (j + 1) * nx + i
+            tris += [[a, b, c], [a, c, d]]
+    t = np.array(tris, np.int32)
+    col = render.colormap(np.arange(len(t)), name="viridis")
+    r = render.RendererImage(120, 60, supersample=2)
+    img_np = r.render(x, t, col)
+
+    real = backend.real_ti()
+    x_nd = ti.ndarray(dtype=ti.types.vector(2, real), shape=(len(x),))
+    x_nd.from_numpy(x.astype(backend.real_np()))
+    t_nd = ti.ndarray(dtype=ti.types.vector(3, ti.i32), shape=(len(t),))
+    t_nd.from_numpy(t)
+    c_nd = ti.ndarray(dtype=ti.types.vector(3, ti.f32), shape=(len(t),))
+    c_nd.from_numpy(col)
+    img_nd = r.render(x_nd, t_nd, c_nd)
+    np.testing.assert_array_equal(img_np, img_nd)
+    assert len(np.unique(img_np.reshape(-1, 3), axis=0)) > 12
+
+    # mixed inputs, and a second call reuses the internal buffers
+    buf = r._img
+    np.testing.assert_array_equal(r.render(x_nd, t, col), img_np)
+    assert r._img is buf
+
+
+def test_scene_size_changes_and_degenerate_input():
+    r = render.RendererImage(64, 48)
+    empty = r.render(np.zeros((0, 2)), np.zeros((0, 3), int), np.zeros((0, 3)))
+    assert np.all(empty == 255)
+    one = r.render(TRI_X, TRI_T, (0.0, 1.0, 0.0))        # single RGB triple broadcast
+    assert _is(one, (0, 255, 0)).sum() > 100
+    many_x = np.concatenate([TRI_X, TRI_X + 1.0])
+    two = r.render(many_x, np.array([[0, 1, 2], [3, 4, 5]]), None)   # None -> grey
+    grey = (two[..., 0] == two[..., 1]) & (two[..., 1] == two[..., 2]) & (np.abs(two[..., 0].astype(int) - 178) <= 1)
+    assert grey.sum() > 100
+    # degenerate (zero-area) triangle and a NaN node do not crash nor hang
+    bad_x = np.array([[0, 0], [1, 1], [2, 2], [np.nan, 0.0], [1, 0], [0, 1]])
+    img = render.RendererImage(64, 48, view=(-1, 3, -1, 3)).render(bad_x, np.array([[0, 1, 2], [3, 4, 5]]), TRI_C[[0, 0]])
+    assert img.shape == (48, 64, 3)
+
+
+def test_argument_validation():
+    with pytest.raises(ValueError, match="width"):
+        render.RendererImage(width=0)
+    with pytest.raises(ValueError, match="height"):
+        render.RendererImage(height=10.5)
+    with pytest.raises(ValueError, match="supersample"):
+        render.RendererImage(supersample=5)
+    with pytest.raises(ValueError, match="background"):
+        render.RendererImage(background=(1.2, 0, 0))
+    with pytest.raises(ValueError, match="edge_color"):
+        render.RendererImage(edge_color=(0, 0))
+    with pytest.raises(ValueError, match="view"):
+        render.RendererImage(view=(0, 0, 0, 1))
+    with pytest.raises(ValueError, match="view"):
+        render.RendererImage(view="zoom")
+    r = render.RendererImage(32, 32)
+    with pytest.raises(ValueError, match="view"):
+        r.set_view((1, 2, 3))
+    r.set_view((0, 1, 0, 1))
+    assert r.view == (0.0, 1.0, 0.0, 1.0)
+    with pytest.raises(ValueError, match="tri_color"):
+        r.render(TRI_X, TRI_T, np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="node_x"):
+        r.render(np.zeros((3, 3)), TRI_T, TRI_C)
+
+
+# ---------------------------------------------------------------------------------------------
+# colour maps
+# ---------------------------------------------------------------------------------------------
+def test_colormap_endpoints_and_luminance():
+    pos, table = render.COLORMAPS["viridis"]
+    c = render.colormap(np.array([-5.0, 0.0, 1.0, 7.0]), vmin=0.0, vmax=1.0)
+    assert c.dtype == np.float32 and c.shape == (4, 3)
+    np.testing.assert_allclose(c[0], table[0], atol=1e-6)     # clipped below
+    np.testing.assert_allclose(c[1], table[0], atol=1e-6)     # vmin -> first colour
+    np.testing.assert_allclose(c[2], table[-1], atol=1e-6)    # vmax -> last colour
+    np.testing.assert_allclose(c[3], table[-1], atol=1e-6)
+    np.testing.assert_allclose(c[1], (0.267004, 0.004874, 0.329415), atol=1e-6)
+    np.testing.assert_allclose(c[2], (0.993248, 0.906157, 0.143936), atol=1e-6)
+    # default vmin / vmax from the data; viridis luminance increases monotonically
+    v = np.linspace(3.0, 4.0, 200)
+    cm = render.colormap(v)
+    lum = cm @ np.array([0.2126, 0.7152, 0.0722])
+    assert np.all(np.diff(lum) > 0)
+    assert 16 <= len(table) <= 64
+    # NaN -> grey, shapes preserved, other maps
+    assert render.colormap(np.array([[0.0, np.nan]]), 0, 1).shape == (1, 2, 3)
+    np.testing.assert_allclose(render.colormap([0.5], 0, 1, name="gray")[0], 0.5, atol=1e-6)
+    cw = render.colormap([0.0, 1.0], name="coolwarm")
+    assert cw[0, 2] > cw[0, 0] and cw[1, 0] > cw[1, 2]
+    with pytest.raises(ValueError):
+        render.colormap([0.0], name="jet")
+
+
+def test_body_colors():
+    ids = np.array([0, 1, 2, 0, 1, 25])
+    c = render.body_colors(ids)
+    assert c.shape == (6, 3) and c.dtype == np.float32
+    assert np.all((c >= 0) & (c <= 1))
+    np.testing.assert_array_equal(c[0], c[3])
+    assert not np.allclose(c[0], c[1]) and not np.allclose(c[1], c[2])
+    n = len(render.body_colors(np.arange(100)))
+    pal = np.unique(render.body_colors(np.arange(100)), axis=0)
+    assert n == 100 and len(pal) >= 8                 # distinct palette, cycling
+
+
+# ---------------------------------------------------------------------------------------------
+# images and video
+# ---------------------------------------------------------------------------------------------
+def _frames(k, w=64, h=48):
+    for i in range(k):
+        f = np.full((h, w, 3), 255, np.uint8)
+        f[:, : (i * 5) % w] = (200, 30, 30)
+        f[10:30, 20:40] = (20, 20 * (i % 12), 220)
+        yield f
+
+
+def _mp4_frames(path):
+    rd = imageio_v2.get_reader(str(path))
+    try:
+        return [np.asarray(f) for f in rd]
+    finally:
+        rd.close()
+
+
+def test_video_mp4(tmp_path):
+    path = tmp_path / "sub" / "out.mp4"
+    with render.VideoWriter(path, fps=24) as vw:
+        for f in _frames(12):
+            vw.append(f)
+        assert vw.frame_count == 12
+    assert vw.closed
+    vw.close()                                        # idempotent
+    frames = _mp4_frames(path)
+    assert len(frames) == 12 and frames[0].shape == (48, 64, 3)
+    ref = list(_frames(12))
+    assert np.abs(frames[7].astype(int) - ref[7]).mean() < 12   # lossy but close
+
+
+def test_video_gif(tmp_path):
+    path = tmp_path / "out.gif"
+    with render.VideoWriter(path, fps=10) as vw:
+        for f in _frames(12):
+            vw.append(f)
+    arr = iio.imread(path, index=None)
+    assert arr.shape[0] == 12 and arr.shape[1:3] == (48, 64)
+    ref = list(_frames(12))
+    assert np.abs(arr[5][..., :3].astype(int) - ref[5]).mean() < 8
+    with open(path, "rb") as fh:
+        assert b"NETSCAPE2.0" in fh.read()            # looping gif
+
+
+def test_video_png_dir_and_extra_png(tmp_path):
+    d = tmp_path / "frames"
+    with render.VideoWriter(str(d) + "/") as vw:
+        for f in _frames(12):
+            vw.append(f)
+    files = sorted(os.listdir(d))
+    assert len(files) == 12 and files[0] == "frame_00000.png" and files[-1] == "frame_00011.png"
+    assert iio.imread(d / "frame_00003.png").shape == (48, 64, 3)
+    np.testing.assert_array_equal(iio.imread(d / "frame_00003.png"), list(_frames(12))[3])
+    # no suffix -> directory; png_dir copies the frames of a movie
+    extra = tmp_path / "extra"
+    with render.VideoWriter(tmp_path / "movie.mp4", png_dir=extra) as vw:
+        for f in _frames(3):
+            vw.append(f)
+    assert sorted(os.listdir(extra)) == ["frame_00000.png", "frame_00001.png", "frame_00002.png"]
+    with render.VideoWriter(tmp_path / "seq") as vw:
+        vw.append(next(_frames(1)))
+    assert os.listdir(tmp_path / "seq") == ["frame_00000.png"]
+
+
+@pytest.mark.parametrize("exc", [RuntimeError, KeyboardInterrupt])
+def test_video_interrupted_is_valid(tmp_path, exc):
+    path = tmp_path / "crash.mp4"
+    with pytest.raises(exc):
+        with render.VideoWriter(path, fps=30) as vw:
+            for i, f in enumerate(_frames(12)):
+                if i == 5:
+                    raise exc("simulated crash")
+                vw.append(f)
+    assert vw.closed and vw.frame_count == 5
+    frames = _mp4_frames(path)
+    assert len(frames) == 5 and frames[0].shape == (48, 64, 3)
+
+
+def test_video_odd_size_and_errors(tmp_path):
+    path = tmp_path / "odd.mp4"
+    with render.VideoWriter(path) as vw:
+        for f in _frames(4, w=65, h=47):
+            vw.append(f)
+        with pytest.raises(ValueError, match="size"):
+            vw.append(np.zeros((48, 64, 3), np.uint8))
+    frames = _mp4_frames(path)
+    assert len(frames) == 4 and frames[0].shape == (48, 66, 3)   # padded to even size
+    with pytest.raises(RuntimeError):
+        vw.append(next(_frames(1, w=65, h=47)))
+    with pytest.raises(ValueError, match="unsupported"):
+        render.VideoWriter(tmp_path / "x.avi")
+    with pytest.raises(ValueError, match="fps"):
+        render.VideoWriter(tmp_path / "x.mp4", fps=0)
+
+
+def test_save_png_and_annotate(tmp_path):
+    img = render.RendererImage(80, 60, view=(0, 1, 0, 1)).render(TRI_X, TRI_T, TRI_C)
+    p = tmp_path / "a" / "b.png"
+    render.save_png(p, img)
+    np.testing.assert_array_equal(iio.imread(p), img)
+    render.save_png(tmp_path / "f.png", img.astype(np.float32) / 255.0)
+    np.testing.assert_array_equal(iio.imread(tmp_path / "f.png"), img)
+    ann = render.annotate(img, "t = 1.25 s  step 100", size=12)
+    assert ann.shape == img.shape and ann.dtype == np.uint8
+    changed = np.any(ann != img, axis=-1)
+    assert changed[:20, :60].sum() > 20               # text at the top left
+    assert not changed[30:, :].any()                   # nothing elsewhere
+
+
+def test_no_recompilation_for_new_sizes():
+    """ndarray kernels compile once per dtype, whatever the scene or image size."""
+    kernels = [render._raster_kernel, render._to_pixels_kernel, render._bbox_kernel,
+               render._clear_kernel, render._resolve_kernel]
+    if not all(hasattr(getattr(k, "_primal", None), "compiled_kernels") for k in kernels):
+        pytest.skip("Taichi internals changed")
+    rng = np.random.default_rng(1)
+
+    def scene(n, w, h, s):
+        x = rng.random((3 * n, 2))
+        t = np.arange(3 * n).reshape(n, 3)
+        render.RendererImage(w, h, supersample=s).render(x, t, render.body_colors(np.arange(n)))
+
+    scene(2, 20, 20, 2)  # warm-up: compiles for the current precision if not done yet
+    before = [len(k._primal.compiled_kernels) for k in kernels]
+    for n, (w, h, s) in zip((1, 7, 40), ((40, 30, 1), (90, 50, 2), (33, 71, 3))):
+        scene(n, w, h, s)
+    after = [len(k._primal.compiled_kernels) for k in kernels]
+    assert after == before
