@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import taichi_fdem as fdem
-from conftest import (barycentric, build_quiet, clip_convex, one_triangle, overlap_area, potential_integral,
+from conftest import (build_quiet, clip_convex, one_triangle, overlap_area, potential_integral,
                       random_triangle, reference_couple_forces, shape_function_gradients, twice_area)
 
 E = 1.0e6
@@ -192,7 +192,7 @@ def test_force_is_gradient_of_contact_energy():
     force equals −∂E/∂x exactly for the contactor role, while the target role (reaction by the
     affine shape functions, §2.3.1 step 9) differs by a term proportional to the target's own
     energy and area change:  −∂E/∂x_q = f_q − E_X ∇N_q^X  for node q of triangle X, with
-    E_X = p∫_{A∩B} φ_X dA (see the derivation in the module's notes below).  So:
+    E_X = p∫_{A∩B} φ_X dA (derivation at the end of this file).  So:
 
     * along rigid motions of either triangle and along area-preserving node moves (a node moved
       parallel to its opposite edge) f = −∇E exactly;

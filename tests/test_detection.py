@@ -39,7 +39,7 @@ def expected_couples(sim, scene, x=None):
     return brute_force_couples(x, tris, cand, tri_body, sim.buffer, selfc, fixed)
 
 
-def random_triangle_scene(seed, n, box=1.0, size=(0.01, 0.03), overlap=True, speed=0.0):
+def random_triangle_scene(seed, n, box=1.0, size=(0.01, 0.03), overlap=True, speed=0.0, origin=(0.0, 0.0)):
     """n one-triangle bodies at random positions in a box.  With overlap=False the bounding
     circles are kept disjoint (no contact at the start, but many couples within the buffer)."""
     rng = np.random.default_rng(seed)
@@ -47,7 +47,7 @@ def random_triangle_scene(seed, n, box=1.0, size=(0.01, 0.03), overlap=True, spe
     placed = []
     while len(placed) < n:
         r = rng.uniform(*size)
-        c = rng.uniform(0.0, box, 2)
+        c = np.asarray(origin) + rng.uniform(0.0, box, 2)
         T = random_triangle(rng, c, r, min_angle_deg=25.0)
         cc, rr = bounding_circles(T, np.array([[0, 1, 2]]))
         if not overlap and any(np.linalg.norm(cc[0] - c2) < rr[0] + r2 for c2, r2 in placed):
@@ -61,7 +61,7 @@ def random_triangle_scene(seed, n, box=1.0, size=(0.01, 0.03), overlap=True, spe
 # ------------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("strategy", STRATEGIES)
 def test_random_triangles_match_brute_force(strategy):
-    scene = random_triangle_scene(seed=1, n=700, overlap=True)
+    scene = random_triangle_scene(seed=1, n=700, overlap=True, origin=(-0.4, -0.7))   # cells of both signs
     with pytest.warns(RuntimeWarning, match="overlap"):
         sim = scene.build(strategy=strategy)
     assert sim.strategy == strategy

@@ -117,3 +117,64 @@ def test_serial_and_parallel_strategies_give_the_same_trajectory():
     assert es["friction"] > 0 and es["contact_damping"] > 0          # the features were exercised
     for key in ("kinetic", "strain", "friction", "contact_damping", "total"):
         assert es[key] == pytest.approx(ep[key], rel=1e-9, abs=1e-12 * abs(es["kinetic"]))
+
+
+def test_switching_strategy_and_profile_keep_the_trajectory():
+    """Changing ``sim.strategy`` between calls, or advancing with ``profile()`` (one launch per
+    phase), continues the same trajectory as plain serial stepping (to 1e-9 relative)."""
+    ref = small_collision("serial")
+    mixed = small_collision("serial")
+    ref.step(900)
+    mixed.step(300)
+    mixed.strategy = "parallel"
+    mixed.step(300)
+    timings = mixed.profile(150)
+    assert timings["steps"] == 150 and timings["total"] >= 0.0
+    mixed.strategy = "serial"
+    mixed.step(150)
+    assert mixed.step_count == ref.step_count == 900
+    disp = np.abs(ref.node_displacements()).max()
+    assert np.abs(mixed.node_positions() - ref.node_positions()).max() < 1e-9 * disp
+    assert np.abs(mixed.node_velocities() - ref.node_velocities()).max() < 1e-9 * np.abs(ref.node_velocities()).max()
+    assert mixed.detection_count == ref.detection_count
+
+
+def test_thickness_scales_reported_quantities_only():
+    """The solver works per unit thickness: the trajectory does not depend on the thickness t,
+    while masses, forces and energies are reported × t."""
+    def build(t):
+        scene = fdem.Scene(gravity=(0.0, -9.81), thickness=t)
+        scene.add_body(fdem.mesh.rectangle(0.1, 0.1, 0.05, origin=(0.0, 0.0)), MAT)
+        scene.add_body(fdem.mesh.rectangle(0.1, 0.1, 0.05, origin=(0.105, 0.0)), MAT, velocity=(-1.0, 0.2))
+        sim = scene.build()
+        sim.step(400)
+        return sim
+
+    one, quarter = build(1.0), build(0.25)
+    assert np.array_equal(one.node_positions(), quarter.node_positions())
+    assert np.allclose(quarter.node_masses(), 0.25 * one.node_masses(), rtol=1e-15, atol=0)
+    assert one.node_masses().sum() == pytest.approx(1000.0 * 0.02, rel=1e-14)
+    f1, f4 = one.forces(), quarter.forces()
+    assert np.abs(f1).max() > 0
+    assert np.allclose(f4, 0.25 * f1, rtol=1e-14, atol=1e-14 * np.abs(f1).max())
+    e1, e4 = one.energies(), quarter.energies()
+    for key, value in e1.items():
+        assert e4[key] == pytest.approx(0.25 * value, rel=1e-12, abs=1e-15), key
+
+
+def test_set_node_velocities_and_run():
+    scene = fdem.Scene(gravity=(0.0, 0.0))
+    a = scene.add_body(fdem.mesh.rectangle(0.1, 0.1, 0.05, origin=(0.0, 0.0)), MAT)
+    b = scene.add_body(fdem.mesh.rectangle(0.1, 0.1, 0.05, origin=(0.5, 0.0)), MAT)
+    sim = scene.build()
+    sim.set_node_velocities(np.array([0.0, 1.5]), body=b)
+    assert np.all(sim.node_velocities(b) == [0.0, 1.5])
+    assert np.all(sim.node_velocities(a) == 0.0)
+    duration = 0.01
+    sim.run(duration)
+    assert sim.step_count == int(round(duration / sim.dt))
+    assert sim.time == pytest.approx(sim.step_count * sim.dt, rel=1e-15)
+    assert np.allclose(sim.node_displacements(b)[:, 1], 1.5 * sim.time, rtol=1e-12, atol=0)
+    assert np.abs(sim.node_displacements(a)).max() == 0.0
+    assert np.array_equal(sim.node_positions(1), sim.node_positions(b))      # a body by index
+    assert sim.stresses(b).shape == (b.mesh.triangle_count, 2, 2)

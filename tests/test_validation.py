@@ -183,6 +183,15 @@ def test_stable_limit_follows_the_spec_formula():
     scene.add_body(mesh, MAT, position=(0.0, 2.0))
     p = 10.0 * E                                                            # default penalty 10 E
     assert scene.build().dt_limit == pytest.approx(h_min * math.sqrt(rho / p), rel=1e-12)
+    # damping ratio ξ lowers the limits by √(1+ξ²) − ξ (elements: β; contact: ξ of §5.2)
+    damped = fdem.Scene()
+    damped.add_body(mesh, MAT.with_(damping=0.5))
+    assert damped.build().dt_limit == pytest.approx(h_min / cp * (math.sqrt(1.25) - 0.5), rel=1e-12)
+    cdamped = fdem.Scene()
+    cdamped.add_body(mesh, MAT.with_(contact_damping=0.5))
+    cdamped.add_body(mesh, MAT.with_(contact_damping=0.5), position=(0.0, 2.0))
+    assert cdamped.build().dt_limit == pytest.approx(h_min * math.sqrt(rho / p) * (math.sqrt(1.25) - 0.5),
+                                                     rel=1e-12)
 
 
 def test_overlapping_bodies_warn_and_touching_bodies_do_not():
