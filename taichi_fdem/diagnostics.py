@@ -57,15 +57,21 @@ def clip_moments(c0, c1, c2, s0, s1, s2):
 @ti.func
 def pass_potential(c0, c1, c2, t0, t1, t2):
     """∫_{C∩T} φ_T dA [m²] for the Munjiza potential φ_T = 3 min_k β_k of target T (§2.2)."""
+    # work relative to the target's centroid: absolute coordinates far from the origin would
+    # cost digits in the moments
     g = (t0 + t1 + t2) / 3.0
     inv2A = 1.0 / (t1 - t0).cross(t2 - t0)
     total = 0.0
-    T = [t0, t1, t2]
+    T = [t0 - g, t1 - g, t2 - g]
+    d0 = c0 - g
+    d1 = c1 - g
+    d2 = c2 - g
+    origin = vec2(0.0, 0.0)
     for k in ti.static(range(3)):
         a = T[k]
         b = T[(k + 1) % 3]
-        # in the sub-triangle (a, b, g) the minimum is β_k, affine: β_k(P) = ((a − P)·m_k)/(2A)
-        area, mom = clip_moments(c0, c1, c2, a, b, g)
+        # in the sub-triangle (a, b, centroid) the minimum is β_k, affine: β_k(P) = ((a − P)·m_k)/(2A)
+        area, mom = clip_moments(d0, d1, d2, a, b, origin)
         mk = vec2(b[1] - a[1], -(b[0] - a[0]))
         total += 3.0 * (a.dot(mk) * area - mk.dot(mom)) * inv2A
     return total

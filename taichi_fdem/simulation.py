@@ -540,7 +540,9 @@ class Simulation:
                                       self.node_vbc, self.acc, self.sim_real, self.sim_int, flags[4], flags[5])
             t["integration"] += pc() - t2
             self.step_count += 1
-            self._detect_due = bool(code)
+            self._detect_due = bool(code & 1)
+            if code & 2:
+                self._raise_unstable()
         si = self.sim_int.to_numpy()
         if si[I_NONFINITE] or si[I_INVERTED]:
             self._raise_unstable()

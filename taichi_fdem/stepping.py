@@ -150,6 +150,17 @@ def phase_integrate(node_x: ti.template(), node_v: ti.template(), node_f: ti.tem
         sim_real[R_DACC] += 2.0 * dt * sim_real[R_VMAX]
 
 
+@ti.func
+def status_code(sim_real: ti.template(), sim_int: ti.template()):
+    """bit 0: contact detection is due; bit 1: the step produced a non-finite value or an inverted element."""
+    code = 0
+    if sim_real[R_DACC] >= sim_real[R_BUFFER]:
+        code |= 1
+    if sim_int[I_NONFINITE] != 0 or sim_int[I_INVERTED] != 0:
+        code |= 2
+    return code
+
+
 # ---------------------------------------------------------------------------------------------
 # kernels
 # ---------------------------------------------------------------------------------------------
@@ -190,14 +201,14 @@ def step_parallel(node_x: ti.types.ndarray(), node_v: ti.types.ndarray(), node_f
                   sim_real: ti.types.ndarray(), sim_int: ti.types.ndarray(),
                   contact: ti.template(), damping: ti.template(), friction: ti.template(),
                   cdamping: ti.template(), bc: ti.template(), bc_work: ti.template()) -> ti.i32:
-    """One step, each phase a parallel loop.  Returns 1 when contact detection is due."""
+    """One step, each phase a parallel loop.  Returns :func:`status_code`."""
     phase_elastic(node_x, node_v, node_f, tri_nodes, tri_rest_inv, tri_mat, mat_mu, mat_lam, tri_visc,
                   tri_diss, sim_real, sim_int, damping)
     if ti.static(contact):
         phase_contact(couple_a, couple_b, node_x, node_v, node_f, tri_nodes, tri_mat, pair_prop, couple_hist,
                       acc, sim_real, sim_int, friction, cdamping)
     phase_integrate(node_x, node_v, node_f, node_mass, node_free, node_vbc, acc, sim_real, sim_int, bc, bc_work)
-    return ti.cast(sim_real[R_DACC] >= sim_real[R_BUFFER], ti.i32)
+    return status_code(sim_real, sim_int)
 
 
 @ti.kernel
@@ -282,4 +293,4 @@ def integrate(node_x: ti.types.ndarray(), node_v: ti.types.ndarray(), node_f: ti
               acc: ti.types.ndarray(), sim_real: ti.types.ndarray(), sim_int: ti.types.ndarray(),
               bc: ti.template(), bc_work: ti.template()) -> ti.i32:
     phase_integrate(node_x, node_v, node_f, node_mass, node_free, node_vbc, acc, sim_real, sim_int, bc, bc_work)
-    return ti.cast(sim_real[R_DACC] >= sim_real[R_BUFFER], ti.i32)
+    return status_code(sim_real, sim_int)
