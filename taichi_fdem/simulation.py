@@ -466,9 +466,12 @@ class Simulation:
         if video is not None:
             from .render import RendererImage, VideoWriter, body_colors
             renderer = renderer or RendererImage()
-            colors = body_colors(self._tri_body_np)
             writer = VideoWriter(video, fps=fps, png_dir=png_dir)
-            draw = lambda: writer.append(renderer.render(self.node_x, self.tri_nodes, colors))
+            if hasattr(renderer, "render_sim"):
+                draw = lambda: writer.append(renderer.render_sim(self))
+            else:
+                colors = body_colors(self._tri_body_np)
+                draw = lambda: writer.append(renderer.render(self.node_x, self.tri_nodes, colors))
         if progress is None:
             progress = sys.stdout.isatty()
         bar = None
