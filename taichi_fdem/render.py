@@ -4,6 +4,9 @@
   kernels (no window, no OpenGL): one thread per triangle fills the pixels of its bounding box
   whose centres pass the (inclusive) edge-function test, optionally drawing the triangle
   edges, with optional supersampling (box-filtered down on the device).
+  :meth:`RendererImage.render_sim` draws a :class:`~taichi_fdem.simulation.Simulation`
+  coloured by body, material, stress (von Mises, principal), speed or displacement, with a
+  colour bar, a time/step stamp and a fitted, fixed or body-following camera.
 * :func:`colormap` / :func:`body_colors` turn scalar fields and body ids into per-triangle
   colours (built-in tables, no matplotlib).
 * :class:`VideoWriter` streams frames to ``.mp4`` (libx264), ``.gif`` or a PNG directory.
@@ -16,15 +19,29 @@ a recompilation (kernels are compiled once per dtype / dimensionality).
 import math
 import numbers
 import os
+import weakref
 from pathlib import Path
 
 import numpy as np
 import taichi as ti
 
 from taichi_fdem import backend
+from taichi_fdem.elastic import cauchy_elastic, deformation
 
 __all__ = ["RendererImage", "colormap", "body_colors", "VideoWriter", "save_png", "annotate",
-           "COLORMAPS"]
+           "COLORMAPS", "COLOR_MODES"]
+
+# color_by modes of RendererImage.render_sim: name -> (kernel mode id or None for categorical,
+# colour-bar title with units)
+COLOR_MODES = {
+    "body": (None, "body"),
+    "material": (None, "material"),
+    "speed": (0, "speed |v| [m/s]"),
+    "displacement": (1, "displacement |x - X| [m]"),
+    "von_mises": (2, "von Mises stress [Pa]"),
+    "max_principal": (3, "max principal stress [Pa]"),
+    "min_principal": (4, "min principal stress [Pa]"),
+}
 
 # Pixel coordinates are clamped to +-_PIX_LIMIT (also maps NaN to -_PIX_LIMIT) so that runaway
 # nodes can never produce absurd loop bounds.
@@ -138,6 +155,60 @@ def _resolve_kernel(img: ti.types.ndarray(), out: ti.types.ndarray(), s: ti.i32)
             out[i, j, k] = ti.cast(v * 255.0 + 0.5, ti.u8)
 
 
+@ti.kernel
+def _tri_scalar_kernel(x: ti.types.ndarray(), v: ti.types.ndarray(), x0: ti.types.ndarray(),
+                       tri: ti.types.ndarray(), rest_inv: ti.types.ndarray(), tri_mat: ti.types.ndarray(),
+                       mat_mu: ti.types.ndarray(), mat_lam: ti.types.ndarray(), mode: ti.i32,
+                       out: ti.types.ndarray()):
+    """Per-triangle scalar for colouring, ``out[e]``:
+
+    mode 0: speed, mean of |v| over the 3 nodes [m/s];  1: displacement, mean |x - X| [m];
+    2: von Mises stress of the in-plane elastic Cauchy stress (plane-stress form
+    sqrt(sxx^2 - sxx syy + syy^2 + 3 sxy^2)) [Pa];  3 / 4: max / min principal stress [Pa].
+    Stresses follow elastic.cauchy_elastic; an inverted triangle (J <= 0) gives NaN.
+    """
+    for e in range(tri.shape[0]):
+        n = tri[e]
+        val = 0.0
+        if mode == 0:
+            val = (v[n[0]].norm() + v[n[1]].norm() + v[n[2]].norm()) / 3.0
+        elif mode == 1:
+            val = ((x[n[0]] - x0[n[0]]).norm() + (x[n[1]] - x0[n[1]]).norm()
+                   + (x[n[2]] - x0[n[2]]).norm()) / 3.0
+        else:
+            Fx, F, J = deformation(x[n[0]], x[n[1]], x[n[2]], rest_inv[e])
+            if J > 0.0:
+                m = tri_mat[e]
+                T = cauchy_elastic(F, J, mat_mu[m], mat_lam[m])
+                sxx, syy, sxy = T[0, 0], T[1, 1], 0.5 * (T[0, 1] + T[1, 0])
+                if mode == 2:
+                    val = ti.sqrt(ti.max(sxx * sxx - sxx * syy + syy * syy + 3.0 * sxy * sxy, 0.0))
+                else:
+                    c = 0.5 * (sxx + syy)
+                    r = ti.sqrt(0.25 * (sxx - syy) ** 2 + sxy * sxy)
+                    val = c + r if mode == 3 else c - r
+            else:
+                val = ti.math.nan
+        out[e] = val
+
+
+@ti.kernel
+def _centroid_kernel(x: ti.types.ndarray(), start: ti.i32, end: ti.i32, out: ti.types.ndarray()):
+    """out[0], out[1] = mean position [m] of nodes start..end-1; out[2] = count of finite nodes."""
+    out[0] = 0.0
+    out[1] = 0.0
+    out[2] = 0.0
+    for i in range(start, end):
+        p = x[i]
+        if p[0] == p[0] and p[1] == p[1]:
+            out[0] += p[0]
+            out[1] += p[1]
+            out[2] += 1.0
+    if out[2] > 0.0:
+        out[0] /= out[2]
+        out[1] /= out[2]
+
+
 # ----------------------------------------------------------------------------------------------
 # Argument validation helpers
 # ----------------------------------------------------------------------------------------------
@@ -187,6 +258,24 @@ def _check_view(view):
     return vals
 
 
+def _check_color_by(mode):
+    if mode not in COLOR_MODES:
+        raise ValueError(f"color_by must be one of {list(COLOR_MODES)}, got {mode!r}")
+    return mode
+
+
+def _check_range(vmin, vmax):
+    vmin = None if vmin is None else _check_real("vmin", vmin)
+    vmax = None if vmax is None else _check_real("vmax", vmax)
+    if vmin is not None and vmax is not None and not vmax > vmin:
+        raise ValueError(f"vmax must be > vmin, got vmin={vmin}, vmax={vmax}")
+    return vmin, vmax
+
+
+def _fmt(v):
+    return f"{v:.3g}"
+
+
 def _is_ndarray(a):
     return isinstance(a, ti.Ndarray)
 
@@ -209,6 +298,31 @@ class RendererImage:
     supersample : 1..4; rasterise at ``supersample`` times the resolution and box-filter down.
     margin : fraction of the larger bounding-box extent added on every side in ``"fit"`` mode.
 
+
+    Options of :meth:`render_sim` (drawing a Simulation):
+
+    color_by : ``"body"`` (default; a palette colour per body), ``"material"``, or a scalar
+        per triangle drawn with ``cmap`` (viridis): ``"speed"`` (mean |v| of the 3 nodes,
+        m/s), ``"displacement"`` (mean |x - X| of the 3 nodes, m), ``"von_mises"`` (von Mises
+        of the in-plane elastic Cauchy stress, plane-stress form
+        sqrt(sxx^2 - sxx syy + syy^2 + 3 sxy^2), Pa), ``"max_principal"`` / ``"min_principal"``
+        (principal stresses, Pa).  Scalars are computed by a Taichi kernel from the
+        simulation's arrays; inverted triangles are grey.
+    vmin, vmax : colour range of the scalar modes, in the quantity's unit.  ``None`` (default)
+        = automatic, the finite min / max of the current frame (so colours are not comparable
+        between frames); give both for videos so that a colour means the same value in every
+        frame.  Values outside are clipped to the ends of the colour map.
+    cmap : colour map name (see :data:`COLORMAPS`), default ``"viridis"``.
+    colorbar : draw a vertical colour bar at the right of the image (scalar modes only) with
+        its max / min labels and a title naming the quantity and its unit.  The view is
+        shifted left so that the bar does not hide the mesh.
+    stamp : write ``t = 0.0123 s  step 4567`` at the top-left.
+    follow : a :class:`~taichi_fdem.scene.Body`; the camera is centred on the body's node
+        centroid every frame and shows ``follow_width`` metres horizontally (overrides
+        ``view``).
+    follow_width : width of the followed view [m] (default: 4 x the body's initial extent).
+    text_size : font height of the labels in pixels (default ~ height / 30, at least 10).
+
     ``render(node_x, tri_nodes, tri_color)`` accepts Taichi vector ndarrays (as held by the
     simulation) or NumPy arrays of shape (n, 2), (m, 3) and (m, 3) (``tri_color`` may also be
     a single RGB triple, ``None`` for grey, or uint8 0..255).  The world y axis points up: row 0
@@ -217,7 +331,8 @@ class RendererImage:
 
     def __init__(self, width=960, height=540, view="fit", background=(1.0, 1.0, 1.0),
                  edge_color=(0.1, 0.1, 0.1), edge_width=1.0, draw_edges=True, supersample=1,
-                 margin=0.05):
+                 margin=0.05, color_by="body", vmin=None, vmax=None, cmap="viridis",
+                 colorbar=True, stamp=True, follow=None, follow_width=None, text_size=None):
         self.width = _check_pos_int("width", width)
         self.height = _check_pos_int("height", height)
         self.supersample = _check_pos_int("supersample", supersample, 1, 4)
@@ -233,6 +348,23 @@ class RendererImage:
         self._img_key = None
         self._cache = {}      # name -> ndarray converted from NumPy input (reused when shape fits)
         self._small = {}      # (purpose, dtype) -> tiny ndarray (bbox, view params)
+        self.color_by = _check_color_by(color_by)
+        self.vmin, self.vmax = _check_range(vmin, vmax)
+        if cmap not in COLORMAPS:
+            raise ValueError(f"cmap must be one of {sorted(COLORMAPS)}, got {cmap!r}")
+        self.cmap = cmap
+        self.colorbar = bool(colorbar)
+        self.stamp = bool(stamp)
+        self.follow = follow
+        self.follow_width = None if follow_width is None else _check_real("follow_width", follow_width, 0.0)
+        if self.follow_width is not None and self.follow_width <= 0.0:
+            raise ValueError(f"follow_width must be > 0 m, got {follow_width}")
+        self.text_size = None if text_size is None else _check_pos_int("text_size", text_size, 4, 1000)
+        self.last_scalars = None  # (m,) float64 per-triangle values of the last scalar frame
+        self.last_range = None    # (vmin, vmax) used by the last scalar frame
+        self._sim_ref = None      # weakref to the simulation whose constant arrays are cached
+        self._sim_data = {}       # per-simulation constants: initial positions, category colours
+        self._font = None
 
     # -- configuration ---------------------------------------------------------------------
     def set_view(self, view="fit", margin=None):
@@ -240,6 +372,10 @@ class RendererImage:
         self.view = _check_view(view)
         if margin is not None:
             self.margin = _check_real("margin", margin, 0.0, 10.0)
+
+    def set_range(self, vmin=None, vmax=None):
+        """Colour range of the scalar modes (``None`` = automatic per frame)."""
+        self.vmin, self.vmax = _check_range(vmin, vmax)
 
     def resize(self, width, height):
         self.width = _check_pos_int("width", width)
@@ -340,13 +476,17 @@ class RendererImage:
             hh = 0.5 * ext
         return (cx - hw, cx + hw, cy - hh, cy + hh)
 
-    def _letterbox(self, box):
+    def _letterbox(self, box, reserve_right=0):
+        """Fit ``box`` into the image minus ``reserve_right`` pixel columns at the right (kept
+        for the colour bar); returns the full-image world box and the pixels per metre."""
         xmin, xmax, ymin, ymax = box
         bw, bh = xmax - xmin, ymax - ymin
-        scale = min(self.width / bw, self.height / bh)  # output pixels per metre
+        w_eff = max(1, self.width - int(reserve_right))
+        scale = min(w_eff / bw, self.height / bh)  # output pixels per metre
         cx, cy = 0.5 * (xmin + xmax), 0.5 * (ymin + ymax)
-        hw, hh = 0.5 * self.width / scale, 0.5 * self.height / scale
-        return (cx - hw, cx + hw, cy - hh, cy + hh), scale
+        left = cx - 0.5 * w_eff / scale
+        hh = 0.5 * self.height / scale
+        return (left, left + self.width / scale, cy - hh, cy + hh), scale
 
     def world_to_pixel(self, xy):
         """Map world points (k, 2) to continuous output-pixel coordinates (col, row) using the
@@ -363,9 +503,12 @@ class RendererImage:
         """Rasterise the mesh and return a new ``(height, width, 3)`` uint8 array."""
         backend.ensure_init()
         x_nd, t_nd, c_nd = self._prepare(node_x, tri_nodes, tri_color)
+        return self._draw(x_nd, t_nd, c_nd, self._world_box(x_nd))
+
+    def _draw(self, x_nd, t_nd, c_nd, box, reserve_right=0) -> np.ndarray:
         img, out = self._buffers()
         s = self.supersample
-        view, scale = self._letterbox(self._world_box(x_nd))
+        view, scale = self._letterbox(box, reserve_right)
         self.last_view = view
 
         _clear_kernel(img, ti.Vector(self.background, dt=ti.f32))
@@ -386,6 +529,180 @@ class RendererImage:
         return out.to_numpy()
 
     __call__ = render
+
+    # -- simulations -----------------------------------------------------------------------
+    def _sim_consts(self, sim):
+        """Constant per-simulation data (converted once per simulation, not per frame)."""
+        ref = self._sim_ref() if self._sim_ref is not None else None
+        if ref is not sim:
+            self._sim_ref = weakref.ref(sim)
+            self._sim_data = {}
+        return self._sim_data
+
+    def tri_scalars(self, sim, color_by=None) -> np.ndarray:
+        """The per-triangle scalar of a scalar colour mode, (m,) float64 in the mode's unit
+        (m/s, m or Pa; NaN for inverted triangles), computed by a Taichi kernel."""
+        mode = _check_color_by(self.color_by if color_by is None else color_by)
+        kid = COLOR_MODES[mode][0]
+        if kid is None:
+            raise ValueError(f"tri_scalars: color_by={mode!r} is not a scalar mode")
+        backend.ensure_init()
+        consts = self._sim_consts(sim)
+        x0 = consts.get("x0")
+        if x0 is None:
+            x0 = ti.Vector.ndarray(2, sim.node_x.dtype, shape=(sim.node_count,))
+            x0.from_numpy(np.ascontiguousarray(sim._X, dtype=_np_dtype(sim.node_x.dtype)))
+            consts["x0"] = x0
+        out = consts.get("scalars")
+        if out is None:
+            out = ti.ndarray(dtype=sim.node_x.dtype, shape=(sim.tri_count,))
+            consts["scalars"] = out
+        _tri_scalar_kernel(sim.node_x, sim.node_v, x0, sim.tri_nodes, sim.tri_rest_inv, sim.tri_mat,
+                           sim.mat_mu, sim.mat_lam, int(kid), out)
+        return out.to_numpy().astype(np.float64)
+
+    def _follow_box(self, sim):
+        body = self.follow
+        if isinstance(body, numbers.Integral) and not isinstance(body, bool):
+            body = sim.bodies[int(body)]
+        if not any(b is body for b in sim.bodies):
+            raise ValueError(f"render_sim: follow={self.follow!r} is not a body of this simulation")
+        consts = self._sim_consts(sim)
+        width = self.follow_width
+        if width is None:
+            pts = body.mesh.points
+            width = 4.0 * max(float(np.ptp(pts[:, 0])), float(np.ptp(pts[:, 1])), 1e-12)
+        c = self._small_nd("centroid", sim.node_x.dtype, 3)
+        _centroid_kernel(sim.node_x, body.nodes.start, body.nodes.stop, c)
+        cx, cy, cnt = (float(v) for v in c.to_numpy())
+        if cnt <= 0 or not (math.isfinite(cx) and math.isfinite(cy)):
+            if self.last_view is not None:
+                return (self.last_view[0], self.last_view[1], self.last_view[2], self.last_view[3])
+            cx, cy = (float(v) for v in body.mesh.centroid)
+        consts["follow_centre"] = (cx, cy)
+        hh = 0.5 * width * self.height / self.width
+        return (cx - 0.5 * width, cx + 0.5 * width, cy - hh, cy + hh)
+
+    def render_sim(self, sim, color_by=None) -> np.ndarray:
+        """Draw a :class:`~taichi_fdem.simulation.Simulation`; returns ``(height, width, 3)`` uint8.
+
+        ``color_by`` overrides the renderer's mode for this frame (see the class docstring
+        for the modes, the colour range, colour bar, stamp and camera options).
+        """
+        backend.ensure_init()
+        mode = _check_color_by(self.color_by if color_by is None else color_by)
+        consts = self._sim_consts(sim)
+        kid, title = COLOR_MODES[mode]
+        bar = None
+        if kid is None:
+            key = "colors_" + mode
+            colors = consts.get(key)
+            if colors is None:
+                ids = sim._tri_body_np if mode == "body" else sim._tri_mat_np
+                colors = ti.Vector.ndarray(3, ti.f32, shape=(sim.tri_count,))
+                colors.from_numpy(np.ascontiguousarray(body_colors(ids), dtype=np.float32))
+                consts[key] = colors
+            c_nd = colors
+            self.last_scalars = None
+            self.last_range = None
+        else:
+            vals = self.tri_scalars(sim, mode)
+            finite = np.isfinite(vals)
+            vmin, vmax = self.vmin, self.vmax
+            if vmin is None:
+                vmin = float(vals[finite].min()) if finite.any() else 0.0
+                if vmax is not None and vmin > vmax:
+                    vmin = vmax
+            if vmax is None:
+                vmax = float(vals[finite].max()) if finite.any() else 1.0
+                if vmax < vmin:
+                    vmax = vmin
+            cols = colormap(vals, vmin, vmax, self.cmap)
+            c_nd = consts.get("scalar_colors")
+            if c_nd is None:
+                c_nd = ti.Vector.ndarray(3, ti.f32, shape=(sim.tri_count,))
+                consts["scalar_colors"] = c_nd
+            c_nd.from_numpy(cols)
+            self.last_scalars = vals
+            self.last_range = (vmin, vmax)
+            if self.colorbar:
+                bar = (vmin, vmax, title)
+        if self.follow is not None:
+            box = self._follow_box(sim)
+        else:
+            box = self._world_box(sim.node_x)
+        layout = self._bar_layout() if bar is not None else None
+        img = self._draw(sim.node_x, sim.tri_nodes, c_nd, box, layout["reserve"] if layout else 0)
+        stamp = f"t = {sim.time:.4g} s  step {sim.step_count}" if self.stamp else None
+        if bar is not None or stamp is not None:
+            img = self._overlay(img, bar, layout, stamp)
+        return img
+
+    # -- overlays --------------------------------------------------------------------------
+    def _text_px(self):
+        return self.text_size if self.text_size is not None else max(10, self.height // 30)
+
+    def _get_font(self):
+        size = self._text_px()
+        if self._font is None or self._font[0] != size:
+            from PIL import ImageFont
+
+            try:
+                font = ImageFont.load_default(size=size)
+            except TypeError:  # Pillow < 10.1: fixed-size bitmap font
+                font = ImageFont.load_default()
+            self._font = (size, font)
+        return self._font[1]
+
+    def _bar_layout(self):
+        """Pixel geometry of the colour bar: strip columns [x0, x1), rows [y0, y1) and the width
+        reserved at the right of the image for strip and labels."""
+        W, H = self.width, self.height
+        ts = self._text_px()
+        bw = max(6, min(W // 40, 30))
+        x1 = W - max(4, ts // 2)
+        x0 = x1 - bw
+        y0 = min(H - 2, int(0.5 * ts) * 2 + ts + 4)   # room for the title above
+        y1 = max(y0 + 2, H - ts - 4)
+        label_w = int(5.5 * ts)                       # about "-1.23e+05"
+        return {"x0": x0, "x1": x1, "y0": y0, "y1": y1, "reserve": min(W // 2, W - x0 + label_w + 6)}
+
+    def _overlay(self, img, bar, layout, stamp):
+        from PIL import Image, ImageDraw
+
+        font = self._get_font()
+        if bar is not None:
+            vmin, vmax, title = bar
+            L = layout
+            h = L["y1"] - L["y0"]
+            t = np.linspace(1.0, 0.0, h)              # top row = vmax, bottom row = vmin
+            grad = colormap(t, 0.0, 1.0, self.cmap)
+            grad8 = np.clip(grad * 255.0 + 0.5, 0, 255).astype(np.uint8)
+            img = np.array(img, copy=True)
+            img[L["y0"]:L["y1"], L["x0"]:L["x1"]] = grad8[:, None, :]
+        pil = Image.fromarray(img).convert("RGBA")
+        layer = Image.new("RGBA", pil.size, (0, 0, 0, 0))
+        draw = ImageDraw.Draw(layer)
+        ink = (0, 0, 0, 255)
+
+        def label(xy, text, anchor):
+            l, t_, r, b = draw.textbbox(xy, text, font=font, anchor=anchor)
+            draw.rectangle((l - 2, t_ - 2, r + 2, b + 2), fill=(255, 255, 255, 170))
+            draw.text(xy, text, font=font, fill=ink, anchor=anchor)
+
+        if bar is not None:
+            x0, x1, y0, y1 = L["x0"], L["x1"], L["y0"], L["y1"]
+            draw.rectangle((x0 - 1, y0 - 1, x1, y1), outline=(0, 0, 0, 255))
+            label((x0 - 4, y0), _fmt(vmax), "ra")
+            label((x0 - 4, y1), _fmt(vmin), "rd")
+            label((x1, max(0, y0 - 6)), title, "rd")
+        if stamp is not None:
+            label((4, 4), stamp, "la")
+        out = np.asarray(Image.alpha_composite(pil, layer).convert("RGB"))
+        if bar is not None:  # keep the gradient exact (the frame and labels only touch its edge)
+            out = np.array(out, copy=True)
+            out[y0:y1, x0:x1] = grad8[:, None, :]
+        return out
 
 
 def _to_np(a):
