@@ -1,0 +1,59 @@
+"""Helpers shared by the demos (command line, timing, per-body kinematics)."""
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def parse_args(name: str, description: str, argv=None) -> argparse.Namespace:
+    """``--short`` (quick version used by the tests) and ``--out PATH`` (default out/NAME.mp4)."""
+    ap = argparse.ArgumentParser(prog=f"demos/{name}.py", description=description)
+    ap.add_argument("--short", action="store_true", help="a short run with a small video (used by the tests)")
+    ap.add_argument("--out", default=None, help=f"video path (.mp4, .gif or a directory); default out/{name}.mp4")
+    ap.add_argument("--precision", choices=("f64", "f32"), default="f64")
+    args = ap.parse_args(argv)
+    if args.out is None:
+        args.out = os.path.join(ROOT, "out", f"{name}.mp4" if not args.short else f"{name}_short.mp4")
+    return args
+
+
+def init(precision: str = "f64") -> None:
+    """Initialise taichi_fdem once (a second init would invalidate simulations of a caller)."""
+    from taichi_fdem import backend
+    if not backend.is_initialised():
+        backend.init(arch="cpu", precision=precision)
+
+
+def body_kinematics(sim, body):
+    """(mass [kg], centre of mass [m], momentum [kg m/s]) of one body from its nodes."""
+    m = sim.node_masses(body)
+    x = sim.node_positions(body)
+    v = sim.node_velocities(body)
+    M = float(m.sum())
+    return M, (m[:, None] * x).sum(axis=0) / M, (m[:, None] * v).sum(axis=0)
+
+
+class Timer:
+    def __init__(self):
+        self.t0 = time.perf_counter()
+
+    def __call__(self) -> float:
+        return time.perf_counter() - self.t0
+
+
+def video_frames(path) -> int:
+    """Number of frames in a written video (mp4 / gif) or PNG directory."""
+    if os.path.isdir(path):
+        return len([f for f in os.listdir(path) if f.endswith(".png")])
+    import imageio.v3 as iio
+    return sum(1 for _ in iio.imiter(path))
+
+
+def fmt_vec(v) -> str:
+    v = np.asarray(v, dtype=float)
+    return "(" + ", ".join(f"{c:+.4g}" for c in v) + ")"
