@@ -396,3 +396,209 @@ def test_no_recompilation_for_new_sizes():
         scene(n, w, h, s)
     after = [len(k._primal.compiled_kernels) for k in kernels]
     assert after == before
+
+
+# ---------------------------------------------------------------------------------------------
+# render_sim: colour modes, colour bar, stamp, camera, video of a run
+# ---------------------------------------------------------------------------------------------
+import math  # noqa: E402
+
+import taichi_fdem as fdem  # noqa: E402
+from conftest import build_quiet, one_triangle  # noqa: E402
+
+ROCK = dict(density=2700.0, young=1e8, poisson=0.25)
+
+
+def _two_triangles_sim(v_a=(1.0, 0.0), v_b=(0.0, -3.0)):
+    """Two separate single-triangle bodies (A at the left, B at the right), no gravity."""
+    mat = fdem.Material(**ROCK)
+    sc = fdem.Scene(gravity=(0.0, 0.0))
+    a = sc.add_body(one_triangle([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), mat, name="A")
+    b = sc.add_body(one_triangle([[2.0, 0.0], [3.0, 0.0], [2.0, 1.0]]), mat, name="B")
+    sim = build_quiet(sc)
+    sim.set_node_velocities(np.tile(v_a, (3, 1)), a)
+    sim.set_node_velocities(np.tile(v_b, (3, 1)), b)
+    return sim, a, b
+
+
+def _pixel_at(r, img, xy):
+    col, row = r.world_to_pixel(np.asarray(xy, float))[0]
+    return img[int(row), int(col)]
+
+
+def _close(rgb8, rgbf, tol=1):
+    return np.abs(rgb8.astype(int) - np.round(np.asarray(rgbf) * 255).astype(int)).max() <= tol
+
+
+def test_render_sim_speed_extremes_map_to_colormap_ends():
+    sim, a, b = _two_triangles_sim()
+    r = render.RendererImage(200, 100, color_by="speed", vmin=1.0, vmax=3.0, draw_edges=False, stamp=False)
+    img = r.render_sim(sim)
+    assert np.allclose(r.last_scalars, [1.0, 3.0]) and r.last_range == (1.0, 3.0)
+    cen_a, cen_b = sim.node_positions(a).mean(0), sim.node_positions(b).mean(0)
+    first, last = render.colormap(np.array([0.0, 1.0]), 0.0, 1.0)
+    assert _close(_pixel_at(r, img, cen_a), first)
+    assert _close(_pixel_at(r, img, cen_b), last)
+    # a value in between maps to the matching interior colour; out-of-range values are clipped
+    r.set_range(0.0, 4.0)
+    img = r.render_sim(sim)
+    assert _close(_pixel_at(r, img, cen_a), render.colormap(np.array([1.0]), 0.0, 4.0)[0])
+    r.set_range(5.0, 6.0)
+    img = r.render_sim(sim)
+    assert _close(_pixel_at(r, img, cen_a), first) and _close(_pixel_at(r, img, cen_b), first)
+    # automatic range: the current min / max
+    r.set_range(None, None)
+    img = r.render_sim(sim)
+    assert r.last_range == pytest.approx((1.0, 3.0))
+    assert _close(_pixel_at(r, img, cen_a), first) and _close(_pixel_at(r, img, cen_b), last)
+    # the per-call override and the categorical modes
+    img = r.render_sim(sim, color_by="body")
+    assert _close(_pixel_at(r, img, cen_a), render.body_colors([0])[0])
+    assert _close(_pixel_at(r, img, cen_b), render.body_colors([1])[0])
+    img = r.render_sim(sim, color_by="material")   # one shared material
+    assert _close(_pixel_at(r, img, cen_b), render.body_colors([0])[0])
+
+
+def test_tri_scalars_uniaxial_stretch_analytic():
+    """An affine uniaxial stretch x' = (1 + e) x: von Mises and principal stresses of the kernel equal
+    the analytic values of the Cauchy stress (FDEM_SPEC §3.2) and the numpy ones of sim.stresses()."""
+    mat = fdem.Material(**ROCK)
+    sc = fdem.Scene(gravity=(0.0, 0.0))
+    sc.add_body(fdem.mesh.rectangle(1.0, 0.5, h=0.1), mat)
+    sim = sc.build()
+    X = sim.node_positions()
+    e = 0.01
+    sim.node_x.from_numpy(X * np.array([1.0 + e, 1.0]))
+    v = np.zeros_like(X)
+    v[:, 1] = 0.5
+    sim.set_node_velocities(v)
+    r = render.RendererImage(64, 64)
+    mu, lam = sim.mat_mu.to_numpy()[0], sim.mat_lam.to_numpy()[0]
+    J = 1.0 + e
+    sxx = mu / J * ((1.0 + e) ** 2 - 1.0) + lam * (J - 1.0 / J)
+    syy = lam * (J - 1.0 / J)
+    vm_exact = math.sqrt(sxx * sxx - sxx * syy + syy * syy)
+    vm = r.tri_scalars(sim, "von_mises")
+    assert vm.shape == (sim.tri_count,)
+    assert np.allclose(vm, vm_exact, rtol=1e-9)
+    T = sim.stresses()
+    s_xx, s_yy, s_xy = T[:, 0, 0], T[:, 1, 1], T[:, 0, 1]
+    assert np.allclose(vm, np.sqrt(s_xx ** 2 - s_xx * s_yy + s_yy ** 2 + 3 * s_xy ** 2), rtol=1e-12)
+    assert np.allclose(r.tri_scalars(sim, "max_principal"), sxx, rtol=1e-9)
+    assert np.allclose(r.tri_scalars(sim, "min_principal"), syy, rtol=1e-9)
+    assert np.allclose(r.tri_scalars(sim, "speed"), 0.5)
+    disp = np.linalg.norm(sim.node_displacements(), axis=1)[sim._tri_nodes_np].mean(1)
+    assert np.allclose(r.tri_scalars(sim, "displacement"), disp, rtol=1e-12)
+    with pytest.raises(ValueError):
+        r.tri_scalars(sim, "body")
+    # a shear: principal stresses from the numpy stress tensor
+    sim.node_x.from_numpy(X + np.stack([0.02 * X[:, 1], np.zeros(len(X))], axis=1))
+    T = sim.stresses()
+    w = np.linalg.eigvalsh(0.5 * (T + T.transpose(0, 2, 1)))
+    assert np.allclose(r.tri_scalars(sim, "max_principal"), w[:, 1], rtol=1e-9, atol=1e-6 * np.abs(w).max())
+    assert np.allclose(r.tri_scalars(sim, "min_principal"), w[:, 0], rtol=1e-9, atol=1e-6 * np.abs(w).max())
+
+
+def test_colour_bar_drawn_with_colormap_ends():
+    sim, a, b = _two_triangles_sim()
+    kw = dict(width=240, height=160, color_by="speed", draw_edges=False, stamp=False)
+    with_bar = render.RendererImage(**kw).render_sim(sim)
+    no_bar = render.RendererImage(colorbar=False, **kw).render_sim(sim)
+    first, last = (np.round(c * 255).astype(int) for c in render.colormap(np.array([0.0, 1.0]), 0.0, 1.0))
+    strip = with_bar[:, -24:].reshape(-1, 3).astype(int)
+    assert (np.abs(strip - first).max(axis=1) <= 1).sum() >= 3
+    assert (np.abs(strip - last).max(axis=1) <= 1).sum() >= 3
+    # top of the bar is the max colour, bottom the min colour
+    cols = with_bar[:, -24:].astype(int)
+    hits = (np.abs(cols - last).max(axis=2) <= 1).sum(0) + (np.abs(cols - first).max(axis=2) <= 1).sum(0)
+    col = cols[:, int(np.argmax(hits))]
+    rows_last = np.nonzero(np.abs(col - last).max(axis=1) <= 1)[0]
+    rows_first = np.nonzero(np.abs(col - first).max(axis=1) <= 1)[0]
+    assert rows_last.size and rows_first.size and rows_last.mean() < rows_first.mean()
+    # without the bar the strip is background only; the bar is not drawn for categorical modes
+    assert np.all(no_bar[:, -6:] == 255)
+    body = render.RendererImage(**dict(kw, color_by="body")).render_sim(sim)
+    assert np.all(body[:, -6:] == 255)
+    # labels (dark text) next to the bar
+    assert (with_bar[:, -90:-24].sum(axis=2) < 200).sum() > 10
+
+
+def test_stamp_top_left():
+    sim, a, b = _two_triangles_sim()
+    kw = dict(width=240, height=160, color_by="body")
+    on = render.RendererImage(stamp=True, **kw).render_sim(sim)
+    off = render.RendererImage(stamp=False, **kw).render_sim(sim)
+    diff = np.any(on != off, axis=2)
+    assert diff[:20, :120].sum() > 20
+    assert not diff[40:].any()          # only the top-left is touched
+    sim.step(10)
+    later = render.RendererImage(stamp=True, **kw)
+    img2 = later.render_sim(sim)
+    off2 = render.RendererImage(stamp=False, **kw).render_sim(sim)
+    # the stamp text changes with time / step
+    assert np.any((img2 != off2)[:20, :120]) and np.any(img2[:20, :120] != on[:20, :120])
+
+
+def test_follow_camera_keeps_moving_body_centred():
+    sim, a, b = _two_triangles_sim(v_a=(2.0, 1.0), v_b=(0.0, 0.0))
+    r = render.RendererImage(200, 100, follow=a, follow_width=3.0, color_by="body", stamp=False)
+    centres = []
+    for _ in range(3):
+        img = r.render_sim(sim)
+        c = sim.node_positions(a).mean(0)
+        col, row = r.world_to_pixel(c)[0]
+        assert abs(col - 100) < 0.5 and abs(row - 50) < 0.5
+        assert r.last_view[1] - r.last_view[0] == pytest.approx(3.0)
+        assert _close(img[50, 100], render.body_colors([0])[0])
+        centres.append(c)
+        sim.step(2000)
+    assert np.linalg.norm(centres[-1] - centres[0]) > 0.01     # the body did move
+    # a body of another simulation is refused
+    other, oa, _ = _two_triangles_sim()
+    with pytest.raises(ValueError, match="follow"):
+        render.RendererImage(64, 64, follow=oa).render_sim(sim)
+
+
+def test_render_sim_options_validated():
+    with pytest.raises(ValueError, match="color_by"):
+        render.RendererImage(color_by="stress")
+    with pytest.raises(ValueError, match="vmax"):
+        render.RendererImage(vmin=2.0, vmax=1.0)
+    with pytest.raises(ValueError):
+        render.RendererImage(vmin=float("nan"))
+    with pytest.raises(ValueError, match="follow_width"):
+        render.RendererImage(follow_width=0.0)
+    with pytest.raises(ValueError, match="cmap"):
+        render.RendererImage(cmap="jet")
+
+
+def test_run_video_von_mises_frame_count(tmp_path):
+    mat = fdem.Material(**ROCK)
+    sc = fdem.Scene(gravity=(0.0, -9.81))
+    sc.add_body(fdem.mesh.disk(radius=0.05, h=0.02), mat, position=(0.0, 0.1))
+    sc.add_body(fdem.mesh.rectangle(0.3, 0.04, h=0.02), mat, position=(0.0, 0.0), fixed=True)
+    sim = sc.build()
+    out = tmp_path / "x.mp4"
+    steps, per_frame = 60, 15
+    sim.run(steps * sim.dt, video=out, frame_dt=per_frame * sim.dt,
+            renderer=render.RendererImage(160, 120, color_by="von_mises"))
+    frames = list(iio.imiter(out))
+    assert len(frames) == 1 + steps // per_frame
+    assert frames[0].shape == (120, 160, 3)
+    assert sim.step_count == steps
+
+
+def test_render_sim_no_recompilation():
+    kernels = [render._tri_scalar_kernel, render._centroid_kernel]
+    if not all(hasattr(getattr(k, "_primal", None), "compiled_kernels") for k in kernels):
+        pytest.skip("Taichi internals changed")
+    sim, a, b = _two_triangles_sim()
+    render.RendererImage(32, 32, color_by="speed", follow=a).render_sim(sim)
+    before = [len(k._primal.compiled_kernels) for k in kernels]
+    mat = fdem.Material(**ROCK)
+    sc = fdem.Scene(gravity=(0.0, 0.0))
+    d = sc.add_body(fdem.mesh.disk(radius=0.05, h=0.01), mat)
+    sim2 = sc.build()
+    for mode in ("von_mises", "displacement", "min_principal"):
+        render.RendererImage(50, 40, color_by=mode, follow=d).render_sim(sim2)
+    assert [len(k._primal.compiled_kernels) for k in kernels] == before
