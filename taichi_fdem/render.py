@@ -698,7 +698,10 @@ class RendererImage:
             label((x1, max(0, y0 - 6)), title, "rd")
         if stamp is not None:
             label((4, 4), stamp, "la")
-        out = np.asarray(Image.alpha_composite(pil, layer).convert("RGB"))
+        box = layer.getbbox()           # composite only where labels were drawn (cheaper)
+        if box is not None:
+            pil.paste(Image.alpha_composite(pil.crop(box), layer.crop(box)), box[:2])
+        out = np.asarray(pil.convert("RGB"))
         if bar is not None:  # keep the gradient exact (the frame and labels only touch its edge)
             out = np.array(out, copy=True)
             out[y0:y1, x0:x1] = grad8[:, None, :]
