@@ -17,7 +17,7 @@ demo: $(STAMP)
 
 ## make demos: run every demo
 demos: $(STAMP)
-	for d in demos/*.py; do $(BIN)/python $$d || exit 1; done
+	for d in demos/[!_]*.py; do echo "== $$d"; $(BIN)/python $$d || exit 1; done
 
 ## make test: set everything up and run the test suite
 test: $(STAMP)
