@@ -5,7 +5,8 @@ import math
 from dataclasses import dataclass, field, replace
 
 
-def _check_finite(name: str, value, where: str) -> float:
+def check_finite(name: str, value, where: str) -> float:
+    """``float(value)``, or TypeError (not a number) / ValueError (NaN, inf) naming it and where."""
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -54,11 +55,11 @@ class Material:
     def __post_init__(self):
         where = f"Material{'(' + repr(self.name) + ')' if self.name else ''}"
         for key in ("density", "young", "poisson", "friction", "damping", "contact_damping"):
-            object.__setattr__(self, key, _check_finite(key, getattr(self, key), where))
+            object.__setattr__(self, key, check_finite(key, getattr(self, key), where))
         for key in ("penalty", "tangential_penalty"):
             v = getattr(self, key)
             if v is not None:
-                object.__setattr__(self, key, _check_finite(key, v, where))
+                object.__setattr__(self, key, check_finite(key, v, where))
         if self.density <= 0:
             raise ValueError(f"{where}: density must be > 0 kg/m³, got {self.density}")
         if self.young <= 0:

@@ -11,7 +11,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from .material import Material
+from .material import Material, check_finite
 from .mesh import TriMesh
 
 
@@ -26,13 +26,7 @@ def _vec2(value, name: str, where: str) -> np.ndarray:
 
 
 def _finite(value, name: str, where: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{where}: {name} must be a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise ValueError(f"{where}: {name} must be finite, got {value!r}")
-    return v
+    return check_finite(name, value, where)
 
 
 @dataclass
