@@ -48,7 +48,7 @@ STARTUP_SIZE = 1000      # triangles of the scene used to measure cold / warm st
 DEFAULT_SIZES = (1000, 10_000, 100_000, 300_000)
 
 
-def build_scene(fdem, target_triangles: int, seed: int = 0):
+def build_scene(fdem, target_triangles: int, seed: int = 0, v_random: float = V_RANDOM):
     """The pile scene with about ``target_triangles`` triangles (walls included).
 
     Returns (scene, dict with the layout numbers).
@@ -82,7 +82,7 @@ def build_scene(fdem, target_triangles: int, seed: int = 0):
     scene.add_body(fdem.mesh.rectangle(t, wall_h, WALL_H), rock, position=(width + 0.5 * t, 0.5 * wall_h),
                    fixed=True, name="right")
     rng = np.random.default_rng(seed)
-    vel = rng.normal(0.0, V_RANDOM, size=(n_disks, 2))
+    vel = rng.normal(0.0, v_random, size=(n_disks, 2))
     k = 0
     for j in range(ny):
         for i in range(nx):
@@ -160,9 +160,10 @@ def recompile_check(fdem, strategy: str) -> dict:
     return out
 
 
-def bench_size(fdem, size: int, strategy: str, steps: int | None, seconds: float, profile: bool) -> dict:
+def bench_size(fdem, size: int, strategy: str, steps: int | None, seconds: float, profile: bool,
+               v_random: float = V_RANDOM) -> dict:
     t0 = time.perf_counter()
-    scene, layout = build_scene(fdem, size)
+    scene, layout = build_scene(fdem, size, v_random=v_random)
     t1 = time.perf_counter()
     sim = scene.build(strategy=strategy)
     t2 = time.perf_counter()
@@ -260,6 +261,9 @@ def main(argv=None) -> int:
     ap.add_argument("--precision", choices=("f64", "f32"), default="f64")
     ap.add_argument("--strategy", default="auto",
                     help="auto, serial, parallel, or a comma list such as serial,parallel (default auto)")
+    ap.add_argument("--velocity", type=float, default=V_RANDOM,
+                    help=f"std. dev. of the random initial velocity [m/s] (default {V_RANDOM}); larger: "
+                         "more frequent contact detection")
     ap.add_argument("--csv", default=None, help="also write the rows to this CSV file")
     ap.add_argument("--markdown", action="store_true", help="print a Markdown table")
     ap.add_argument("--no-startup", action="store_true", help="skip the cold / warm start subprocesses")
@@ -286,7 +290,7 @@ def main(argv=None) -> int:
     print(f"scene: hexagonal pile of disks r = {RADIUS} m, h = {H_FACTOR} r "
           f"({probe.bodies[-1].mesh.triangle_count} triangles each), in a fixed box; "
           f"E = {ROCK['young']:.0e} Pa, rho = {ROCK['density']:.0f} kg/m3, nu = {ROCK['poisson']}, "
-          f"friction {ROCK['friction']}; gravity; random initial velocity sd {V_RANDOM} m/s", flush=True)
+          f"friction {ROCK['friction']}; gravity; random initial velocity sd {args.velocity} m/s", flush=True)
 
     rows, resolved = [], {}
     t_all = time.perf_counter()
@@ -300,7 +304,7 @@ def main(argv=None) -> int:
               f"{'RECOMPILED (a new size should not recompile)' if rc['recompiled'] else 'no recompilation'}",
               flush=True)
         for size in args.sizes:
-            row = bench_size(fdem, size, strategy, args.steps, args.seconds, not args.no_profile)
+            row = bench_size(fdem, size, strategy, args.steps, args.seconds, not args.no_profile, args.velocity)
             rows.append(row)
             print(f"  {row['triangles']:>8,} triangles ({row['strategy']}): {row['couples']:,} couples "
                   f"({row['couples_per_tri']:.2f}/triangle), {row['steps_per_s']:,.1f} steps/s = "

@@ -178,7 +178,7 @@ def main(argv=None) -> dict:
     frames = 10 if args.short else 240                 # 8 s of video at 30 fps
     size = (240, 288) if args.short else (640, 768)
     m = 0.06 * (box["xmax"] - box["xmin"])
-    view = (box["xmin"] - m, box["xmax"] + m, box["ymin"] - m, box["ymax"] + m)
+    view = (box["xmin"] - m, box["xmax"] + m, box["ymin"] - m, box["ymax"] + 2.5 * m)   # room for the time stamp
     renderer = RendererImage(*size, view=view, edge_width=0.5 if not args.short else 0.0,
                              draw_edges=not args.short, supersample=1)
     monitor = Monitor(sim, bodies, box)

@@ -23,6 +23,7 @@ NAME = "two_disks"
 RADIUS = 0.1          # m
 V = 1.0               # m/s, initial speed of disk A
 MATERIAL = dict(density=1000.0, young=1.0e7, poisson=0.3, friction=0.0, damping=0.0)   # rubber-like
+VMAX_STRESS = 1.5e5   # Pa, top of the colour scale of the video
 
 
 def build(short: bool):
@@ -101,7 +102,9 @@ def main(argv=None) -> dict:
     size = (320, 160) if args.short else (960, 384)
     view = (-2.6 * RADIUS, 4.0 * RADIUS, -1.3 * RADIUS, 1.3 * RADIUS) if not args.short else \
         (-2.2 * RADIUS, 2.2 * RADIUS, -1.1 * RADIUS, 1.1 * RADIUS)
-    renderer = RendererImage(*size, view=view)
+    # colour: von Mises stress on a fixed scale (the contact stress appears during the impact)
+    renderer = RendererImage(*size, view=view, color_by="von_mises", vmin=0.0, vmax=VMAX_STRESS,
+                             colorbar=not args.short, stamp=not args.short)
     info = sim.info()
     print(f"{NAME}: {info['triangles']} triangles, dt = {info['dt']:.3g} s, {duration:.3g} s simulated "
           f"({int(round(duration / sim.dt)):,} steps), strategy {info['strategy']}")
