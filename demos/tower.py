@@ -34,10 +34,10 @@ COLS, ROWS = 2, 6
 H = 0.05                 # mesh size [m]
 V = 10.0                 # projectile speed [m/s]
 R = 0.05                 # projectile radius [m]
-FLOOR = (-1.4, 1.6)      # floor extent in x [m]
+FLOOR = (-1.4, 2.6)      # floor extent in x [m]
 FLOOR_T = 0.05           # floor thickness [m]
 BLOCK = dict(density=800.0, young=2.0e7, poisson=0.3, friction=0.5, damping=0.02, contact_damping=0.2)
-BALL = dict(density=7800.0, young=2.0e7, poisson=0.3, friction=0.5, damping=0.02, contact_damping=0.2)
+BALL = dict(density=2500.0, young=2.0e7, poisson=0.3, friction=0.5, damping=0.02, contact_damping=0.2)
 PENALTY = 5.0            # contact penalty = PENALTY x E
 
 
@@ -210,7 +210,7 @@ def main(argv=None) -> dict:
           flush=True)
     frames = 12 if args.short else 180                # 6 s of video at 30 fps
     size = (320, 180) if args.short else (960, 540)
-    view = (-1.3, 1.5, -0.1, 1.0) if not args.short else (-0.6, 0.8, -0.1, 0.7)
+    view = (-1.2, 2.5, -0.1, 2.0) if not args.short else (-0.6, 0.8, -0.1, 0.7)
     renderer = RendererImage(*size, view=view, color_by="body", stamp=not args.short,
                              draw_edges=not args.short, edge_width=0.5)
     mon = Monitor(sim, blocks, ball, t_hit)
