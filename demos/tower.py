@@ -1,11 +1,11 @@
 """A tower of blocks on a floor, knocked over by a fast heavy disk (gravity, friction).
 
     python demos/tower.py            # writes out/tower.mp4
-    python demos/tower.py --short    # a quick version (used by tests/test_gallery.py)
+    python demos/tower.py --short    # a quick version (used by tests/test_demos_gallery.py)
     python demos/tower.py --still docs/gallery/tower.png   # also save a mid-run frame
 
-Twelve deformable 0.2 x 0.1 m blocks (two columns of six, brick bond: the odd rows are
-shifted by half a block) stand on a fixed floor, placed exactly touching, under gravity with
+Deformable 0.2 x 0.1 m blocks (six rows, two blocks wide, brick bond: the odd rows are
+shifted by half a block, with half blocks at the ends; 15 bodies) stand on a fixed floor, placed exactly touching, under gravity with
 Coulomb friction mu = 0.5.  A dense disk flies in horizontally at V = 10 m/s and hits the
 upper part of the tower, which topples.  ``check`` verifies that
 
