@@ -498,10 +498,10 @@ class Simulation:
     def forces(self, contact_only: bool = False) -> np.ndarray:
         """Total nodal forces [N] at the current state (elastic + contact), without stepping.
 
-        Shape (n, 2), multiplied by the thickness.  Gravity is not included.  With friction the
-        slip history is updated as in a step of length Δt (a diagnostic, not for use mid-run
-        when exact restarts matter).
+        Shape (n, 2), multiplied by the thickness.  Gravity is not included.  The state is left
+        untouched: the friction slip history and the dissipation accumulators are restored.
         """
+        saved = (self.couple_hist.to_numpy(), self.acc.to_numpy(), self.tri_diss.to_numpy())
         self.node_f.fill(0)
         if not contact_only:
             self._launch("eval_elastic", stepping.eval_elastic, self.node_x, self.node_v, self.node_f,
@@ -514,6 +514,9 @@ class Simulation:
                          self.contact_damping)
         f = self.node_f.to_numpy().astype(np.float64) * self.thickness
         self.node_f.fill(0)
+        self.couple_hist.from_numpy(saved[0])
+        self.acc.from_numpy(saved[1])
+        self.tri_diss.from_numpy(saved[2])
         return f
 
     def profile(self, steps: int = 100) -> dict:
