@@ -188,7 +188,8 @@ class Scene:
         return self._tri_count
 
     def build(self, dt: float | None = None, safety: float = 0.2, force_dt: bool = False,
-              buffer: float | None = None, strategy: str = "auto", check_overlap: bool = True):
+              buffer: float | None = None, strategy: str = "auto", check_overlap: bool = True,
+              speed_limit: float | None = None):
         """Allocate everything and return a ready :class:`~taichi_fdem.simulation.Simulation`.
 
         Parameters
@@ -202,7 +203,9 @@ class Scene:
         strategy : "auto", "serial" (one launch runs many steps: small scenes) or "parallel"
             (one launch per step, parallel loops: large scenes).
         check_overlap : warn when bodies overlap at the start.
+        speed_limit : a node speed [m/s] above which the run stops as unstable (default: 2× the
+            largest P-wave speed of the materials, or 10× the fastest initial speed if larger).
         """
         from .simulation import Simulation
         return Simulation(self, dt=dt, safety=safety, force_dt=force_dt, buffer=buffer, strategy=strategy,
-                          check_overlap=check_overlap)
+                          check_overlap=check_overlap, speed_limit=speed_limit)

@@ -13,7 +13,7 @@ import taichi as ti
 from . import backend, slots, stepping
 from .diagnostics import energy_terms, overlap_areas
 from .slots import (A_BOUNDARY, A_CDAMPING, A_FRICTION, I_COUPLES, I_DETECTIONS, I_FOUND, I_INVERTED,
-                       I_NONFINITE, I_OVERFLOW, R_BUFFER, R_DACC, R_DT, R_GX, R_GY, R_VMAX)
+                       I_NONFINITE, I_OVERFLOW, I_SPEED, R_BUFFER, R_DACC, R_DT, R_GX, R_GY, R_VLIMIT, R_VMAX)
 
 # Execution strategy.  Measured on the 2-core CPU (benchmarks/pile.py): the serial many-step
 # kernel beats one-launch-per-step parallel loops at every size from 1k to 300k triangles,
@@ -62,7 +62,7 @@ class Simulation:
     """
 
     def __init__(self, scene, dt=None, safety=0.2, force_dt=False, buffer=None, strategy="auto",
-                 check_overlap=True):
+                 check_overlap=True, speed_limit=None):
         backend.ensure_init()
         if not scene.bodies:
             raise ValueError("Scene.build: the scene has no bodies; add one with scene.add_body(...)")
@@ -255,6 +255,13 @@ class Simulation:
         sim_real[R_GX], sim_real[R_GY] = scene.gravity
         sim_real[R_BUFFER] = buffer
         sim_real[R_DACC] = np.inf if self.contact else 0.0     # detect at the first step
+        if speed_limit is None:
+            speed_limit = 2.0 * max(m.p_wave_speed(scene.plane) for m in materials)
+            speed_limit = max(speed_limit, 10.0 * float(np.abs(V).max(initial=0.0)))
+        self.speed_limit = float(speed_limit)
+        if not (self.speed_limit > 0):
+            raise ValueError(f"Scene.build: speed_limit must be > 0 m/s, got {speed_limit}")
+        sim_real[R_VLIMIT] = self.speed_limit
         self.sim_real = sc(sim_real)
         self.sim_int = sc(np.zeros(slots.INT_SLOTS, np.int32), np.int32)
         K = len(ctri) if self.contact else 1
@@ -420,7 +427,7 @@ class Simulation:
             n -= done
             if done < chunk:
                 si = self.sim_int.to_numpy()
-                if si[I_NONFINITE] or si[I_INVERTED]:
+                if si[I_NONFINITE] or si[I_INVERTED] or si[I_SPEED]:
                     self._raise_unstable()
                 if si[I_OVERFLOW]:
                     self._alloc_couples(int(si[I_OVERFLOW] * 1.5) + 64)
@@ -431,6 +438,10 @@ class Simulation:
         si = self.sim_int.to_numpy()
         if si[I_NONFINITE]:
             cause = f"non-finite position or velocity at node {si[I_NONFINITE] - 1}"
+        elif si[I_SPEED]:
+            sr = self.sim_real.to_numpy()
+            cause = (f"a node moved at {sr[R_VMAX]:.4g} m/s, above the bound {sr[R_VLIMIT]:.4g} m/s "
+                     f"(speed_limit; default 2× the largest P-wave speed)")
         else:
             e = si[I_INVERTED] - 1
             cause = (f"inverted element: triangle {e} (body {self.bodies[self._tri_body_np[e]].name}) "
@@ -550,7 +561,7 @@ class Simulation:
             if code & 2:
                 self._raise_unstable()
         si = self.sim_int.to_numpy()
-        if si[I_NONFINITE] or si[I_INVERTED]:
+        if si[I_NONFINITE] or si[I_INVERTED] or si[I_SPEED]:
             self._raise_unstable()
         t["total"] = sum(t.values())
         t["steps"] = int(steps)

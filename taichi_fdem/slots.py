@@ -12,7 +12,8 @@ R_DACC = 4      # accumulated 2 Δt v_max since the last detection [m]
 R_RMAX = 5      # largest bounding-circle radius at the last detection [m]
 R_CELL = 6      # grid cell size at the last detection [m]
 R_VMAX = 7      # largest node speed of the last step [m/s]
-REAL_SLOTS = 8
+R_VLIMIT = 8    # a node speed above this is taken as a sign of instability [m/s]
+REAL_SLOTS = 12
 
 # sim_int
 I_COUPLES = 1       # couples in the list
@@ -21,7 +22,8 @@ I_NONFINITE = 3     # 1 + a node whose position or velocity is not finite (0: no
 I_INVERTED = 4      # 1 + a triangle with non-positive area (0: none)
 I_OVERFLOW = 5      # couples needed when the buffer was too small (0: no overflow)
 I_DETECTIONS = 6    # detections run
-INT_SLOTS = 8
+I_SPEED = 7         # 1 when a node speed exceeded sim_real[R_VLIMIT]
+INT_SLOTS = 12
 
 # acc
 A_FRICTION = 0      # work dissipated by friction slip

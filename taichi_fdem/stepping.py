@@ -22,7 +22,7 @@ from .elastic import eval_tri_elastic
 
 from .slots import *  # noqa: F401,F403  (slot indices shared with the host)
 from .slots import (A_BOUNDARY, I_COUPLES, I_DETECTIONS, I_FOUND, I_INVERTED, I_NONFINITE, I_OVERFLOW,
-                    R_BUFFER, R_CELL, R_DACC, R_DT, R_GX, R_GY, R_RMAX, R_VMAX)
+                    I_SPEED, R_BUFFER, R_CELL, R_DACC, R_DT, R_GX, R_GY, R_RMAX, R_VLIMIT, R_VMAX)
 
 CHUNK = 256   # nodes per chunk in reductions (one atomic per chunk, not per node)
 
@@ -148,6 +148,8 @@ def phase_integrate(node_x: ti.template(), node_v: ti.template(), node_f: ti.tem
     for _ in range(1):
         # re-detection trigger D_acc += 2 Δt v_max (§4.1)
         sim_real[R_DACC] += 2.0 * dt * sim_real[R_VMAX]
+        if sim_real[R_VMAX] > sim_real[R_VLIMIT]:
+            sim_int[I_SPEED] = 1
 
 
 @ti.func
@@ -156,7 +158,7 @@ def status_code(sim_real: ti.template(), sim_int: ti.template()):
     code = 0
     if sim_real[R_DACC] >= sim_real[R_BUFFER]:
         code |= 1
-    if sim_int[I_NONFINITE] != 0 or sim_int[I_INVERTED] != 0:
+    if sim_int[I_NONFINITE] != 0 or sim_int[I_INVERTED] != 0 or sim_int[I_SPEED] != 0:
         code |= 2
     return code
 
@@ -257,7 +259,7 @@ def run_steps_serial(nsteps: ti.i32, node_x: ti.types.ndarray(), node_v: ti.type
             phase_integrate(node_x, node_v, node_f, node_mass, node_free, node_vbc, acc, sim_real, sim_int,
                             bc, bc_work)
             done += 1
-            if sim_int[I_NONFINITE] != 0 or sim_int[I_INVERTED] != 0:
+            if sim_int[I_NONFINITE] != 0 or sim_int[I_INVERTED] != 0 or sim_int[I_SPEED] != 0:
                 stop = 1
         if stop != 0:
             break
