@@ -1,0 +1,196 @@
+"""Result export: a VTU series with a ParaView ``.pvd`` index, written as the run goes.
+
+    exporter = ExporterVtu("out", every=1)
+    with exporter:
+        exporter.write(sim)                       # the initial state, t = 0
+        sim.run(1.0, frame_dt=0.01, callback=exporter.callback)
+
+Each call to :meth:`ExporterVtu.write` writes one ``<prefix>_NNNNNN.vtu`` file (through meshio)
+and then rewrites ``<prefix>.pvd``, the ParaView collection listing every frame written so far
+with its simulated time.  Both are written to a temporary file first and moved into place with
+:func:`os.replace`, so an interrupted run leaves a valid series of the frames completed.
+
+Fields (SI units; the mesh points are the *current* node positions, z = 0):
+
+point data
+    ``displacement`` x − X [m] and ``velocity`` [m/s], 3 components (z = 0, so that ParaView
+    treats them as vectors); ``body_id`` (int32).
+cell data
+    ``stress``: elastic Cauchy stress [Pa] as 3 components (σ_xx, σ_yy, σ_xy), from
+    :meth:`Simulation.stresses` (without the viscous part);
+    ``von_mises`` [Pa]: √(σ_xx² − σ_xx σ_yy + σ_yy² + 3 σ_xy²), the in-plane form the renderer
+    uses; ``strain``: Green–Lagrange strain E = ½(FᵀF − I) (dimensionless) as 3 tensor
+    components (E_xx, E_yy, E_xy) — not engineering shear; it equals the small strain
+    sym(∇u) to first order; ``body_id`` and ``material_id`` (int32); ``damage`` in [0, 1]
+    (the simulation's ``tri_damage`` when it has one, zeros otherwise).
+"""
+from __future__ import annotations
+
+import os
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+__all__ = ["ExporterVtu", "frame_fields"]
+
+
+def _to_numpy(a) -> np.ndarray:
+    return np.asarray(a.to_numpy() if hasattr(a, "to_numpy") else a)
+
+
+def _pad3(v: np.ndarray) -> np.ndarray:
+    out = np.zeros((len(v), 3), dtype=np.float64)
+    out[:, :2] = v
+    return out
+
+
+def frame_fields(sim) -> dict:
+    """The exported fields of the current state of ``sim`` as NumPy arrays (float64 / int32).
+
+    Returns ``{"points": (n, 2) [m], "triangles": (m, 3), "point_data": {...}, "cell_data":
+    {...}}`` with the 2-component vectors and tensors described in the module docstring
+    (point vectors (n, 2), stress and strain (m, 3)).  Vectorised NumPy, no loop over nodes.
+    """
+    x = sim.node_positions()
+    tris = np.asarray(sim._tri_nodes_np, dtype=np.int64)
+    node_body = np.zeros(sim.node_count, dtype=np.int32)
+    for b in sim.bodies:                       # one slice per body, not per node
+        node_body[b.nodes] = b.index
+
+    T = np.asarray(sim.stresses(), dtype=np.float64)
+    sxx, syy, sxy = T[:, 0, 0], T[:, 1, 1], 0.5 * (T[:, 0, 1] + T[:, 1, 0])
+    von_mises = np.sqrt(np.maximum(sxx * sxx - sxx * syy + syy * syy + 3.0 * sxy * sxy, 0.0))
+
+    # deformation gradient F = [x1 - x0, x2 - x0] · (rest edges)^-1, as in Simulation.stresses
+    Fx = np.stack([x[tris[:, 1]] - x[tris[:, 0]], x[tris[:, 2]] - x[tris[:, 0]]], axis=2)
+    F = Fx @ _to_numpy(sim.tri_rest_inv).astype(np.float64)
+    E = 0.5 * (F.transpose(0, 2, 1) @ F - np.eye(2))
+
+    damage = getattr(sim, "tri_damage", None)
+    if damage is None:
+        damage = np.zeros(sim.tri_count)
+    else:
+        damage = _to_numpy(damage).astype(np.float64).reshape(-1)
+        if damage.shape != (sim.tri_count,):
+            raise ValueError(f"ExporterVtu: sim.tri_damage has {damage.size} values for {sim.tri_count} triangles")
+
+    return {
+        "points": x,
+        "triangles": tris,
+        "point_data": {"displacement": sim.node_displacements(), "velocity": sim.node_velocities(),
+                       "body_id": node_body},
+        "cell_data": {"stress": np.stack([sxx, syy, sxy], axis=1), "von_mises": von_mises,
+                      "strain": np.stack([E[:, 0, 0], E[:, 1, 1], 0.5 * (E[:, 0, 1] + E[:, 1, 0])], axis=1),
+                      "body_id": np.asarray(sim._tri_body_np, dtype=np.int32),
+                      "material_id": np.asarray(sim._tri_mat_np, dtype=np.int32),
+                      "damage": damage},
+    }
+
+
+class ExporterVtu:
+    """Write a VTU series and its ParaView ``.pvd`` index while a simulation runs.
+
+    Parameters
+    ----------
+    directory : output directory (created if missing).
+    every : :meth:`callback` writes a frame on every ``every``-th call (default 1: every
+        frame interval of :meth:`Simulation.run`).  :meth:`write` always writes.
+    prefix : file names ``<prefix>_000000.vtu``, ``<prefix>_000001.vtu``, ... and
+        ``<prefix>.pvd``.  A new exporter starts a new series: an existing ``<prefix>.pvd``
+        in the directory is overwritten at the first frame.
+    binary : write the VTU data arrays base64-encoded and zlib-compressed (default) or as
+        ASCII text.
+
+    Usable as a context manager; the ``.pvd`` index is valid after every frame, whether or
+    not the exporter is closed (closing only forbids further writes).
+    """
+
+    def __init__(self, directory, every: int = 1, prefix: str = "frame", binary: bool = True):
+        if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
+            raise ValueError(f"ExporterVtu: every must be an integer >= 1, got {every!r}")
+        if not isinstance(prefix, str) or not prefix or os.sep in prefix or (os.altsep and os.altsep in prefix):
+            raise ValueError(f"ExporterVtu: prefix must be a non-empty file name without a path separator, "
+                             f"got {prefix!r}")
+        self.directory = os.fspath(directory)
+        if os.path.exists(self.directory) and not os.path.isdir(self.directory):
+            raise ValueError(f"ExporterVtu: directory {self.directory!r} exists and is not a directory")
+        os.makedirs(self.directory, exist_ok=True)
+        self.every = int(every)
+        self.prefix = prefix
+        self.binary = bool(binary)
+        self.frames: list[tuple[float, str]] = []   # (time [s], file name) of every frame written
+        self.calls = 0
+        self.closed = False
+
+    @property
+    def pvd_path(self) -> str:
+        """Path of the ``.pvd`` collection file."""
+        return os.path.join(self.directory, f"{self.prefix}.pvd")
+
+    @property
+    def frame_count(self) -> int:
+        """Number of frames written."""
+        return len(self.frames)
+
+    def write(self, sim) -> str:
+        """Write the current state of ``sim`` as the next frame; returns the ``.vtu`` path.
+
+        The frame is stamped with ``sim.time`` [s] in the index.
+        """
+        import meshio
+
+        if self.closed:
+            raise ValueError(f"ExporterVtu: write() after close() ({self.pvd_path!r})")
+        f = frame_fields(sim)
+        mesh = meshio.Mesh(
+            _pad3(f["points"]), [("triangle", f["triangles"])],
+            point_data={k: (_pad3(v) if v.ndim == 2 else v) for k, v in f["point_data"].items()},
+            cell_data={k: [v] for k, v in f["cell_data"].items()})
+        name = f"{self.prefix}_{len(self.frames):06d}.vtu"
+        path = os.path.join(self.directory, name)
+        tmp = path + ".tmp"
+        try:
+            meshio.write(tmp, mesh, file_format="vtu", binary=self.binary)
+            os.replace(tmp, path)
+        finally:
+            if os.path.exists(tmp):
+                os.remove(tmp)
+        self.frames.append((float(sim.time), name))
+        self._write_pvd()
+        return path
+
+    def callback(self, sim) -> None:
+        """``callback=`` of :meth:`Simulation.run`: writes a frame on every ``every``-th call."""
+        self.calls += 1
+        if self.calls % self.every == 0:
+            self.write(sim)
+
+    __call__ = callback
+
+    def _write_pvd(self) -> None:
+        root = ET.Element("VTKFile", type="Collection", version="0.1", byte_order="LittleEndian")
+        coll = ET.SubElement(root, "Collection")
+        for t, name in self.frames:
+            ET.SubElement(coll, "DataSet", timestep=repr(t), group="", part="0", file=name)
+        ET.indent(root)
+        tmp = self.pvd_path + ".tmp"
+        with open(tmp, "wb") as fh:
+            ET.ElementTree(root).write(fh, encoding="utf-8", xml_declaration=True)
+            fh.write(b"\n")
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, self.pvd_path)
+
+    def close(self) -> None:
+        """Stop writing (the series on disk is already complete)."""
+        self.closed = True
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        self.close()
+        return False
+
+    def __repr__(self):
+        return f"ExporterVtu({self.directory!r}, every={self.every}, prefix={self.prefix!r}, frames={self.frame_count})"
