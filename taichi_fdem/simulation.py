@@ -654,3 +654,27 @@ class Simulation:
                 "strategy": self.strategy, "contact": self.contact, "friction": self.friction,
                 "damping": self.damping, "contact_damping": self.contact_damping, "buffer": self.buffer,
                 "precision": backend.precision()}
+
+    # ------------------------------------------------------------------------------------------
+    # checkpoints (taichi_fdem.checkpoint)
+    # ------------------------------------------------------------------------------------------
+    def save(self, path) -> None:
+        """Write a checkpoint of the whole state to ``path`` (one file, written atomically).
+
+        Every Taichi and NumPy array attribute, every plain attribute (step count, dt, flags,
+        capacities) and the scene are stored; :meth:`load` continues the run exactly.  See
+        :mod:`taichi_fdem.checkpoint`.
+        """
+        from . import checkpoint
+        checkpoint.save(self, path)
+
+    @classmethod
+    def load(cls, path) -> "Simulation":
+        """A Simulation restored from a checkpoint written by :meth:`save`.
+
+        Raises :class:`taichi_fdem.checkpoint.CheckpointError` (a ValueError) for a corrupt
+        file, another format version or another precision.  Only load files you trust (the
+        scene is unpickled).
+        """
+        from . import checkpoint
+        return checkpoint.load(path)

@@ -1,0 +1,275 @@
+"""Checkpoints: the whole state of a :class:`~taichi_fdem.simulation.Simulation` in one file.
+
+    sim.save("run.ckpt")                          # or checkpoint.save(sim, path)
+    sim = fdem.Simulation.load("run.ckpt")        # or checkpoint.load(path)
+
+A restarted run continues exactly as the uninterrupted run would (bit for bit with the serial
+strategy): the file holds
+
+* every Taichi ndarray attribute of the simulation, by name, with its kind (scalar / vector /
+  matrix), element dtype and shape — nodes, couples and their friction history, detection
+  scratch arrays, dissipation accumulators, and any array a future feature adds (found
+  generically by walking ``vars(sim)``, nothing is listed by hand);
+* every NumPy array attribute (rest positions, connectivity, masses, ...);
+* every other plain attribute (step count, time step, strategy, feature flags, couple
+  capacity, counters ...), pickled;
+* the :class:`~taichi_fdem.scene.Scene` (meshes, materials, bodies, settings), pickled, with
+  each ``fix_nodes`` predicate replaced by the node mask it selected, so that lambdas need not
+  be picklable.
+
+:func:`load` rebuilds the scene with the saved time step and strategy (``force_dt=True``,
+no overlap check), then overwrites every saved array — re-allocating those whose saved
+shape differs, e.g. a couple buffer that grew — and every saved attribute.
+
+The file is a NumPy ``.npz`` archive (whatever its name), written to ``path + ".tmp"`` and
+moved over ``path`` with :func:`os.replace` only once complete, so a crash while saving never
+leaves a corrupt file as the latest checkpoint.  It records a format version and the
+floating-point precision; loading under another precision (``fdem.init(precision=...)``)
+is refused.
+
+Loading unpickles Python objects from the file: only load checkpoints you trust.
+"""
+from __future__ import annotations
+
+import copy
+import json
+import os
+import pickle
+
+import numpy as np
+import taichi as ti
+
+from . import backend
+
+__all__ = ["save", "load", "CheckpointError", "FORMAT", "FORMAT_VERSION"]
+
+FORMAT = "taichi_fdem.checkpoint"
+#: Incremented when the layout of the file changes incompatibly.
+FORMAT_VERSION = 1
+
+# attributes rebuilt from the scene rather than saved: the scene itself (saved separately), its
+# bodies and materials (the same objects, restored through the scene) and the Taichi / NumPy
+# dtypes of the active precision
+_REBUILT = frozenset({"scene", "bodies", "materials", "_real", "_rti"})
+_DATATYPE = type(ti.f64)
+
+
+class CheckpointError(ValueError):
+    """A checkpoint file that cannot be loaded (corrupt, foreign, another version or precision)."""
+
+
+class _NodeMask:
+    """A picklable stand-in for a ``fix_nodes`` predicate: the node mask it selected at build."""
+
+    def __init__(self, mask: np.ndarray):
+        self.mask = np.asarray(mask, dtype=bool)
+
+    def __call__(self, x, y):
+        if np.shape(x) != self.mask.shape:
+            raise ValueError(f"checkpoint: a fix_nodes selection restored from a checkpoint holds "
+                             f"{self.mask.size} nodes, the scene now has {np.size(x)}")
+        return self.mask.copy()
+
+
+def _ndarray_meta(arr) -> dict:
+    from taichi.lang.matrix import MatrixNdarray, VectorNdarray
+
+    if isinstance(arr, MatrixNdarray):
+        kind, elem = "matrix", [int(arr.n), int(arr.m)]
+    elif isinstance(arr, VectorNdarray):
+        kind, elem = "vector", [int(arr.n)]
+    else:
+        kind, elem = "scalar", []
+    return {"kind": kind, "elem": elem, "dtype": str(arr.dtype), "shape": [int(s) for s in arr.shape]}
+
+
+def _alloc(meta: dict):
+    dtype = getattr(ti, meta["dtype"])
+    shape = tuple(meta["shape"])
+    if meta["kind"] == "matrix":
+        return ti.Matrix.ndarray(meta["elem"][0], meta["elem"][1], dtype, shape=shape)
+    if meta["kind"] == "vector":
+        return ti.Vector.ndarray(meta["elem"][0], dtype, shape=shape)
+    return ti.ndarray(dtype, shape=shape)
+
+
+def _scene_bundle(sim) -> dict:
+    """The scene of ``sim`` in a picklable form (a shallow copy; the user's scene is untouched)."""
+    from .scene import _NodeConstraint
+
+    scene = copy.copy(sim.scene)
+    scene.bodies = list(sim.bodies)
+    scene._node_count, scene._tri_count = sim.node_count, sim.tri_count
+    X = np.asarray(sim._X, dtype=np.float64)
+    constraints = []
+    for k, con in enumerate(sim.scene._constraints):
+        # the predicate is evaluated on the initial positions, exactly as at build
+        mask = np.asarray(con.where(X[:, 0].copy(), X[:, 1].copy()), dtype=bool)
+        constraints.append(_NodeConstraint(_NodeMask(mask), con.body, con.velocity))
+    scene._constraints = constraints
+    # interactions are keyed by id(material): store the material objects themselves
+    by_id = {}
+    for b in sim.bodies:
+        by_id[id(b.material)] = b.material
+    interactions = [(by_id[a], by_id[b], dict(props)) for (a, b), props in sim.scene._interactions.items()
+                    if a in by_id and b in by_id]
+    scene._interactions = {}
+    return {"scene": scene, "interactions": interactions}
+
+
+def save(sim, path) -> None:
+    """Write the whole state of ``sim`` to ``path`` atomically (see the module docstring).
+
+    Raises TypeError naming the attribute when an attribute of the simulation cannot be
+    stored (not an array and not picklable).
+    """
+    path = os.fspath(path)
+    arrays: dict[str, np.ndarray] = {}
+    nd_meta: dict[str, dict] = {}
+    plain: dict = {}
+    for name, value in vars(sim).items():
+        if name in _REBUILT:
+            continue
+        if isinstance(value, ti.Ndarray):
+            nd_meta[name] = _ndarray_meta(value)
+            arrays["nd." + name] = value.to_numpy()
+        elif isinstance(value, np.ndarray):
+            arrays["np." + name] = value
+        elif isinstance(value, _DATATYPE):
+            continue                     # a dtype of the active precision, rebuilt by build()
+        elif type(value).__module__.startswith("taichi"):
+            raise TypeError(f"Simulation.save: attribute {name!r} is a Taichi {type(value).__name__}; "
+                            f"only Taichi ndarrays can be checkpointed")
+        else:
+            try:
+                pickle.dumps(value)
+            except Exception as exc:
+                raise TypeError(f"Simulation.save: attribute {name!r} ({type(value).__name__}) cannot be "
+                                f"stored in a checkpoint: {exc}") from None
+            plain[name] = value
+    try:
+        scene_bytes = pickle.dumps(_scene_bundle(sim), protocol=pickle.HIGHEST_PROTOCOL)
+    except Exception as exc:
+        raise TypeError(f"Simulation.save: the scene cannot be stored in a checkpoint: {exc}") from None
+    from . import __version__
+
+    meta = {"format": FORMAT, "version": FORMAT_VERSION, "package_version": __version__,
+            "precision": backend.precision(), "ndarrays": nd_meta, "step_count": int(sim.step_count),
+            "time": float(sim.time)}
+    arrays["meta"] = np.array(json.dumps(meta))
+    arrays["scene"] = np.frombuffer(scene_bytes, dtype=np.uint8)
+    arrays["plain"] = np.frombuffer(pickle.dumps(plain, protocol=pickle.HIGHEST_PROTOCOL), dtype=np.uint8)
+
+    directory = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(directory):
+        raise FileNotFoundError(f"Simulation.save: directory {directory!r} does not exist")
+    tmp = path + ".tmp"
+    try:
+        with open(tmp, "wb") as fh:      # a file object: savez must not append ".npz" to the name
+            np.savez(fh, **arrays)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
+    try:                                 # make the rename itself durable (POSIX)
+        dfd = os.open(directory, os.O_RDONLY)
+        try:
+            os.fsync(dfd)
+        finally:
+            os.close(dfd)
+    except OSError:
+        pass
+
+
+def _read(path: str) -> dict:
+    import zipfile
+
+    try:
+        z = np.load(path, allow_pickle=False)
+        if not hasattr(z, "files"):
+            raise CheckpointError(f"Simulation.load: {path!r} is a single NumPy array, not a "
+                                  f"taichi_fdem checkpoint")
+        with z:
+            data = {k: z[k] for k in z.files}
+    except (FileNotFoundError, IsADirectoryError, PermissionError):
+        raise
+    except CheckpointError:
+        raise
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError, RuntimeError) as exc:
+        raise CheckpointError(f"Simulation.load: {path!r} is not a readable taichi_fdem checkpoint "
+                              f"(corrupt or truncated file: {type(exc).__name__}: {exc})") from None
+    missing = [k for k in ("meta", "scene", "plain") if k not in data]
+    if missing:
+        raise CheckpointError(f"Simulation.load: {path!r} is not a taichi_fdem checkpoint "
+                              f"(missing {', '.join(missing)})")
+    try:
+        meta = json.loads(str(data["meta"]))
+    except ValueError as exc:
+        raise CheckpointError(f"Simulation.load: {path!r}: unreadable metadata ({exc})") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise CheckpointError(f"Simulation.load: {path!r} is not a taichi_fdem checkpoint")
+    version = meta.get("version")
+    if version != FORMAT_VERSION:
+        raise CheckpointError(f"Simulation.load: {path!r} has checkpoint format version {version!r}; this "
+                              f"taichi_fdem reads version {FORMAT_VERSION} "
+                              f"(the file was written by taichi_fdem {meta.get('package_version', '?')})")
+    data["meta"] = meta
+    return data
+
+
+def load(path):
+    """Rebuild the :class:`~taichi_fdem.simulation.Simulation` saved in ``path`` by :func:`save`.
+
+    Raises
+    ------
+    FileNotFoundError
+        No such file.
+    CheckpointError (a ValueError)
+        The file is corrupt or truncated, not a checkpoint, of another format version, or was
+        written under another floating-point precision than the active one.
+    """
+    path = os.fspath(path)
+    data = _read(path)
+    meta = data["meta"]
+    active = backend.precision()
+    if meta.get("precision") != active:
+        raise CheckpointError(f"Simulation.load: {path!r} was written with precision {meta.get('precision')!r} "
+                              f"but taichi_fdem runs in {active!r}; call fdem.init(precision="
+                              f"{meta.get('precision')!r}) before loading")
+    try:
+        bundle = pickle.loads(data["scene"].tobytes())
+        plain = pickle.loads(data["plain"].tobytes())
+        scene = bundle["scene"]
+        scene._interactions = {}
+        for a, b, props in bundle["interactions"]:
+            scene._interactions[(id(a), id(b))] = props
+        dt, strategy, buffer = plain["dt"], plain["strategy"], plain["buffer"]
+    except Exception as exc:
+        raise CheckpointError(f"Simulation.load: {path!r}: the saved scene or settings cannot be read "
+                              f"({type(exc).__name__}: {exc})") from None
+
+    sim = scene.build(dt=dt, force_dt=True, strategy=strategy, buffer=buffer, check_overlap=False)
+
+    for name, m in meta["ndarrays"].items():
+        key = "nd." + name
+        if key not in data:
+            raise CheckpointError(f"Simulation.load: {path!r} lacks the data of array {name!r}")
+        values = data[key]
+        current = getattr(sim, name, None)
+        if not (isinstance(current, ti.Ndarray) and _ndarray_meta(current) == m):
+            current = _alloc(m)              # e.g. a couple buffer that grew during the run
+            setattr(sim, name, current)
+        try:
+            current.from_numpy(np.ascontiguousarray(values))
+        except Exception as exc:
+            raise CheckpointError(f"Simulation.load: {path!r}: array {name!r} ({m}) cannot be restored "
+                                  f"from data of shape {values.shape} ({exc})") from None
+    for key, values in data.items():
+        if key.startswith("np."):
+            setattr(sim, key[3:], values)
+    for name, value in plain.items():
+        setattr(sim, name, value)
+    return sim
