@@ -22,7 +22,8 @@ cell data
     uses; ``strain``: Green–Lagrange strain E = ½(FᵀF − I) (dimensionless) as 3 tensor
     components (E_xx, E_yy, E_xy) — not engineering shear; it equals the small strain
     sym(∇u) to first order; ``body_id`` and ``material_id`` (int32); ``damage`` in [0, 1]
-    (the simulation's ``tri_damage`` when it has one, zeros otherwise).
+    (the simulation's ``tri_damage()`` — or ``tri_damage`` array — when it has one, zeros
+    otherwise).
 """
 from __future__ import annotations
 
@@ -67,6 +68,8 @@ def frame_fields(sim) -> dict:
     E = 0.5 * (F.transpose(0, 2, 1) @ F - np.eye(2))
 
     damage = getattr(sim, "tri_damage", None)
+    if callable(damage):                       # Simulation.tri_damage() of the joint / fracture model
+        damage = damage()
     if damage is None:
         damage = np.zeros(sim.tri_count)
     else:

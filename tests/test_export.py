@@ -95,6 +95,8 @@ def test_tri_damage_exported_when_present(tmp_path):
     try:
         path = ExporterVtu(tmp_path).write(sim)
         np.testing.assert_array_equal(meshio.read(path).cell_data["damage"][0], damage)
+        sim.tri_damage = lambda: 1.0 - damage  # or a method computing it
+        np.testing.assert_array_equal(frame_fields(sim)["cell_data"]["damage"], 1.0 - damage)
         sim.tri_damage = np.zeros(3)
         with pytest.raises(ValueError, match=r"tri_damage has 3 values"):
             frame_fields(sim)
