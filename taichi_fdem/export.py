@@ -90,6 +90,19 @@ def frame_fields(sim) -> dict:
     }
 
 
+def _read_pvd(path: str) -> list:
+    """[(time [s], file name)] of the frames listed in a ``.pvd`` collection file."""
+    try:
+        root = ET.parse(path).getroot()
+        coll = root.find("Collection")
+        if root.tag != "VTKFile" or coll is None:
+            raise ValueError("not a VTKFile collection")
+        frames = [(float(d.get("timestep")), str(d.get("file"))) for d in coll.findall("DataSet")]
+    except (ET.ParseError, ValueError, TypeError) as exc:
+        raise ValueError(f"ExporterVtu: cannot resume from {path!r}: {exc}") from None
+    return frames
+
+
 class ExporterVtu:
     """Write a VTU series and its ParaView ``.pvd`` index while a simulation runs.
 
@@ -103,12 +116,18 @@ class ExporterVtu:
         in the directory is overwritten at the first frame.
     binary : write the VTU data arrays base64-encoded and zlib-compressed (default) or as
         ASCII text.
+    resume : continue the series already in the directory (after a restart from a
+        checkpoint): the existing ``<prefix>.pvd`` is read, and at the first :meth:`write`
+        its frames at or after the simulation's time are dropped (the restarted run
+        recomputes them) and numbering continues after the frames kept.  Without an index
+        to resume, a new series starts.
 
     Usable as a context manager; the ``.pvd`` index is valid after every frame, whether or
     not the exporter is closed (closing only forbids further writes).
     """
 
-    def __init__(self, directory, every: int = 1, prefix: str = "frame", binary: bool = True):
+    def __init__(self, directory, every: int = 1, prefix: str = "frame", binary: bool = True,
+                 resume: bool = False):
         if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
             raise ValueError(f"ExporterVtu: every must be an integer >= 1, got {every!r}")
         if not isinstance(prefix, str) or not prefix or os.sep in prefix or (os.altsep and os.altsep in prefix):
@@ -124,6 +143,10 @@ class ExporterVtu:
         self.frames: list[tuple[float, str]] = []   # (time [s], file name) of every frame written
         self.calls = 0
         self.closed = False
+        self._resumed = False
+        if resume and os.path.exists(self.pvd_path):
+            self.frames = _read_pvd(self.pvd_path)
+            self._resumed = True
 
     @property
     def pvd_path(self) -> str:
@@ -144,6 +167,9 @@ class ExporterVtu:
 
         if self.closed:
             raise ValueError(f"ExporterVtu: write() after close() ({self.pvd_path!r})")
+        if self._resumed:        # drop the frames the restarted run is about to recompute
+            self.frames = [(t, name) for t, name in self.frames if t < float(sim.time)]
+            self._resumed = False
         f = frame_fields(sim)
         mesh = meshio.Mesh(
             _pad3(f["points"]), [("triangle", f["triangles"])],

@@ -170,3 +170,40 @@ def test_directory_is_a_file(tmp_path):
     (tmp_path / "f").write_text("x")
     with pytest.raises(ValueError, match=r"exists and is not a directory"):
         ExporterVtu(tmp_path / "f")
+
+
+def test_resume_series_after_checkpoint_restart(tmp_path):
+    """Frames 0-2 written, checkpoint after frame 1, crash after frame 2; the restarted run resumes
+    the series: frame 2 is recomputed, frame 3 appended, and the series equals the uninterrupted one."""
+    sim = sliding_block()
+    exp = ExporterVtu(tmp_path / "run")
+    for k in range(3):
+        sim.step(20)
+        exp.write(sim)
+        if k == 1:
+            sim.save(tmp_path / "ckpt")
+    # ... the process dies here.  An uninterrupted reference run for comparison:
+    ref = sliding_block()
+    ref_exp = ExporterVtu(tmp_path / "ref")
+    for _ in range(4):
+        ref.step(20)
+        ref_exp.write(ref)
+
+    restarted = fdem.Simulation.load(tmp_path / "ckpt")
+    exp2 = ExporterVtu(tmp_path / "run", resume=True)
+    assert exp2.frame_count == 3                       # read from the index
+    for _ in range(2):
+        restarted.step(20)
+        exp2.write(restarted)
+    assert read_pvd(exp2.pvd_path) == read_pvd(ref_exp.pvd_path)
+    assert len(read_pvd(exp2.pvd_path)) == 4
+    for _, name in read_pvd(exp2.pvd_path):
+        a, b = meshio.read(tmp_path / "run" / name), meshio.read(tmp_path / "ref" / name)
+        np.testing.assert_array_equal(a.points, b.points)
+        np.testing.assert_array_equal(a.cell_data["stress"][0], b.cell_data["stress"][0])
+
+    # resuming without an index starts a new series; a broken index is refused
+    assert ExporterVtu(tmp_path / "new", resume=True).frame_count == 0
+    (tmp_path / "run" / "frame.pvd").write_text("<VTKFile><Collection>")
+    with pytest.raises(ValueError, match=r"cannot resume from .*frame\.pvd"):
+        ExporterVtu(tmp_path / "run", resume=True)
