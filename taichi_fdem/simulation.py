@@ -449,9 +449,132 @@ class Simulation:
         raise SimulationError(cause, self.step_count, self.time, suggested_dt=0.5 * min(self.dt, self.dt_limit),
                               detail=f"Time step {self.dt:.3g} s, estimated limit {self.dt_limit:.3g} s.")
 
+
+    # ---- run-time guards (issue 5): energy growth, penetration, last good state ------------------
+    # Arrays that never change during a run (the model) or are scratch of one step/detection;
+    # every other Taichi array of the simulation is state and is kept by _save_last_good, so
+    # arrays added later (joints, ...) are kept without touching this list.
+    _MODEL_ARRAYS = frozenset({
+        "node_mass", "node_free", "tri_nodes", "tri_rest_inv", "tri_area0", "tri_mat", "tri_body", "body_flags",
+        "mat_mu", "mat_lam", "tri_visc", "pair_prop", "ctri", "cen", "rad", "bucket_of", "slot", "bucket_count",
+        "bucket_start", "sorted_k", "ccount", "cnew", "old_start", "old_b", "old_hist", "_energy_out",
+        "joint_nodes", "joint_tri", "joint_mat", "mat_joint"})
+    _last_good = None
+
+    def _state_array_names(self) -> list:
+        from taichi.lang._ndarray import Ndarray
+        return [k for k, v in vars(self).items() if isinstance(v, Ndarray) and k not in self._MODEL_ARRAYS]
+
+    def _save_last_good(self) -> None:
+        self._last_good = {"step_count": self.step_count,
+                           "arrays": {k: getattr(self, k).to_numpy() for k in self._state_array_names()}}
+
+    def restore_last_good(self) -> int:
+        """Roll the state back to the last one that passed :meth:`run`'s checks; returns its step.
+
+        After a :class:`SimulationError` raised inside :meth:`run`, this is the state at the
+        last check before the failure (at most one chunk of steps earlier); it can then be
+        inspected, rendered or saved.  RuntimeError if no run has recorded a state yet.
+        """
+        if self._last_good is None:
+            raise RuntimeError("restore_last_good: no good state recorded yet (run() records one at its start "
+                               "and after every check that passes)")
+        for k, saved in self._last_good["arrays"].items():
+            cur = getattr(self, k)
+            if tuple(cur.shape) != saved.shape[:len(cur.shape)]:
+                if saved.shape[0] < cur.shape[0]:          # the couple buffer has grown since: pad
+                    pad = np.zeros((cur.shape[0],) + saved.shape[1:], saved.dtype)
+                    pad[:saved.shape[0]] = saved
+                    saved = pad
+                else:
+                    raise RuntimeError(f"restore_last_good: array {k} shrank since the saved state")
+            cur.from_numpy(saved)
+        self.step_count = self._last_good["step_count"]
+        self._sync_detect_due()
+        return self.step_count
+
+    def _energy_scale(self, e: dict) -> float:
+        return (e["kinetic"] + abs(e["strain"]) + abs(e["contact"]) + e["damping"] + e["friction"]
+                + e["contact_damping"] + abs(e["boundary_work"]))
+
+    def _guard_start(self, check_energy, energy_tol, max_penetration, check_every, per_frame) -> dict:
+        energy_tol = float(energy_tol)
+        if not (math.isfinite(energy_tol) and energy_tol > 0):
+            raise ValueError(f"run: energy_tol must be a positive fraction, got {energy_tol}")
+        if max_penetration is not None:
+            max_penetration = float(max_penetration)
+            if not (math.isfinite(max_penetration) and max_penetration > 0):
+                raise ValueError(f"run: max_penetration must be a positive fraction of the element size or None, "
+                                 f"got {max_penetration}")
+        if check_every is None:
+            check_every = max(50, per_frame)
+        check_every = int(check_every)
+        if check_every < 1:
+            raise ValueError(f"run: check_every must be >= 1 step, got {check_every}")
+        g = {"energy": bool(check_energy), "tol": energy_tol, "pen": max_penetration if self.contact else None,
+             "every": check_every, "since": 0}
+        if g["energy"]:
+            e = self.energies()
+            g["e0"], g["scale"] = e["total"], self._energy_scale(e)
+            eps = 1e3 * float(np.finfo(self._real).eps)
+            g["floor"] = eps * (abs(e["total"]) + abs(e["gravity"]) + g["scale"])
+        self._save_last_good()
+        return g
+
+    def _guard_check(self, g: dict, steps: int, last: bool = False) -> None:
+        g["since"] += steps
+        if g["since"] < g["every"] and not last:
+            return
+        g["since"] = 0
+        limit_note = f"Time step {self.dt:.3g} s, estimated limit {self.dt_limit:.3g} s."
+        suggested = 0.5 * min(self.dt, self.dt_limit)
+        if g["energy"]:
+            e = self.energies()
+            total = e["total"]
+            if not math.isfinite(total):
+                raise SimulationError("the total energy is not finite", self.step_count, self.time, suggested,
+                                      detail=limit_note)
+            g["scale"] = max(g["scale"], self._energy_scale(e))
+            rise = total - g["e0"]
+            bound = g["tol"] * g["scale"] + g["floor"]
+            if rise > bound:
+                raise SimulationError(
+                    f"energy growth: the total energy rose by {rise:.4g} J since the start of the run, above the "
+                    f"bound {bound:.4g} J (energy_tol = {g['tol']:g} × the energy scale {g['scale']:.4g} J)",
+                    self.step_count, self.time, suggested, detail=limit_note)
+        if g["pen"] is not None and self.couple_count:
+            from .stability import max_couple_penetration
+            worst = max_couple_penetration(self)
+            if worst["fraction"] > g["pen"]:
+                ba, bb = (self.bodies[self._tri_body_np[t]].name for t in worst["triangles"])
+                raise SimulationError(
+                    f"penetration: triangles {worst['triangles'][0]} ({ba}) and {worst['triangles'][1]} ({bb}) "
+                    f"overlap {worst['depth']:.4g} m deep, {worst['fraction']:.3g} × their element size, above "
+                    f"max_penetration = {g['pen']:g}", self.step_count, self.time, suggested,
+                    detail=limit_note + " Raise the contact penalty, or lower the impact speed or the time step.")
+        self._save_last_good()
+
     def run(self, duration: float, video: str | None = None, fps: int = 30, frame_dt: float | None = None,
-            renderer=None, png_dir: str | None = None, progress: bool | None = None, callback=None) -> None:
+            renderer=None, png_dir: str | None = None, progress: bool | None = None, callback=None,
+            check_energy: bool = True, energy_tol: float = 0.1, max_penetration: float | None = 0.5,
+            check_every: int | None = None) -> None:
         """Advance by ``duration`` seconds of simulated time.
+
+        Every step the kernels stop on non-finite values, inverted elements and node speeds above
+        ``speed_limit``.  In addition, ``run`` checks after every chunk of steps (at least
+        ``check_every`` steps apart; default: every frame or chunk, but no closer than 50 steps):
+
+        * ``check_energy``: the total energy of :meth:`energies` (which books the work of
+          damping, friction and prescribed velocities) must not rise above its value at the start
+          of the run by more than ``energy_tol`` × the energy scale (the largest
+          kinetic + strain + contact + dissipated + |boundary work| seen so far);
+        * ``max_penetration``: no contact couple may overlap by more than this fraction of its
+          element size (overlap area / mean edge length, divided by the mean edge length;
+          :func:`taichi_fdem.stability.couple_penetrations`); None switches the check off.
+
+        A failed check raises :class:`SimulationError` (cause, step, time, suggested dt), like
+        the per-step checks.  The state of the last check that passed (or of the start of the
+        run) is kept: :meth:`restore_last_good` rolls back to it, e.g. to save it.
 
         Parameters
         ----------
@@ -495,10 +618,12 @@ class Simulation:
             if writer is not None:
                 draw()
             done = 0
+            guard = self._guard_start(check_energy, energy_tol, max_penetration, check_every, per_frame)
             while done < total:
                 k = min(per_frame, total - done)
                 self.step(k)
                 done += k
+                self._guard_check(guard, k, last=done >= total)
                 if writer is not None:
                     draw()
                 if callback is not None:
