@@ -439,12 +439,17 @@ class RunSettings:
             renderer = RendererImage(self.width, self.height, color_by=self.color_by)
             folder = os.path.dirname(os.path.abspath(self.video))
             os.makedirs(folder, exist_ok=True)
-        callback = None
+        exporter = None
         if self.vtu:
             from .export import ExporterVtu           # checked to exist by load()
-            callback = ExporterVtu(self.vtu, every=self.vtu_every).callback
-        sim.run(duration, video=self.video or None, fps=self.fps, frame_dt=self.frame_dt, renderer=renderer,
-                progress=progress, callback=callback)
+            exporter = ExporterVtu(self.vtu, every=self.vtu_every)
+            exporter.write(sim)                       # the initial state
+        try:
+            sim.run(duration, video=self.video or None, fps=self.fps, frame_dt=self.frame_dt, renderer=renderer,
+                    progress=progress, callback=exporter.callback if exporter is not None else None)
+        finally:
+            if exporter is not None:
+                exporter.close()
         if self.checkpoint:
             folder = os.path.dirname(os.path.abspath(self.checkpoint))
             os.makedirs(folder, exist_ok=True)
