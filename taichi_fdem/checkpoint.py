@@ -12,7 +12,8 @@ strategy): the file holds
   generically by walking ``vars(sim)``, nothing is listed by hand);
 * every NumPy array attribute (rest positions, connectivity, masses, ...);
 * every other plain attribute (step count, time step, strategy, feature flags, couple
-  capacity, counters ...), pickled;
+  capacity, counters ...), pickled, Taichi ndarrays inside tuples, lists and dicts (caches)
+  included as NumPy data;
 * the :class:`~taichi_fdem.scene.Scene` (meshes, materials, bodies, settings), pickled, with
   each ``fix_nodes`` predicate replaced by the node mask it selected, so that lambdas need not
   be picklable.
@@ -93,6 +94,41 @@ def _alloc(meta: dict):
     return ti.ndarray(dtype, shape=shape)
 
 
+class _PackedNdarray:
+    """A Taichi ndarray found inside a container attribute (tuple, list, dict), as NumPy data."""
+
+    def __init__(self, arr):
+        self.meta = _ndarray_meta(arr)
+        self.data = arr.to_numpy()
+
+    def unpack(self):
+        arr = _alloc(self.meta)
+        arr.from_numpy(np.ascontiguousarray(self.data))
+        return arr
+
+
+def _pack(value):
+    """``value`` with every Taichi ndarray inside (plain) tuples, lists and dicts replaced by a
+    picklable :class:`_PackedNdarray` (e.g. a cache of scratch buffers)."""
+    if isinstance(value, ti.Ndarray):
+        return _PackedNdarray(value)
+    if type(value) in (tuple, list):
+        return type(value)(_pack(v) for v in value)
+    if type(value) is dict:
+        return {k: _pack(v) for k, v in value.items()}
+    return value
+
+
+def _unpack(value):
+    if isinstance(value, _PackedNdarray):
+        return value.unpack()
+    if type(value) in (tuple, list):
+        return type(value)(_unpack(v) for v in value)
+    if type(value) is dict:
+        return {k: _unpack(v) for k, v in value.items()}
+    return value
+
+
 def _scene_bundle(sim) -> dict:
     """The scene of ``sim`` in a picklable form (a shallow copy; the user's scene is untouched)."""
     from .scene import _NodeConstraint
@@ -141,6 +177,7 @@ def save(sim, path) -> None:
             raise TypeError(f"Simulation.save: attribute {name!r} is a Taichi {type(value).__name__}; "
                             f"only Taichi ndarrays can be checkpointed")
         else:
+            value = _pack(value)
             try:
                 pickle.dumps(value)
             except Exception as exc:
@@ -271,5 +308,5 @@ def load(path):
         if key.startswith("np."):
             setattr(sim, key[3:], values)
     for name, value in plain.items():
-        setattr(sim, name, value)
+        setattr(sim, name, _unpack(value))
     return sim

@@ -205,3 +205,35 @@ def test_scene_pickle_is_plain_data(tmp_path):
     assert [b.name for b in scene.bodies] == ["floor", "block"]
     assert scene.bodies[1].material.damping == 0.05
     assert scene.node_count == sim.node_count and scene.tri_count == sim.tri_count
+
+
+def test_checkpoint_after_run_keeps_last_good_state(tmp_path):
+    """run() records a last good state; a checkpoint carries it, so restore_last_good works after load."""
+    a = block_on_floor()
+    a.run(100 * a.dt, progress=False)
+    a.step(30)
+    a.save(tmp_path / "r.ckpt")
+    b = fdem.Simulation.load(tmp_path / "r.ckpt")
+    assert b.step_count == a.step_count == 130
+    assert b.restore_last_good() == a.restore_last_good() == 100
+    np.testing.assert_array_equal(b.node_positions(), a.node_positions())
+    # the penetration check's scratch buffers (a tuple of Taichi ndarrays) came back as ndarrays
+    pen = b._pen_buffers
+    assert len(pen) == 2 and all(isinstance(x, ti.Ndarray) for x in pen)
+
+
+def test_ndarrays_inside_containers_are_stored(tmp_path):
+    a = block_on_floor()
+    scratch = ti.ndarray(ti.f64, shape=5)
+    scratch.from_numpy(np.arange(5.0))
+    a.my_cache = {"buffers": (scratch, [scratch]), "n": 3}
+    try:
+        a.save(tmp_path / "c.ckpt")
+    finally:
+        del a.my_cache
+    b = fdem.Simulation.load(tmp_path / "c.ckpt")
+    assert b.my_cache["n"] == 3
+    first, (second,) = b.my_cache["buffers"]
+    assert isinstance(first, ti.Ndarray) and isinstance(second, ti.Ndarray)
+    np.testing.assert_array_equal(first.to_numpy(), np.arange(5.0))
+    np.testing.assert_array_equal(second.to_numpy(), np.arange(5.0))
