@@ -75,7 +75,7 @@ def line_of(text, needle):
 
 # ------------------------------------------------------------------------------------------------
 def test_examples_load_and_build():
-    for name in ("two_disks", "pile_small"):
+    for name in ("two_disks", "pile_small", "sliding_block"):
         spec = scenefile.load(os.path.join(EXAMPLES, f"{name}.toml"))
         sim, settings = spec.build()
         assert sim.tri_count > 0 and settings.duration > 0

@@ -302,3 +302,32 @@ def test_dask_missing_scheduler_is_a_clear_error(tmp_path):
     sw = Sweep(base_block, axes={"material.friction": [0.2]}, metrics=block_metrics, duration=DURATION)
     with pytest.raises(SweepError, match=r"scheduler must be an address"):
         sw.run(output=str(tmp_path / "x.csv"), scheduler=12)
+
+
+def test_sweep_friction_demo_short(tmp_path):
+    """demos/sweep_friction.py --short: every point stops within 3 % of v0²/(2 μ g)."""
+    import importlib.util
+    import sys
+    demos = os.path.join(ROOT, "demos")
+    if demos not in sys.path:
+        sys.path.insert(0, demos)
+    spec = importlib.util.spec_from_file_location("demo_sweep_friction", os.path.join(demos, "sweep_friction.py"))
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    out = tmp_path / "sf.csv"
+    r = mod.main(["--short", "--out", str(out)])
+    assert r["passed"] is True and r["points"] == 4 and r["max_rel_error"] < 0.03
+    assert len(read_csv(out)) == 4
+    for row in r["results"]:
+        assert row["d_analytic"] == pytest.approx(1.0 / (2 * row["mu"] * 9.81))
+    try:
+        import matplotlib  # noqa: F401
+        assert os.path.getsize(r["png"]) > 0
+    except ImportError:
+        assert r["png"] is None
+
+
+def test_example_sweep_file_loads():
+    sw, opts = fsweep.load(os.path.join(ROOT, "examples", "sweep_friction.toml"))
+    assert len(sw) == 6 and opts["workers"] == 2 and opts["output"] == "out/sweep_friction_cli.csv"
+    assert sw.param_cols == ["materials.rock.friction", "materials.rock.penalty"]
