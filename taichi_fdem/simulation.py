@@ -458,7 +458,7 @@ class Simulation:
         "node_mass", "node_free", "tri_nodes", "tri_rest_inv", "tri_area0", "tri_mat", "tri_body", "body_flags",
         "mat_mu", "mat_lam", "tri_visc", "pair_prop", "ctri", "cen", "rad", "bucket_of", "slot", "bucket_count",
         "bucket_start", "sorted_k", "ccount", "cnew", "old_start", "old_b", "old_hist", "_energy_out",
-        "joint_nodes", "joint_tri", "joint_mat", "mat_joint"})
+        "joint_nodes", "joint_mat", "mat_joint"})
     _last_good = None
 
     def _state_array_names(self) -> list:
@@ -497,7 +497,7 @@ class Simulation:
         return (e["kinetic"] + abs(e["strain"]) + abs(e["contact"]) + e["damping"] + e["friction"]
                 + e["contact_damping"] + abs(e["boundary_work"]))
 
-    def _guard_start(self, check_energy, energy_tol, max_penetration, check_every, per_frame) -> dict:
+    def _guard_start(self, check_energy, energy_tol, max_penetration, check_every) -> dict:
         energy_tol = float(energy_tol)
         if not (math.isfinite(energy_tol) and energy_tol > 0):
             raise ValueError(f"run: energy_tol must be a positive fraction, got {energy_tol}")
@@ -506,13 +506,12 @@ class Simulation:
             if not (math.isfinite(max_penetration) and max_penetration > 0):
                 raise ValueError(f"run: max_penetration must be a positive fraction of the element size or None, "
                                  f"got {max_penetration}")
-        if check_every is None:
-            check_every = max(50, per_frame)
-        check_every = int(check_every)
+        auto = check_every is None
+        check_every = 50 if auto else int(check_every)
         if check_every < 1:
             raise ValueError(f"run: check_every must be >= 1 step, got {check_every}")
         g = {"energy": bool(check_energy), "tol": energy_tol, "pen": max_penetration if self.contact else None,
-             "every": check_every, "since": 0}
+             "every": check_every, "since": 0, "auto": auto, "step_wall": 0.0}
         if g["energy"]:
             e = self.energies()
             g["e0"], g["scale"] = e["total"], self._energy_scale(e)
@@ -526,6 +525,7 @@ class Simulation:
         if g["since"] < g["every"] and not last:
             return
         g["since"] = 0
+        t_check = _time.perf_counter()
         limit_note = f"Time step {self.dt:.3g} s, estimated limit {self.dt_limit:.3g} s."
         suggested = 0.5 * min(self.dt, self.dt_limit)
         if g["energy"]:
@@ -553,6 +553,10 @@ class Simulation:
                     f"max_penetration = {g['pen']:g}", self.step_count, self.time, suggested,
                     detail=limit_note + " Raise the contact penalty, or lower the impact speed or the time step.")
         self._save_last_good()
+        if g["auto"] and g["step_wall"] > 0:
+            # keep the checks near 10 % of the stepping time, but at least every 500 steps
+            cost = _time.perf_counter() - t_check
+            g["every"] = int(min(500, max(20, cost / (0.1 * g["step_wall"]))))
 
     def run(self, duration: float, video: str | None = None, fps: int = 30, frame_dt: float | None = None,
             renderer=None, png_dir: str | None = None, progress: bool | None = None, callback=None,
@@ -562,7 +566,8 @@ class Simulation:
 
         Every step the kernels stop on non-finite values, inverted elements and node speeds above
         ``speed_limit``.  In addition, ``run`` checks after every chunk of steps (at least
-        ``check_every`` steps apart; default: every frame or chunk, but no closer than 50 steps):
+        ``check_every`` steps; default: adaptive, as often as keeps the checks' cost near 10 % of
+        the stepping time, between every 20 and every 500 steps):
 
         * ``check_energy``: the total energy of :meth:`energies` (which books the work of
           damping, friction and prescribed velocities) must not rise above its value at the start
@@ -618,12 +623,17 @@ class Simulation:
             if writer is not None:
                 draw()
             done = 0
-            guard = self._guard_start(check_energy, energy_tol, max_penetration, check_every, per_frame)
+            guard = self._guard_start(check_energy, energy_tol, max_penetration, check_every)
             while done < total:
                 k = min(per_frame, total - done)
-                self.step(k)
-                done += k
-                self._guard_check(guard, k, last=done >= total)
+                while k > 0:                       # checks on their own schedule inside a frame
+                    j = min(k, max(1, guard["every"] - guard["since"]))
+                    t_step = _time.perf_counter()
+                    self.step(j)
+                    guard["step_wall"] = (_time.perf_counter() - t_step) / j
+                    k -= j
+                    done += j
+                    self._guard_check(guard, j, last=done >= total)
                 if writer is not None:
                     draw()
                 if callback is not None:
