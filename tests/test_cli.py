@@ -179,3 +179,19 @@ def test_console_script_process():
     assert p.returncode == 0 and "--duration" in p.stdout and "SCENE.toml" in p.stdout
     p = subprocess.run([sys.executable, "-m", "taichi_fdem.cli", "bogus"], capture_output=True, text=True)
     assert p.returncode == 2 and "invalid choice" in p.stderr
+
+
+def test_run_checkpoint(capsys, tmp_path):
+    import taichi_fdem as fdem
+    if not hasattr(fdem.Simulation, "save"):
+        (tmp_path / "s.toml").write_text(SLIDE + '\n[output]\ncheckpoint = "c.ckpt"\n')
+        code, out, err = run(capsys, "run", str(tmp_path / "s.toml"))
+        assert code == 2 and "need Simulation.save" in err
+        return
+    ck = tmp_path / "ck" / "s.ckpt"
+    (tmp_path / "s.toml").write_text(SLIDE + f'\n[output]\ncheckpoint = "{ck.as_posix()}"\n')
+    code, out, err = run(capsys, "run", str(tmp_path / "s.toml"), "--no-progress")
+    assert code == 0, err
+    assert f"wrote checkpoint: {ck.as_posix()}" in out
+    sim = fdem.Simulation.load(str(ck))
+    assert sim.time == pytest.approx(0.005, abs=sim.dt) and [b.name for b in sim.bodies] == ["floor", "block"]
