@@ -55,9 +55,14 @@ def bin_circle(k, cen: ti.template(), det_real: ti.template(), bucket_of: ti.tem
 
 @ti.func
 def is_excluded(ta, tb, tri_nodes: ti.template(), tri_body: ti.template(), body_flags: ti.template()):
-    """Couples only between triangles that may touch (§2.3.3, issue #2).
+    """Couples only between triangles that may touch (§2.3.3).
 
     body_flags[b] bit 0: self-contact allowed; bit 1: every node of the body is fixed.
+    Triangles joined by an intact joint (fracture) stay couples, as in Y2D (§7.10): in
+    compression the joint law and contact act together, so when a joint breaks the contact
+    force is already there and no energy appears.  Excluding them (the faster choice) made a
+    compressed joint's overlap turn into contact energy from nothing at breakage: +33 % of the
+    projectile's energy in a measured plate impact.
     """
     ba = tri_body[ta]
     bb = tri_body[tb]

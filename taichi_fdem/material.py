@@ -40,6 +40,18 @@ class Material:
     contact_damping : normal contact damping ratio ξ in [0, 1] (FDEM_SPEC §5.2),
         c_n = 4 ξ √(p ρ).  Default 0 (elastic contact).
     name : free label.
+
+    Fracture (cohesive joints between triangles, FDEM_SPEC §7; used by bodies added with
+    ``fracture=True``):
+
+    tensile_strength : f_t [Pa], > 0.
+    cohesion : c [Pa] of the Mohr–Coulomb shear strength (default: f_t).
+    friction_angle : internal friction angle φ_i [degrees] (default 30).
+    fracture_energy : G_I, mode I fracture energy [J/m²], > 0.
+    fracture_energy_shear : G_II, mode II fracture energy [J/m²] (default: 5 × G_I).
+    joint_penalty : p_f [Pa] (default ``10 · young``).  Intact joints add compliance L/p_f next
+        to the element's h/E, so the effective modulus is about E/(1 + E/p_f): ~9 % softer at
+        the default; a warning is given below 10·E.
     """
 
     density: float = 2700.0
@@ -51,15 +63,27 @@ class Material:
     tangential_penalty: float | None = None
     contact_damping: float = 0.0
     name: str = ""
+    tensile_strength: float | None = None
+    cohesion: float | None = None
+    friction_angle: float = 30.0
+    fracture_energy: float | None = None
+    fracture_energy_shear: float | None = None
+    joint_penalty: float | None = None
 
     def __post_init__(self):
         where = f"Material{'(' + repr(self.name) + ')' if self.name else ''}"
         for key in ("density", "young", "poisson", "friction", "damping", "contact_damping"):
             object.__setattr__(self, key, check_finite(key, getattr(self, key), where))
-        for key in ("penalty", "tangential_penalty"):
+        for key in ("penalty", "tangential_penalty", "tensile_strength", "cohesion", "fracture_energy",
+                    "fracture_energy_shear", "joint_penalty"):
             v = getattr(self, key)
             if v is not None:
                 object.__setattr__(self, key, check_finite(key, v, where))
+                if getattr(self, key) <= 0:
+                    raise ValueError(f"{where}: {key} must be > 0, got {v}")
+        object.__setattr__(self, "friction_angle", check_finite("friction_angle", self.friction_angle, where))
+        if not 0.0 <= self.friction_angle < 90.0:
+            raise ValueError(f"{where}: friction_angle must be in [0, 90) degrees, got {self.friction_angle}")
         if self.density <= 0:
             raise ValueError(f"{where}: density must be > 0 kg/m³, got {self.density}")
         if self.young <= 0:
@@ -112,6 +136,23 @@ class Material:
         if plane == "stress":
             return math.sqrt(E / (rho * (1.0 - nu * nu)))
         return math.sqrt(E * (1.0 - nu) / (rho * (1.0 + nu) * (1.0 - 2.0 * nu)))
+
+    @property
+    def can_fracture(self) -> bool:
+        """True when the fracture parameters (tensile_strength, fracture_energy) are set."""
+        return self.tensile_strength is not None and self.fracture_energy is not None
+
+    def joint_properties(self) -> tuple:
+        """(f_t [Pa], c [Pa], tan φ_i, G_I [J/m²], G_II [J/m²], p_f [Pa]) of the joints."""
+        if not self.can_fracture:
+            raise ValueError(f"Material{'(' + repr(self.name) + ')' if self.name else ''}: a fracturing body "
+                             "needs tensile_strength [Pa] and fracture_energy [J/m²]")
+        ft = self.tensile_strength
+        c = self.cohesion if self.cohesion is not None else ft
+        gi = self.fracture_energy
+        gii = self.fracture_energy_shear if self.fracture_energy_shear is not None else 5.0 * gi
+        pf = self.joint_penalty if self.joint_penalty is not None else 10.0 * self.young
+        return ft, c, math.tan(math.radians(self.friction_angle)), gi, gii, pf
 
     def with_(self, **changes) -> "Material":
         """A copy with some parameters changed (validated again)."""

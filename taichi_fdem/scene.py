@@ -47,6 +47,9 @@ class Body:
     self_contact: bool = False
     node_start: int = 0
     tri_start: int = 0
+    fracture: bool = False
+    joint_nodes: Optional[np.ndarray] = None   # (k, 4) local node indices (j0, j1, j2, j3), §7.1
+    joint_tris: Optional[np.ndarray] = None    # (k, 2) local triangles (A, B) of each joint
 
     @property
     def nodes(self) -> slice:
@@ -59,6 +62,37 @@ class Body:
     def __repr__(self):
         return (f"Body({self.index}, {self.name!r}, nodes={self.mesh.point_count}, "
                 f"triangles={self.mesh.triangle_count}{', fixed' if self.fixed else ''})")
+
+
+def explode_for_fracture(mesh: TriMesh):
+    """Private nodes per triangle and a 4-node joint on every interior edge (FDEM_SPEC §7.1).
+
+    Returns (exploded mesh, joint_nodes (k, 4), joint_tris (k, 2)): triangle t of the exploded
+    mesh has nodes 3t, 3t+1, 3t+2 (copies of the original, same order); for an interior edge
+    u→v of triangle A (its counter-clockwise order) shared with B, the joint is
+    (A's u, A's v, B's v, B's u).
+    """
+    tri = mesh.triangles.astype(np.int64)
+    m = len(tri)
+    points = mesh.points[tri].reshape(-1, 2)
+    exploded = TriMesh(points, np.arange(3 * m, dtype=np.int64).reshape(m, 3))
+    t = np.repeat(np.arange(m), 3)
+    k = np.tile(np.arange(3), m)
+    u = tri[t, k]
+    v = tri[t, (k + 1) % 3]
+    key = np.minimum(u, v) * (tri.max() + 1) + np.maximum(u, v)
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    first = np.nonzero(ks[:-1] == ks[1:])[0]        # interior edges: two consecutive entries
+    ia, ib = order[first], order[first + 1]
+    tA, kA, tB, kB = t[ia], k[ia], t[ib], k[ib]
+    j0 = 3 * tA + kA
+    j1 = 3 * tA + (kA + 1) % 3
+    j2 = 3 * tB + kB                                 # B runs v→u: its local k_B is v
+    j3 = 3 * tB + (kB + 1) % 3
+    joint_nodes = np.stack([j0, j1, j2, j3], axis=1).astype(np.int32)
+    joint_tris = np.stack([tA, tB], axis=1).astype(np.int32)
+    return exploded, joint_nodes, joint_tris
 
 
 @dataclass
@@ -96,7 +130,8 @@ class Scene:
     # ------------------------------------------------------------------------------------------
     def add_body(self, mesh: TriMesh, material: Material, position=None, velocity=(0.0, 0.0),
                  angular_velocity: float = 0.0, rotation: float = 0.0, fixed: bool = False,
-                 prescribed_velocity=None, self_contact: bool = False, name: str | None = None) -> Body:
+                 prescribed_velocity=None, self_contact: bool = False, fracture: bool = False,
+                 name: str | None = None) -> Body:
         """Add a deformable body.
 
         Parameters
@@ -109,6 +144,9 @@ class Scene:
         fixed : every node held at zero velocity (walls, floors).
         prescribed_velocity : (v_x, v_y) [m/s]: every node moves at this velocity (platens).
         self_contact : let the body's own non-adjacent triangles contact each other (folding).
+        fracture : the body may crack: every triangle gets private nodes and every interior edge
+            a cohesive joint (FDEM_SPEC §7.1); needs ``material.tensile_strength`` and
+            ``material.fracture_energy``.  Implies self-contact (fragments touch each other).
         """
         where = f"Scene.add_body({name or 'body ' + str(len(self.bodies))})"
         if not isinstance(mesh, TriMesh):
@@ -127,10 +165,16 @@ class Scene:
             if fixed:
                 raise ValueError(f"{where}: give either fixed=True or prescribed_velocity, not both")
             pv = _vec2(prescribed_velocity, "prescribed_velocity", where)
+        joint_nodes = joint_tris = None
+        if fracture:
+            material.joint_properties()            # validates the fracture parameters early
+            mesh, joint_nodes, joint_tris = explode_for_fracture(mesh)
+            self_contact = True
         body = Body(index=len(self.bodies), name=name or f"body{len(self.bodies)}", mesh=mesh,
                     material=material, velocity=v, angular_velocity=w, fixed=bool(fixed),
                     prescribed_velocity=pv, self_contact=bool(self_contact),
-                    node_start=self._node_count, tri_start=self._tri_count)
+                    node_start=self._node_count, tri_start=self._tri_count, fracture=bool(fracture),
+                    joint_nodes=joint_nodes, joint_tris=joint_tris)
         self.bodies.append(body)
         self._node_count += mesh.point_count
         self._tri_count += mesh.triangle_count

@@ -13,7 +13,7 @@ import taichi as ti
 from . import backend, slots, stepping
 from .diagnostics import energy_terms, overlap_areas
 from .slots import (A_BOUNDARY, A_CDAMPING, A_FRICTION, I_COUPLES, I_DETECTIONS, I_FOUND, I_INVERTED,
-                       I_NONFINITE, I_OVERFLOW, I_SPEED, R_BUFFER, R_DACC, R_DT, R_GX, R_GY, R_VLIMIT, R_VMAX)
+                       I_NONFINITE, I_OVERFLOW, I_SPEED, I_BROKEN, R_BIG, R_BUFFER, R_DACC, R_DT, R_GX, R_GY, R_VLIMIT, R_VMAX)
 
 # Execution strategy.  Measured on the 2-core CPU (benchmarks/pile.py): the serial many-step
 # kernel beats one-launch-per-step parallel loops at every size from 1k to 300k triangles,
@@ -163,6 +163,40 @@ class Simulation:
                 xi = ov.get("contact_damping", xi)
                 pair[i, j] = (p, kt, mu, 4.0 * xi * math.sqrt(p * min(a.density, b.density)))
 
+        # ---- joints of fracturing bodies (FDEM_SPEC §7) -----------------------------------------------
+        jn, jt, jm = [], [], []
+        for b in self.bodies:
+            if b.fracture and len(b.joint_nodes):
+                jn.append(b.joint_nodes + b.node_start)
+                jt.append(b.joint_tris + b.tri_start)
+                jm.append(np.full(len(b.joint_nodes), mat_index[id(b.material)], np.int32))
+        self.fracture = bool(jn)
+        joint_nodes = np.concatenate(jn).astype(np.int32) if jn else np.zeros((1, 4), np.int32)
+        joint_tris = np.concatenate(jt).astype(np.int32) if jt else np.zeros((1, 2), np.int32)
+        joint_mat = np.concatenate(jm) if jm else np.zeros(1, np.int32)
+        self.joint_count = len(joint_nodes) if self.fracture else 0
+        self._joint_tris_np = joint_tris[: self.joint_count]
+        mat_joint = np.zeros((M, 6))
+        for i, mat in enumerate(materials):
+            if mat.can_fracture:
+                mat_joint[i] = mat.joint_properties()
+        joint_len = np.linalg.norm(X[joint_nodes[:, 1]] - X[joint_nodes[:, 0]], axis=1)
+        if self.fracture:
+            for i in np.unique(joint_mat):
+                mat = materials[i]
+                ft, c, tanphi, gI, gII, pf = mat_joint[i]
+                Lj = joint_len[joint_mat == i]
+                if pf < 10.0 * mat.young:
+                    warnings.warn(f"material {mat.name or i}: joint_penalty = {pf / mat.young:.3g}·E; intact joints "
+                                  f"make a jointed body about {100 * mat.young / pf:.0f} % softer than E "
+                                  "(FDEM_SPEC §7.9: use ≥ 10·E)", RuntimeWarning, stacklevel=4)
+                dp_max = 2.0 * Lj.max() * ft / pf
+                if dp_max > 0.2 * 3.0 * gI / ft:
+                    warnings.warn(f"material {mat.name or i}: the opening at peak δ_p = 2 L f_t/p_f = {dp_max:.3g} m "
+                                  f"is not small against the softening span 3 G_I/f_t = {3 * gI / ft:.3g} m; "
+                                  "the pre-peak branch will dominate the fracture energy (raise joint_penalty or "
+                                  "G_I, FDEM_SPEC §7.9)", RuntimeWarning, stacklevel=4)
+
         # ---- contact participation -------------------------------------------------------------
         self.contact = len(self.bodies) >= 2 or any(b.self_contact for b in self.bodies)
         ctri = []
@@ -185,6 +219,7 @@ class Simulation:
 
         # ---- stable time step (FDEM_SPEC §6.2) ----------------------------------------------------
         moving = ~np.all(free[tris].reshape(len(tris), 6) == 0.0, axis=1)
+        rho_all = np.array([m.density for m in materials])
         cp = np.array([m.p_wave_speed(scene.plane) for m in materials])[tri_mat]
         beta_t = betas[tri_mat]
         damp_factor = np.sqrt(1.0 + beta_t ** 2) - beta_t
@@ -195,8 +230,13 @@ class Simulation:
             rho_min = min(m.density for m in materials)
             xi_max = used_pairs[..., 3].max() / (4.0 * math.sqrt(pmax * rho_min)) if self.contact_damping else 0.0
             dt_c = altitude[ctri].min() * math.sqrt(rho_min / pmax) * (math.sqrt(1 + xi_max ** 2) - xi_max)
+        dt_j = np.inf
+        if self.fracture:
+            pf_j = mat_joint[joint_mat, 5]
+            dt_j = float(np.min(joint_len * np.sqrt(rho_all[joint_mat] / pf_j)))
+        self.dt_joint = float(dt_j)
         self.dt_elastic, self.dt_contact = float(dt_el), float(dt_c)
-        self.dt_limit = float(min(dt_el, dt_c))
+        self.dt_limit = float(min(dt_el, dt_c, dt_j))
         if not math.isfinite(self.dt_limit):
             self.dt_limit = 1e-3   # nothing moves: any step is stable
         if dt is None:
@@ -208,7 +248,7 @@ class Simulation:
             if dt > self.dt_limit and not force_dt:
                 raise ValueError(
                     f"Scene.build: dt = {dt:.4g} s is above the estimated stable limit {self.dt_limit:.4g} s "
-                    f"(elements {self.dt_elastic:.4g} s, contact {self.dt_contact:.4g} s); use dt <= "
+                    f"(elements {self.dt_elastic:.4g} s, contact {self.dt_contact:.4g} s, joints {self.dt_joint:.4g} s); use dt <= "
                     f"{safety * self.dt_limit:.4g} s, or force_dt=True to run it anyway")
         self.dt = dt
 
@@ -262,7 +302,19 @@ class Simulation:
         if not (self.speed_limit > 0):
             raise ValueError(f"Scene.build: speed_limit must be > 0 m/s, got {speed_limit}")
         sim_real[R_VLIMIT] = self.speed_limit
+        sim_real[R_BIG] = 1e30
         self.sim_real = sc(sim_real)
+        # joints (dummies of size 1 without fracture)
+        self.joint_nodes = _ndarray(joint_nodes, ti.i32, vec=4)
+        self.joint_mat = sc(joint_mat, np.int32)
+        self.joint_state = sc(np.zeros(len(joint_nodes), np.int32), np.int32)
+        self.joint_dmax = v3r = _ndarray(np.zeros((len(joint_nodes), 3), real), rti, vec=3)
+        self.joint_fs = _ndarray(np.repeat(mat_joint[joint_mat, 1:2], 3, axis=1).astype(real), rti, vec=3)
+        self.joint_work = sc(np.zeros(len(joint_nodes)))
+        self.joint_break = _ndarray(np.zeros((len(joint_nodes), 3), real), rti, vec=3)
+        self.joint_mode = sc(np.zeros(len(joint_nodes), np.int32), np.int32)
+        self.mat_joint = _ndarray(mat_joint.astype(real), rti, vec=6)
+        self.joint_g = _ndarray(np.zeros((len(joint_nodes), 4), real), rti, vec=4)
         self.sim_int = sc(np.zeros(slots.INT_SLOTS, np.int32), np.int32)
         K = len(ctri) if self.contact else 1
         self.ctri_count = K if self.contact else 0
@@ -374,7 +426,12 @@ class Simulation:
         return int(self.sim_int.to_numpy()[I_DETECTIONS])
 
     def _flags(self):
-        return (self.contact, self.damping, self.friction, self.contact_damping, self.has_bc, self.has_bc_work)
+        return (self.contact, self.damping, self.friction, self.contact_damping, self.has_bc, self.has_bc_work,
+                self.fracture)
+
+    def _joint_args(self):
+        return (self.joint_nodes, self.joint_mat, self.joint_state, self.joint_dmax, self.joint_fs, self.joint_work,
+                self.joint_break, self.joint_mode, self.mat_joint, self.joint_g)
 
     def step(self, n: int = 1) -> None:
         """Advance ``n`` time steps."""
@@ -402,7 +459,7 @@ class Simulation:
                                 self.node_mass, self.node_free, self.node_vbc, self.tri_nodes, self.tri_rest_inv,
                                 self.tri_mat, self.mat_mu, self.mat_lam, self.tri_visc, self.tri_diss,
                                 self.couple_a, self.couple_b, self.pair_prop, self.couple_hist, self.acc,
-                                self.sim_real, self.sim_int, *flags)
+                                self.sim_real, self.sim_int, *self._joint_args(), *flags)
             self.step_count += 1
             self._detect_due = bool(code & 1)
             if code & 2:
@@ -422,7 +479,7 @@ class Simulation:
                                 self.bucket_of, self.slot, self.bucket_count, self.bucket_start, self.sorted_k,
                                 self.ccount, self.cnew, self.cstart, self.couple_a, self.couple_b,
                                 self.couple_hist, self.old_start, self.old_b, self.old_hist, self.pair_prop,
-                                self.acc, self.sim_real, self.sim_int, *flags)
+                                self.acc, self.sim_real, self.sim_int, *self._joint_args(), *flags)
             self.step_count += done
             n -= done
             if done < chunk:
@@ -647,12 +704,17 @@ class Simulation:
         Shape (n, 2), multiplied by the thickness.  Gravity is not included.  The state is left
         untouched: the friction slip history and the dissipation accumulators are restored.
         """
-        saved = (self.couple_hist.to_numpy(), self.acc.to_numpy(), self.tri_diss.to_numpy())
+        keep = [self.couple_hist, self.acc, self.tri_diss, self.sim_real, self.sim_int, self.joint_state,
+                self.joint_dmax, self.joint_fs, self.joint_work, self.joint_break, self.joint_mode, self.joint_g]
+        saved = [a.to_numpy() for a in keep]
         self.node_f.fill(0)
         if not contact_only:
             self._launch("eval_elastic", stepping.eval_elastic, self.node_x, self.node_v, self.node_f,
                          self.tri_nodes, self.tri_rest_inv, self.tri_mat, self.mat_mu, self.mat_lam,
                          self.tri_visc, self.tri_diss, self.sim_real, self.sim_int, self.damping)
+            if self.fracture:
+                self._launch("eval_joints", stepping.eval_joints, *self._joint_args(), self.node_x, self.node_v,
+                             self.node_f, self.sim_real, self.sim_int)
         if self.contact:
             self._launch("eval_contact", stepping.eval_contact, self.couple_a, self.couple_b, self.node_x,
                          self.node_v, self.node_f, self.tri_nodes, self.tri_mat, self.pair_prop,
@@ -660,9 +722,8 @@ class Simulation:
                          self.contact_damping)
         f = self.node_f.to_numpy().astype(np.float64) * self.thickness
         self.node_f.fill(0)
-        self.couple_hist.from_numpy(saved[0])
-        self.acc.from_numpy(saved[1])
-        self.tri_diss.from_numpy(saved[2])
+        for a, v in zip(keep, saved):
+            a.from_numpy(v)
         return f
 
     def profile(self, steps: int = 100) -> dict:
@@ -672,7 +733,7 @@ class Simulation:
         seconds spent in each phase (the state advances exactly as with :meth:`step`).
         """
         flags = self._flags()
-        t = {"elastic": 0.0, "detection": 0.0, "contact": 0.0, "integration": 0.0}
+        t = {"elastic": 0.0, "joints": 0.0, "detection": 0.0, "contact": 0.0, "integration": 0.0}
         pc = _time.perf_counter
         self._sync_detect_due()
         for _ in range(int(steps)):
@@ -683,6 +744,10 @@ class Simulation:
                                   self.tri_mat, self.mat_mu, self.mat_lam, self.tri_visc, self.tri_diss,
                                   self.sim_real, self.sim_int, self.damping)
             t1 = pc(); t["elastic"] += t1 - t0
+            if self.fracture:
+                stepping.eval_joints(*self._joint_args(), self.node_x, self.node_v, self.node_f, self.sim_real,
+                                     self.sim_int)
+                t0, t1 = t1, pc(); t["joints"] += t1 - t0
             if self.contact:
                 stepping.eval_contact(self.couple_a, self.couple_b, self.node_x, self.node_v, self.node_f,
                                       self.tri_nodes, self.tri_mat, self.pair_prop, self.couple_hist, self.acc,
@@ -690,6 +755,8 @@ class Simulation:
             t2 = pc(); t["contact"] += t2 - t1
             code = stepping.integrate(self.node_x, self.node_v, self.node_f, self.node_mass, self.node_free,
                                       self.node_vbc, self.acc, self.sim_real, self.sim_int, flags[4], flags[5])
+            if self.fracture:
+                stepping.book_joint_work(self.joint_nodes, self.joint_g, self.joint_work, self.node_v, self.sim_real)
             t["integration"] += pc() - t2
             self.step_count += 1
             self._detect_due = bool(code & 1)
@@ -757,9 +824,11 @@ class Simulation:
 
         kinetic, strain, contact (penalty potential p∫(φ_c + φ_t)dA plus friction springs),
         gravity (−Σ m g·x), damping / friction / contact_damping (work dissipated so far),
-        boundary_work (work done on the system by prescribed velocities) and
-        total = kinetic + strain + contact + gravity + dissipated − boundary_work, which is
-        conserved up to the time-discretisation error.
+        boundary_work (work done on the system by prescribed velocities), joints (work done on
+        intact joints: stored elastically, plus any damage so far) and fracture (work done on
+        joints that have broken: dissipated in cracking), and
+        total = kinetic + strain + contact + gravity + joints + dissipated − boundary_work, which
+        is conserved up to the time-discretisation error.
         """
         energy_terms(self.node_x, self.node_v, self.node_mass, self.tri_nodes, self.tri_rest_inv, self.tri_area0,
                      self.tri_mat, self.mat_mu, self.mat_lam, self.tri_diss if self.damping else self.tri_area0,
@@ -772,9 +841,86 @@ class Simulation:
         e = {"kinetic": out[0] * t, "strain": out[1] * t, "contact": out[2] * t, "gravity": out[3] * t,
              "damping": (out[4] if self.damping else 0.0) * t, "friction": acc[A_FRICTION] * t,
              "contact_damping": acc[A_CDAMPING] * t, "boundary_work": acc[A_BOUNDARY] * t}
-        e["total"] = (e["kinetic"] + e["strain"] + e["contact"] + e["gravity"] + e["damping"] + e["friction"]
-                      + e["contact_damping"] - e["boundary_work"])
+        e["joints"] = e["fracture"] = 0.0
+        if self.fracture:
+            work = self.joint_work.to_numpy().astype(np.float64)
+            broken = self.joint_state.to_numpy() != 0
+            e["joints"] = float(work[~broken].sum()) * t
+            e["fracture"] = float(work[broken].sum()) * t
+        e["total"] = (e["kinetic"] + e["strain"] + e["contact"] + e["gravity"] + e["joints"] + e["damping"]
+                      + e["friction"] + e["contact_damping"] + e["fracture"] - e["boundary_work"])
         return e
+
+    # ------------------------------------------------------------------------------------------
+    # fracture results
+    # ------------------------------------------------------------------------------------------
+    @property
+    def broken_joint_count(self) -> int:
+        """Number of joints broken so far."""
+        return int(self.sim_int.to_numpy()[I_BROKEN]) if self.fracture else 0
+
+    def broken_joints(self) -> dict:
+        """The joints broken so far (FDEM_SPEC §7.8).
+
+        Returns {"index": (k,) joint indices, "position": (k, 2) mean of the joint's 4 nodes at
+        breakage [m], "time": (k,) [s], "mode": (k,) "I", "II", "I+II" or "mixed"}, in time order.
+        """
+        from .joints import MODE_NAMES
+        if not self.fracture:
+            return {"index": np.zeros(0, int), "position": np.zeros((0, 2)), "time": np.zeros(0),
+                    "mode": np.zeros(0, dtype=object)}
+        state = self.joint_state.to_numpy()
+        idx = np.nonzero(state)[0]
+        brk = self.joint_break.to_numpy().astype(np.float64)[idx]
+        order = np.argsort(brk[:, 0], kind="stable")
+        idx, brk = idx[order], brk[order]
+        modes = self.joint_mode.to_numpy()[idx]
+        return {"index": idx, "position": brk[:, 1:3], "time": brk[:, 0],
+                "mode": np.array([MODE_NAMES.get(int(m), "?") for m in modes], dtype=object)}
+
+    def joint_damage(self) -> np.ndarray:
+        """Damage of each joint in [0, 1]: the largest stored D of its points, 1 when broken."""
+        if not self.fracture:
+            return np.zeros(0)
+        d = self.joint_dmax.to_numpy().astype(np.float64).max(axis=1)
+        d[self.joint_state.to_numpy() != 0] = 1.0
+        return d[: self.joint_count]
+
+    def tri_damage(self) -> np.ndarray:
+        """Damage per triangle (m,): the largest damage of its joints (0 for bodies without joints)."""
+        out = np.zeros(self.tri_count)
+        if self.fracture:
+            d = self.joint_damage()
+            jt = self._joint_tris_np
+            np.maximum.at(out, jt[:, 0], d)
+            np.maximum.at(out, jt[:, 1], d)
+        return out
+
+    def fragment_count(self, body=None) -> int:
+        """Number of fragments: triangles connected through intact joints (FDEM_SPEC §7.10).
+
+        A body without fracture counts as one fragment.  With ``body``, only that body's.
+        """
+        labels = np.arange(self.tri_count)
+        for b in self.bodies:
+            if not b.fracture:
+                labels[b.triangles] = b.tri_start
+        if self.fracture:
+            intact = self.joint_state.to_numpy()[: self.joint_count] == 0
+            a, c = self._joint_tris_np[intact, 0], self._joint_tris_np[intact, 1]
+            while True:                      # min-label propagation with pointer jumping
+                lo = np.minimum(labels[a], labels[c])
+                new = labels.copy()
+                np.minimum.at(new, a, lo)
+                np.minimum.at(new, c, lo)
+                new = new[new]
+                if np.array_equal(new, labels):
+                    break
+                labels = new
+        if body is not None:
+            b = self.bodies[body] if isinstance(body, int) else body
+            labels = labels[b.triangles]
+        return int(len(np.unique(labels)))
 
     def couples(self) -> np.ndarray:
         """Current couple list as (c, 2) triangle indices (first < second in detection order)."""
@@ -788,6 +934,7 @@ class Simulation:
                 "dt_limit": self.dt_limit, "dt_elastic": self.dt_elastic, "dt_contact": self.dt_contact,
                 "strategy": self.strategy, "contact": self.contact, "friction": self.friction,
                 "damping": self.damping, "contact_damping": self.contact_damping, "buffer": self.buffer,
+                "fracture": self.fracture, "joints": self.joint_count, "dt_joint": self.dt_joint,
                 "precision": backend.precision()}
 
     # ------------------------------------------------------------------------------------------

@@ -13,6 +13,8 @@ R_RMAX = 5      # largest bounding-circle radius at the last detection [m]
 R_CELL = 6      # grid cell size at the last detection [m]
 R_VMAX = 7      # largest node speed of the last step [m/s]
 R_VLIMIT = 8    # a node speed above this is taken as a sign of instability [m/s]
+R_TIME = 9      # simulated time [s] (kept by the kernels; the host uses step_count·Δt)
+R_BIG = 10      # a huge number (forces re-detection when stored in R_DACC)
 REAL_SLOTS = 12
 
 # sim_int
@@ -23,6 +25,7 @@ I_INVERTED = 4      # 1 + a triangle with non-positive area (0: none)
 I_OVERFLOW = 5      # couples needed when the buffer was too small (0: no overflow)
 I_DETECTIONS = 6    # detections run
 I_SPEED = 7         # 1 when a node speed exceeded sim_real[R_VLIMIT]
+I_BROKEN = 8        # joints broken so far
 INT_SLOTS = 12
 
 # acc

@@ -18,10 +18,11 @@ from ._tiutil import mat2_cols, mat32_rows, vec2, vec3
 from .contact import eval_couple
 from .detection import bin_circle, prepare_circle, scan_partners
 from .elastic import eval_tri_elastic
+from .joints import add_joint_work, eval_joint
 
 
 from .slots import *  # noqa: F401,F403  (slot indices shared with the host)
-from .slots import (A_BOUNDARY, I_COUPLES, I_DETECTIONS, I_FOUND, I_INVERTED, I_NONFINITE, I_OVERFLOW,
+from .slots import (A_BOUNDARY, R_TIME, I_COUPLES, I_DETECTIONS, I_FOUND, I_INVERTED, I_NONFINITE, I_OVERFLOW,
                     I_SPEED, R_BUFFER, R_CELL, R_DACC, R_DT, R_GX, R_GY, R_RMAX, R_VLIMIT, R_VMAX)
 
 CHUNK = 256   # nodes per chunk in reductions (one atomic per chunk, not per node)
@@ -101,6 +102,24 @@ def phase_elastic(node_x: ti.template(), node_v: ti.template(), node_f: ti.templ
 
 
 @ti.func
+def phase_joints(joint_nodes: ti.template(), joint_mat: ti.template(), joint_state: ti.template(),
+                 joint_dmax: ti.template(), joint_fs: ti.template(), joint_work: ti.template(),
+                 joint_break: ti.template(), joint_mode: ti.template(), mat_joint: ti.template(),
+                 joint_g: ti.template(), node_x: ti.template(), node_v: ti.template(), node_f: ti.template(),
+                 sim_real: ti.template(), sim_int: ti.template()):
+    for j in range(joint_nodes.shape[0]):
+        eval_joint(j, joint_nodes, joint_mat, joint_state, joint_dmax, joint_fs, joint_work, joint_break,
+                   joint_mode, mat_joint, joint_g, node_x, node_v, node_f, sim_real, sim_int)
+
+
+@ti.func
+def phase_joint_work(joint_nodes: ti.template(), joint_g: ti.template(), joint_work: ti.template(),
+                     node_v: ti.template(), sim_real: ti.template()):
+    for j in range(joint_nodes.shape[0]):
+        add_joint_work(j, joint_nodes, joint_g, joint_work, node_v, sim_real)
+
+
+@ti.func
 def phase_contact(couple_a: ti.template(), couple_b: ti.template(), node_x: ti.template(), node_v: ti.template(), node_f: ti.template(), tri_nodes: ti.template(), tri_mat: ti.template(), pair_prop: ti.template(), couple_hist: ti.template(),
                   acc: ti.template(), sim_real: ti.template(), sim_int: ti.template(), friction: ti.template(), cdamping: ti.template()):
     dt = sim_real[R_DT]
@@ -148,6 +167,7 @@ def phase_integrate(node_x: ti.template(), node_v: ti.template(), node_f: ti.tem
     for _ in range(1):
         # re-detection trigger D_acc += 2 Δt v_max (§4.1)
         sim_real[R_DACC] += 2.0 * dt * sim_real[R_VMAX]
+        sim_real[R_TIME] += dt
         if sim_real[R_VMAX] > sim_real[R_VLIMIT]:
             sim_int[I_SPEED] = 1
 
@@ -201,15 +221,25 @@ def step_parallel(node_x: ti.types.ndarray(), node_v: ti.types.ndarray(), node_f
                   tri_diss: ti.types.ndarray(), couple_a: ti.types.ndarray(), couple_b: ti.types.ndarray(),
                   pair_prop: ti.types.ndarray(), couple_hist: ti.types.ndarray(), acc: ti.types.ndarray(),
                   sim_real: ti.types.ndarray(), sim_int: ti.types.ndarray(),
+                  joint_nodes: ti.types.ndarray(), joint_mat: ti.types.ndarray(), joint_state: ti.types.ndarray(), joint_dmax: ti.types.ndarray(),
+                  joint_fs: ti.types.ndarray(), joint_work: ti.types.ndarray(), joint_break: ti.types.ndarray(), joint_mode: ti.types.ndarray(),
+                  mat_joint: ti.types.ndarray(),
+                  joint_g: ti.types.ndarray(),
                   contact: ti.template(), damping: ti.template(), friction: ti.template(),
-                  cdamping: ti.template(), bc: ti.template(), bc_work: ti.template()) -> ti.i32:
+                  cdamping: ti.template(), bc: ti.template(), bc_work: ti.template(),
+                  fracture: ti.template()) -> ti.i32:
     """One step, each phase a parallel loop.  Returns :func:`status_code`."""
     phase_elastic(node_x, node_v, node_f, tri_nodes, tri_rest_inv, tri_mat, mat_mu, mat_lam, tri_visc,
                   tri_diss, sim_real, sim_int, damping)
+    if ti.static(fracture):
+        phase_joints(joint_nodes, joint_mat, joint_state, joint_dmax, joint_fs, joint_work, joint_break,
+                     joint_mode, mat_joint, joint_g, node_x, node_v, node_f, sim_real, sim_int)
     if ti.static(contact):
         phase_contact(couple_a, couple_b, node_x, node_v, node_f, tri_nodes, tri_mat, pair_prop, couple_hist,
                       acc, sim_real, sim_int, friction, cdamping)
     phase_integrate(node_x, node_v, node_f, node_mass, node_free, node_vbc, acc, sim_real, sim_int, bc, bc_work)
+    if ti.static(fracture):
+        phase_joint_work(joint_nodes, joint_g, joint_work, node_v, sim_real)
     return status_code(sim_real, sim_int)
 
 
@@ -227,8 +257,13 @@ def run_steps_serial(nsteps: ti.i32, node_x: ti.types.ndarray(), node_v: ti.type
                      couple_hist: ti.types.ndarray(), old_start: ti.types.ndarray(), old_b: ti.types.ndarray(),
                      old_hist: ti.types.ndarray(), pair_prop: ti.types.ndarray(), acc: ti.types.ndarray(),
                      sim_real: ti.types.ndarray(), sim_int: ti.types.ndarray(),
+                     joint_nodes: ti.types.ndarray(), joint_mat: ti.types.ndarray(), joint_state: ti.types.ndarray(), joint_dmax: ti.types.ndarray(),
+                  joint_fs: ti.types.ndarray(), joint_work: ti.types.ndarray(), joint_break: ti.types.ndarray(), joint_mode: ti.types.ndarray(),
+                  mat_joint: ti.types.ndarray(),
+                  joint_g: ti.types.ndarray(),
                      contact: ti.template(), damping: ti.template(), friction: ti.template(),
-                     cdamping: ti.template(), bc: ti.template(), bc_work: ti.template()) -> ti.i32:
+                     cdamping: ti.template(), bc: ti.template(), bc_work: ti.template(),
+                     fracture: ti.template()) -> ti.i32:
     """Up to ``nsteps`` whole steps, detection included, in one serial loop (small scenes).
 
     Stops early, before the step that needs it, when the couple buffer is too small (the
@@ -253,11 +288,16 @@ def run_steps_serial(nsteps: ti.i32, node_x: ti.types.ndarray(), node_v: ti.type
         if stop == 0:
             phase_elastic(node_x, node_v, node_f, tri_nodes, tri_rest_inv, tri_mat, mat_mu, mat_lam, tri_visc,
                           tri_diss, sim_real, sim_int, damping)
+            if ti.static(fracture):
+                phase_joints(joint_nodes, joint_mat, joint_state, joint_dmax, joint_fs, joint_work, joint_break,
+                             joint_mode, mat_joint, joint_g, node_x, node_v, node_f, sim_real, sim_int)
             if ti.static(contact):
                 phase_contact(couple_a, couple_b, node_x, node_v, node_f, tri_nodes, tri_mat, pair_prop,
                               couple_hist, acc, sim_real, sim_int, friction, cdamping)
             phase_integrate(node_x, node_v, node_f, node_mass, node_free, node_vbc, acc, sim_real, sim_int,
                             bc, bc_work)
+            if ti.static(fracture):
+                phase_joint_work(joint_nodes, joint_g, joint_work, node_v, sim_real)
             done += 1
             if sim_int[I_NONFINITE] != 0 or sim_int[I_INVERTED] != 0 or sim_int[I_SPEED] != 0:
                 stop = 1
@@ -280,6 +320,16 @@ def eval_elastic(node_x: ti.types.ndarray(), node_v: ti.types.ndarray(), node_f:
 
 
 @ti.kernel
+def eval_joints(joint_nodes: ti.types.ndarray(), joint_mat: ti.types.ndarray(), joint_state: ti.types.ndarray(), joint_dmax: ti.types.ndarray(),
+                joint_fs: ti.types.ndarray(), joint_work: ti.types.ndarray(), joint_break: ti.types.ndarray(), joint_mode: ti.types.ndarray(),
+                mat_joint: ti.types.ndarray(),
+                  joint_g: ti.types.ndarray(),
+                node_x: ti.types.ndarray(), node_v: ti.types.ndarray(), node_f: ti.types.ndarray(), sim_real: ti.types.ndarray(), sim_int: ti.types.ndarray()):
+    phase_joints(joint_nodes, joint_mat, joint_state, joint_dmax, joint_fs, joint_work, joint_break,
+                 joint_mode, mat_joint, joint_g, node_x, node_v, node_f, sim_real, sim_int)
+
+
+@ti.kernel
 def eval_contact(couple_a: ti.types.ndarray(), couple_b: ti.types.ndarray(), node_x: ti.types.ndarray(),
                  node_v: ti.types.ndarray(), node_f: ti.types.ndarray(), tri_nodes: ti.types.ndarray(),
                  tri_mat: ti.types.ndarray(), pair_prop: ti.types.ndarray(), couple_hist: ti.types.ndarray(),
@@ -296,3 +346,9 @@ def integrate(node_x: ti.types.ndarray(), node_v: ti.types.ndarray(), node_f: ti
               bc: ti.template(), bc_work: ti.template()) -> ti.i32:
     phase_integrate(node_x, node_v, node_f, node_mass, node_free, node_vbc, acc, sim_real, sim_int, bc, bc_work)
     return status_code(sim_real, sim_int)
+
+
+@ti.kernel
+def book_joint_work(joint_nodes: ti.types.ndarray(), joint_g: ti.types.ndarray(), joint_work: ti.types.ndarray(),
+                    node_v: ti.types.ndarray(), sim_real: ti.types.ndarray()):
+    phase_joint_work(joint_nodes, joint_g, joint_work, node_v, sim_real)
