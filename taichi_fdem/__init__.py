@@ -8,11 +8,13 @@
     sim = scene.build()
     sim.run(duration=0.1)
 """
-from . import mesh
+from . import checkpoint, export, mesh, render, scenefile, sweep
 from .backend import init
 from .material import Material
 from .scene import Body, Scene
 from .simulation import Simulation, SimulationError
 
 __version__ = "0.1.0"
-__all__ = ["init", "mesh", "Material", "Scene", "Body", "Simulation", "SimulationError", "__version__"]
+__all__ = ["init", "mesh", "render", "export", "checkpoint", "scenefile", "sweep", "Material", "Scene", "Body",
+           "Simulation", "SimulationError", "__version__"]
+# The live window (taichi_fdem.viewer.Viewer) is imported on demand: the core never opens a window.
