@@ -154,6 +154,26 @@ def scenario_disks(speed: float = 2.0, penalty_factor: float = 10.0, dt_factor: 
     return sim, duration, f"two disks, v = ±{speed:g} m/s, p = {penalty_factor:g}·E"
 
 
+def scenario_bars(dt_factor: float | None = None, penalty_factor: float = 10.0, cells: int = 40):
+    """Two bars (0.5 × 0.025 m, structured mesh, ``cells`` along) meeting face on face at ±v,
+    v = 10⁻³ c_p: corner nodes of small lumped mass in contact on both sides.  ``dt_factor`` ×
+    the estimated limit (None: automatic)."""
+    from . import mesh
+    from .scene import Scene
+    mat = _material(penalty=penalty_factor * E_S)
+    L = 0.5
+    h = L / cells
+    c = mat.p_wave_speed("strain")
+    v = 1e-3 * c
+    scene = Scene(gravity=(0.0, 0.0))
+    gap = 0.05 * h
+    scene.add_body(mesh.rectangle(L, 2 * h, h, origin=(-L - 0.5 * gap, 0.0)), mat, velocity=(v, 0.0))
+    scene.add_body(mesh.rectangle(L, 2 * h, h, origin=(0.5 * gap, 0.0)), mat, velocity=(-v, 0.0))
+    probe = _build(scene)
+    sim = probe if dt_factor is None else _build(scene, dt=dt_factor * probe.dt_limit, force_dt=dt_factor > 1)
+    return sim, 2.6 * L / c, "two bars face on face"
+
+
 def scenario_sliver(aspect: float = 20.0, speed: float = 1.0):
     """A block meshed with sliver triangles (cells ``aspect`` times wider than tall) dropped at
     ``speed`` on a fixed floor under gravity."""
@@ -224,6 +244,21 @@ def scenario_pile(count: int = 200, seed: int = 0, friction: float = 0.3, v_rand
     return sim, 0.05, f"pile of {count} disks ({sim.tri_count} triangles)"
 
 
+def scenario_damped_block(dt_factor: float | None = None, damping: float = 0.5):
+    """A 0.2 m block meshed with the "crossed" pattern (4 triangles per cell), viscous damping
+    β = ``damping``, spinning freely: the element limit (h/c_p)(√(1+β²) − β) governs."""
+    from . import mesh
+    from .scene import Scene
+    mat = _material(damping=damping)
+    scene = Scene(gravity=(0.0, 0.0))
+    omega = 0.1 * mat.p_wave_speed("strain") / 0.1
+    scene.add_body(mesh.rectangle(0.2, 0.2, 0.025, pattern="crossed"), mat, angular_velocity=omega,
+                   velocity=(0.5, 0.0))
+    probe = _build(scene)
+    sim = probe if dt_factor is None else _build(scene, dt=dt_factor * probe.dt_limit, force_dt=dt_factor > 1)
+    return sim, 2 * math.pi / omega, f"damped crossed block, β = {damping:g}"
+
+
 def scenario_spin(rim_fraction: float = 0.2):
     """A disk (R = 5 cm) spinning freely with rim speed ``rim_fraction`` × c_p, no gravity."""
     from . import mesh
@@ -244,6 +279,7 @@ def suite(quick: bool = True) -> list:
         items.append(("time step", f"{f:g} × limit", lambda f=f: scenario_disks(dt_factor=f)))
     for p in (1.0, 10.0, 100.0, 1000.0):
         items.append(("penalty", f"{p:g}·E", lambda p=p: scenario_disks(penalty_factor=p)))
+    items.append(("face-on-face contact", "bars, 10·E", lambda: scenario_bars()))
     for s in ((0.01, 0.05, 0.1, 0.2) if quick else (0.01, 0.05, 0.1, 0.2, 0.3, 0.5)):
         items.append(("impact speed", f"{s:g} c_p", lambda s=s: scenario_disks(speed=s * _material().p_wave_speed("strain"))))
     for a in ((10.0, 30.0) if quick else (10.0, 50.0, 200.0)):

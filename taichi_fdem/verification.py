@@ -117,7 +117,7 @@ def case_wave(resolution: int = 100, safety: float = 0.2, penalty_factor: float 
         xc = h * round(xs / h)
         cols.append((xc, np.flatnonzero(np.abs(X[:, 0] - xc) < 1e-6 * h)))
     total = int(math.ceil(0.85 * L / c / sim.dt))
-    k = max(1, total // 400)
+    k = max(1, total // 200)
     ts, vs = [0.0], [[0.0, 0.0]]
     t0 = _time.perf_counter()
     while sim.step_count < total:
