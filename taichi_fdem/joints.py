@@ -132,12 +132,13 @@ def eval_joint(j, joint_nodes: ti.template(), joint_mat: ti.template(), joint_st
             sim_real[R_DACC] = sim_real[R_BIG]
             joint_g[j] = ti.Vector([0.0, 0.0, 0.0, 0.0], dt=float)
         else:
-            # Simpson with linear shape functions: end points L/6, mid-point L/3 split ½–½
+            # Simpson with linear shape functions: g_k = ∫ N_k t ds ≈ (L/6)(N_k(0) t0 + 4 N_k(½) tm + N_k(1) t1),
+            # i.e. end points L/6 and the mid-point weight 4L/6 split ½–½ (L/3 on each pair; total L)
             t0 = vec2(trac[0, 0], trac[0, 1])
             tm = vec2(trac[1, 0], trac[1, 1])
             t1 = vec2(trac[2, 0], trac[2, 1])
-            g0 = (L / 6.0) * (t0 + tm)                # on the pair (j0, j3)
-            g1 = (L / 6.0) * (tm + t1)                # on the pair (j1, j2)
+            g0 = (L / 6.0) * (t0 + 2.0 * tm)          # on the pair (j0, j3)
+            g1 = (L / 6.0) * (2.0 * tm + t1)          # on the pair (j1, j2)
             ti.atomic_add(node_f[nd[0]], -g0)
             ti.atomic_add(node_f[nd[1]], -g1)
             ti.atomic_add(node_f[nd[2]], g1)
