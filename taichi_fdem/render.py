@@ -55,16 +55,29 @@ _vec3f = ti.types.vector(3, ti.f32)
 # ----------------------------------------------------------------------------------------------
 @ti.kernel
 def _bbox_kernel(x: ti.types.ndarray(), out: ti.types.ndarray()):
-    """out[0..3] = xmin, xmax, ymin, ymax of the vector ndarray x (n >= 1)."""
-    out[0] = x[0][0]
-    out[1] = x[0][0]
-    out[2] = x[0][1]
-    out[3] = x[0][1]
+    """out[0..3] = xmin, xmax, ymin, ymax of the vector ndarray x (n >= 1); out[4] = 1 when a
+    coordinate is NaN (the box is then not usable).  A serial loop: cheaper than contended
+    atomics for the node counts of a frame, and deterministic."""
+    xmin = x[0][0]
+    xmax = x[0][0]
+    ymin = x[0][1]
+    ymax = x[0][1]
+    bad = 0
+    ti.loop_config(serialize=True)
     for i in range(x.shape[0]):
-        ti.atomic_min(out[0], x[i][0])
-        ti.atomic_max(out[1], x[i][0])
-        ti.atomic_min(out[2], x[i][1])
-        ti.atomic_max(out[3], x[i][1])
+        px = x[i][0]
+        py = x[i][1]
+        if px != px or py != py:
+            bad = 1
+        xmin = ti.min(xmin, px)
+        xmax = ti.max(xmax, px)
+        ymin = ti.min(ymin, py)
+        ymax = ti.max(ymax, py)
+    out[0] = xmin
+    out[1] = xmax
+    out[2] = ymin
+    out[3] = ymax
+    out[4] = bad
 
 
 @ti.kernel
@@ -168,8 +181,17 @@ def _tri_scalar_kernel(x: ti.types.ndarray(), v: ti.types.ndarray(), x0: ti.type
     Stresses follow elastic.cauchy_elastic; an inverted triangle (J <= 0) gives NaN.
     """
     for e in range(tri.shape[0]):
-        n = tri[e]
-        val = 0.0
+        out[e] = _tri_scalar(x, v, x0, tri, rest_inv, tri_mat, mat_mu, mat_lam, mode, e)
+
+
+@ti.func
+def _tri_scalar(x: ti.template(), v: ti.template(), x0: ti.template(), tri: ti.template(),
+                rest_inv: ti.template(), tri_mat: ti.template(), mat_mu: ti.template(),
+                mat_lam: ti.template(), mode, e):
+    """The colouring scalar of triangle e (see _tri_scalar_kernel)."""
+    n = tri[e]
+    val = 0.0
+    if True:
         if mode == 0:
             val = (v[n[0]].norm() + v[n[1]].norm() + v[n[2]].norm()) / 3.0
         elif mode == 1:
@@ -189,7 +211,7 @@ def _tri_scalar_kernel(x: ti.types.ndarray(), v: ti.types.ndarray(), x0: ti.type
                     val = c + r if mode == 3 else c - r
             else:
                 val = ti.math.nan
-        out[e] = val
+    return val
 
 
 @ti.kernel
@@ -207,6 +229,158 @@ def _centroid_kernel(x: ti.types.ndarray(), start: ti.i32, end: ti.i32, out: ti.
     if out[2] > 0.0:
         out[0] /= out[2]
         out[1] /= out[2]
+
+
+@ti.func
+def _to_u8(c):
+    """f32 RGB -> u8 exactly as _resolve_kernel does for supersample 1."""
+    acc = ti.Vector([c[0], c[1], c[2]], dt=ti.f32)
+    out = ti.Vector([0, 0, 0], dt=ti.u8)
+    for k in ti.static(range(3)):
+        v = ti.min(ti.max(acc[k], 0.0), 1.0)
+        out[k] = ti.cast(v * 255.0 + 0.5, ti.u8)
+    return out
+
+
+@ti.kernel
+def _clear_u8_kernel(img: ti.types.ndarray(), bg: _vec3f):
+    """Fill an (H, W, 3) u8 image with the background (same conversion as the raster)."""
+    for i, j in ti.ndrange(img.shape[0], img.shape[1]):
+        c = _to_u8(bg)
+        for k in ti.static(range(3)):
+            img[i, j, k] = c[k]
+
+
+@ti.kernel
+def _sim_scalar_kernel(x: ti.types.ndarray(), v: ti.types.ndarray(), x0: ti.types.ndarray(),
+                       tri: ti.types.ndarray(), rest_inv: ti.types.ndarray(), tri_mat: ti.types.ndarray(),
+                       mat_mu: ti.types.ndarray(), mat_lam: ti.types.ndarray(), mode: ti.i32,
+                       scal: ti.types.ndarray(), info: ti.types.ndarray()):
+    """Per-triangle scalars into scal (see _tri_scalar_kernel) and, in one launch, their finite
+    range: info[0] = min, info[1] = max, info[2] = number of finite values."""
+    for e in range(tri.shape[0]):
+        scal[e] = _tri_scalar(x, v, x0, tri, rest_inv, tri_mat, mat_mu, mat_lam, mode, e)
+    lo = 0.0
+    hi = 0.0
+    cnt = 0
+    ti.loop_config(serialize=True)
+    for e in range(tri.shape[0]):
+        s = scal[e]
+        if s == s and ti.abs(s) < ti.math.inf:
+            if cnt == 0:
+                lo = s
+                hi = s
+            lo = ti.min(lo, s)
+            hi = ti.max(hi, s)
+            cnt += 1
+    info[0] = lo
+    info[1] = hi
+    info[2] = cnt
+
+
+@ti.kernel
+def _raster_u8_kernel(x: ti.types.ndarray(), tri: ti.types.ndarray(), col: ti.types.ndarray(),
+                      scal: ti.types.ndarray(), use_scal: ti.i32, cpos: ti.types.ndarray(),
+                      ctab: ti.types.ndarray(), params: ti.types.ndarray(), img: ti.types.ndarray(),
+                      edge_col: _vec3f, half_w: ti.f32, draw_edges: ti.i32):
+    """The supersample-1 frame in one launch: world -> pixel transform of each triangle's nodes
+    (as _to_pixels_kernel), its colour (col[t], or scal[t] through the colour map table
+    cpos/ctab exactly as :func:`colormap` does), and the fill / edge test of _raster_kernel,
+    written straight into the (H, W, 3) u8 image (already holding the background).
+
+    params = [x_left, y_top, pixels_per_metre, vmin, vmax] (in the dtype of x).
+    """
+    H = img.shape[0]
+    W = img.shape[1]
+    n = x.shape[0]
+    K = cpos.shape[0]
+    for t in range(tri.shape[0]):
+        ia = tri[t][0]
+        ib = tri[t][1]
+        ic = tri[t][2]
+        if 0 <= ia < n and 0 <= ib < n and 0 <= ic < n:
+            pa = _pix(x[ia], params)
+            pb = _pix(x[ib], params)
+            pc = _pix(x[ic], params)
+            fill = ti.Vector([0.0, 0.0, 0.0], dt=ti.f32)
+            if use_scal != 0:
+                fill = _cmap(scal[t], params[3], params[4], cpos, ctab, K)
+            else:
+                fill = ti.Vector([col[t][0], col[t][1], col[t][2]], dt=ti.f32)
+            _fill_tri(pa, pb, pc, _to_u8(fill), _to_u8(edge_col), half_w, draw_edges, img, H, W)
+
+
+@ti.func
+def _pix(xi, params: ti.template()):
+    px = (xi[0] - params[0]) * params[2]
+    py = (params[1] - xi[1]) * params[2]
+    if not px > -_PIX_LIMIT:  # also catches NaN
+        px = -_PIX_LIMIT
+    if px > _PIX_LIMIT:
+        px = _PIX_LIMIT
+    if not py > -_PIX_LIMIT:
+        py = -_PIX_LIMIT
+    if py > _PIX_LIMIT:
+        py = _PIX_LIMIT
+    return ti.Vector([ti.cast(px, ti.f32), ti.cast(py, ti.f32)])
+
+
+@ti.func
+def _cmap(val, vmin, vmax, cpos: ti.template(), ctab: ti.template(), K):
+    """np.interp of the colour map table at clip((val - vmin) / (vmax - vmin), 0, 1) in the
+    precision of val (f64 by default, as :func:`colormap`); NaN / inf -> grey."""
+    out = ti.Vector([0.5, 0.5, 0.5], dt=ti.f32)   # _NAN_COLOR
+    if val == val and ti.abs(val) < ti.math.inf:
+        span = vmax - vmin
+        t = val * 0.0
+        if span > 0:
+            t = ti.min(ti.max((val - vmin) / span, 0.0), 1.0)
+        res = ti.Vector([val * 0.0, val * 0.0, val * 0.0])
+        if t >= cpos[K - 1]:
+            res = ti.Vector([ctab[K - 1, 0], ctab[K - 1, 1], ctab[K - 1, 2]])
+        else:
+            j = 0
+            for k in range(1, K - 1):
+                if cpos[k] <= t:
+                    j = k
+            for c in ti.static(range(3)):
+                slope = (ctab[j + 1, c] - ctab[j, c]) / (cpos[j + 1] - cpos[j])
+                res[c] = slope * (t - cpos[j]) + ctab[j, c]
+        out = ti.Vector([ti.cast(res[0], ti.f32), ti.cast(res[1], ti.f32), ti.cast(res[2], ti.f32)])
+    return out
+
+
+@ti.func
+def _fill_tri(a, b, c, fill8, edge8, half_w, draw_edges, img: ti.template(), H, W):
+    area2 = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+    if area2 != 0.0:
+        sgn = 1.0 if area2 > 0.0 else -1.0
+        xlo = ti.min(a[0], b[0], c[0])
+        xhi = ti.max(a[0], b[0], c[0])
+        ylo = ti.min(a[1], b[1], c[1])
+        yhi = ti.max(a[1], b[1], c[1])
+        q0 = ti.cast(ti.max(ti.ceil(xlo - 0.5), 0.0), ti.i32)
+        q1 = ti.cast(ti.min(ti.floor(xhi - 0.5), W - 1.0), ti.i32)
+        r0 = ti.cast(ti.max(ti.ceil(ylo - 0.5), 0.0), ti.i32)
+        r1 = ti.cast(ti.min(ti.floor(yhi - 0.5), H - 1.0), ti.i32)
+        inv_a = 1.0 / ti.max((c - b).norm(), 1e-12)
+        inv_b = 1.0 / ti.max((a - c).norm(), 1e-12)
+        inv_c = 1.0 / ti.max((b - a).norm(), 1e-12)
+        for r in range(r0, r1 + 1):
+            yc = ti.cast(r, ti.f32) + 0.5
+            for q in range(q0, q1 + 1):
+                xc = ti.cast(q, ti.f32) + 0.5
+                wa = sgn * ((c[0] - b[0]) * (yc - b[1]) - (c[1] - b[1]) * (xc - b[0]))
+                wb = sgn * ((a[0] - c[0]) * (yc - c[1]) - (a[1] - c[1]) * (xc - c[0]))
+                wc = sgn * ((b[0] - a[0]) * (yc - a[1]) - (b[1] - a[1]) * (xc - a[0]))
+                if wa >= 0.0 and wb >= 0.0 and wc >= 0.0:
+                    colour = fill8
+                    if draw_edges != 0:
+                        d = ti.min(wa * inv_a, wb * inv_b, wc * inv_c)
+                        if d < half_w:
+                            colour = edge8
+                    for k in ti.static(range(3)):
+                        img[r, q, k] = colour[k]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -360,11 +534,28 @@ class RendererImage:
         if self.follow_width is not None and self.follow_width <= 0.0:
             raise ValueError(f"follow_width must be > 0 m, got {follow_width}")
         self.text_size = None if text_size is None else _check_pos_int("text_size", text_size, 4, 1000)
-        self.last_scalars = None  # (m,) float64 per-triangle values of the last scalar frame
+        self._last_scalars = None  # (m,) float64 per-triangle values of the last scalar frame
+        self._last_scal_nd = None  # ... or the ndarray holding them (converted on access)
+        self._sprites = {}         # (text, anchor, font px) -> label sprite (see _label_sprite)
+        self._grad = {}            # (rows, cmap) -> colour-bar gradient (rows, 3) u8
+        self._bg_frame = None      # ((H, W, background), (H, W, 3) u8 background image)
+        self._np_small = {}        # purpose -> small NumPy array handed to kernels (no copies)
         self.last_range = None    # (vmin, vmax) used by the last scalar frame
         self._sim_ref = None      # weakref to the simulation whose constant arrays are cached
         self._sim_data = {}       # per-simulation constants: initial positions, category colours
         self._font = None
+
+    @property
+    def last_scalars(self):
+        """(m,) float64 per-triangle values of the last scalar frame (None otherwise)."""
+        if self._last_scalars is None and self._last_scal_nd is not None:
+            self._last_scalars = self._last_scal_nd.to_numpy().astype(np.float64)
+        return self._last_scalars
+
+    @last_scalars.setter
+    def last_scalars(self, value):
+        self._last_scalars = value
+        self._last_scal_nd = None
 
     # -- configuration ---------------------------------------------------------------------
     def set_view(self, view="fit", margin=None):
@@ -458,10 +649,12 @@ class RendererImage:
             return self.view
         if x_nd is None:
             return self.last_view if self.last_view is not None else (-1.0, 1.0, -1.0, 1.0)
-        bb = self._small_nd("bbox", x_nd.dtype, 4)
+        bb = self._np_small.get("bbox")
+        if bb is None:
+            bb = self._np_small["bbox"] = np.zeros(5, dtype=np.float64)
         _bbox_kernel(x_nd, bb)
-        xmin, xmax, ymin, ymax = (float(v) for v in bb.to_numpy())
-        if not all(math.isfinite(v) for v in (xmin, xmax, ymin, ymax)):
+        xmin, xmax, ymin, ymax = (float(v) for v in bb[:4])
+        if bb[4] != 0.0 or not all(math.isfinite(v) for v in (xmin, xmax, ymin, ymax)):
             return self.last_view if self.last_view is not None else (-1.0, 1.0, -1.0, 1.0)
         ext = max(xmax - xmin, ymax - ymin)
         if ext <= 0.0:
@@ -505,11 +698,51 @@ class RendererImage:
         x_nd, t_nd, c_nd = self._prepare(node_x, tri_nodes, tri_color)
         return self._draw(x_nd, t_nd, c_nd, self._world_box(x_nd))
 
-    def _draw(self, x_nd, t_nd, c_nd, box, reserve_right=0) -> np.ndarray:
-        img, out = self._buffers()
+    def _background(self):
+        key = (self.height, self.width, self.background)
+        if self._bg_frame is None or self._bg_frame[0] != key:
+            bg = np.empty((self.height, self.width, 3), dtype=np.uint8)
+            _clear_u8_kernel(bg, ti.Vector(self.background, dt=ti.f32))
+            self._bg_frame = (key, bg)
+        return self._bg_frame[1]
+
+    def _cmap_nd(self, name):
+        """The colour map table (positions, RGB) as ndarrays of the real dtype, uploaded once."""
+        real_ti, real_np = backend.real_ti(), backend.real_np()
+        key = ("cmap", name, str(real_ti))
+        tab = self._small.get(key)
+        if tab is None:
+            pos, rgb = COLORMAPS[name]
+            cpos = ti.ndarray(dtype=real_ti, shape=(len(pos),))
+            cpos.from_numpy(np.ascontiguousarray(pos, dtype=real_np))
+            ctab = ti.ndarray(dtype=real_ti, shape=(len(pos), 3))
+            ctab.from_numpy(np.ascontiguousarray(rgb, dtype=real_np))
+            tab = self._small[key] = (cpos, ctab)
+        return tab
+
+    def _draw(self, x_nd, t_nd, c_nd, box, reserve_right=0, scal=None, rng=None) -> np.ndarray:
+        """Rasterise; colours are c_nd, or (supersample 1 only) the scalars scal mapped through
+        the colour map over rng = (vmin, vmax) inside the raster kernel."""
         s = self.supersample
         view, scale = self._letterbox(box, reserve_right)
         self.last_view = view
+        if s == 1:  # one launch straight into a u8 NumPy image: no float image, no copies
+            img = self._background().copy()
+            if x_nd is not None and t_nd is not None:
+                vmin, vmax = rng if rng is not None else (0.0, 1.0)
+                params = np.array([view[0], view[3], scale, vmin, vmax], dtype=_np_dtype(x_nd.dtype))
+                cpos, ctab = self._cmap_nd(self.cmap)
+                use_scal = int(scal is not None and rng is not None)
+                if scal is None:
+                    scal = self._small_nd("dummy_scal", backend.real_ti(), 1)
+                if c_nd is None:
+                    c_nd = self._small_nd("dummy_col", ti.types.vector(3, ti.f32), 1)
+                draw = self.draw_edges and self.edge_width > 0.0
+                _raster_u8_kernel(x_nd, t_nd, c_nd, scal, use_scal,
+                                  cpos, ctab, params, img, ti.Vector(self.edge_color, dt=ti.f32),
+                                  float(0.5 * self.edge_width), int(draw))
+            return img
+        img, out = self._buffers()
 
         _clear_kernel(img, ti.Vector(self.background, dt=ti.f32))
         if x_nd is not None and t_nd is not None:
@@ -561,6 +794,25 @@ class RendererImage:
                            sim.mat_mu, sim.mat_lam, int(kid), out)
         return out.to_numpy().astype(np.float64)
 
+    def _frame_scalars(self, sim, kid):
+        """Per-triangle scalars of mode id kid into a per-simulation ndarray (kept on the
+        device) and their finite [min, max, count] in a small NumPy array."""
+        consts = self._sim_consts(sim)
+        x0 = consts.get("x0")
+        if x0 is None:
+            x0 = ti.Vector.ndarray(2, sim.node_x.dtype, shape=(sim.node_count,))
+            x0.from_numpy(np.ascontiguousarray(sim._X, dtype=_np_dtype(sim.node_x.dtype)))
+            consts["x0"] = x0
+        scal = consts.get("frame_scalars")
+        if scal is None:
+            scal = consts["frame_scalars"] = ti.ndarray(dtype=sim.node_x.dtype, shape=(sim.tri_count,))
+        info = self._np_small.get("range")
+        if info is None:
+            info = self._np_small["range"] = np.zeros(3, dtype=np.float64)
+        _sim_scalar_kernel(sim.node_x, sim.node_v, x0, sim.tri_nodes, sim.tri_rest_inv, sim.tri_mat,
+                           sim.mat_mu, sim.mat_lam, int(kid), scal, info)
+        return scal, info
+
     def _follow_box(self, sim):
         body = self.follow
         if isinstance(body, numbers.Integral) and not isinstance(body, bool):
@@ -606,24 +858,29 @@ class RendererImage:
             self.last_scalars = None
             self.last_range = None
         else:
-            vals = self.tri_scalars(sim, mode)
-            finite = np.isfinite(vals)
+            # scalars and their finite range in one launch; nothing per-triangle leaves the device
+            scal, info = self._frame_scalars(sim, kid)
+            finite_any = info[2] > 0
             vmin, vmax = self.vmin, self.vmax
             if vmin is None:
-                vmin = float(vals[finite].min()) if finite.any() else 0.0
+                vmin = float(info[0]) if finite_any else 0.0
                 if vmax is not None and vmin > vmax:
                     vmin = vmax
             if vmax is None:
-                vmax = float(vals[finite].max()) if finite.any() else 1.0
+                vmax = float(info[1]) if finite_any else 1.0
                 if vmax < vmin:
                     vmax = vmin
-            cols = colormap(vals, vmin, vmax, self.cmap)
-            c_nd = consts.get("scalar_colors")
-            if c_nd is None:
-                c_nd = ti.Vector.ndarray(3, ti.f32, shape=(sim.tri_count,))
-                consts["scalar_colors"] = c_nd
-            c_nd.from_numpy(cols)
-            self.last_scalars = vals
+            if self.supersample == 1:
+                c_nd = None     # coloured inside the raster kernel
+            else:
+                cols = colormap(scal.to_numpy().astype(np.float64), vmin, vmax, self.cmap)
+                c_nd = consts.get("scalar_colors")
+                if c_nd is None:
+                    c_nd = ti.Vector.ndarray(3, ti.f32, shape=(sim.tri_count,))
+                    consts["scalar_colors"] = c_nd
+                c_nd.from_numpy(cols)
+            self._last_scalars = None
+            self._last_scal_nd = scal
             self.last_range = (vmin, vmax)
             if self.colorbar:
                 bar = (vmin, vmax, title)
@@ -632,7 +889,8 @@ class RendererImage:
         else:
             box = self._world_box(sim.node_x)
         layout = self._bar_layout() if bar is not None else None
-        img = self._draw(sim.node_x, sim.tri_nodes, c_nd, box, layout["reserve"] if layout else 0)
+        img = self._draw(sim.node_x, sim.tri_nodes, c_nd, box, layout["reserve"] if layout else 0,
+                         scal=None if kid is None else scal, rng=None if kid is None else (vmin, vmax))
         stamp = f"t = {sim.time:.4g} s  step {sim.step_count}" if self.stamp else None
         if bar is not None or stamp is not None:
             img = self._overlay(img, bar, layout, stamp)
