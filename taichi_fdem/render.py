@@ -925,45 +925,86 @@ class RendererImage:
         label_w = int(5.5 * ts)                       # about "-1.23e+05"
         return {"x0": x0, "x1": x1, "y0": y0, "y1": y1, "reserve": min(W // 2, W - x0 + label_w + 6)}
 
-    def _overlay(self, img, bar, layout, stamp):
-        from PIL import Image, ImageDraw
+    def _label_sprite(self, text, anchor):
+        """A label (text on a translucent white box) rendered once per distinct text with PIL:
+        ``(dx, dy, RGBA image)``, the box's top-left relative to the anchor point.  Glyph
+        rasterisation is invariant under integer shifts, so pasting the sprite gives the same
+        pixels as drawing the label in place."""
+        size = self._text_px()
+        key = (text, anchor, size)
+        sp = self._sprites.get(key)
+        if sp is None:
+            from PIL import Image, ImageDraw
 
-        font = self._get_font()
+            font = self._get_font()
+            probe = ImageDraw.Draw(Image.new("RGBA", (1, 1)))
+            l, t, r, b = probe.textbbox((0, 0), text, font=font, anchor=anchor)
+            dx, dy = int(l) - 2, int(t) - 2          # the box (l-2, t-2, r+2, b+2), inclusive
+            w, h = int(r) - int(l) + 5, int(b) - int(t) + 5
+            layer = Image.new("RGBA", (w, h), (0, 0, 0, 0))
+            draw = ImageDraw.Draw(layer)
+            draw.rectangle((0, 0, w - 1, h - 1), fill=(255, 255, 255, 170))
+            draw.text((-dx, -dy), text, font=font, fill=(0, 0, 0, 255), anchor=anchor)
+            if len(self._sprites) >= 512:            # auto-range labels change every frame
+                self._sprites.clear()
+            sp = self._sprites[key] = (dx, dy, layer)
+        return sp
+
+    def _gradient(self, rows):
+        key = (rows, self.cmap)
+        g = self._grad.get(key)
+        if g is None:
+            grad = colormap(np.linspace(1.0, 0.0, rows), 0.0, 1.0, self.cmap)   # top row = vmax
+            g = self._grad[key] = np.clip(grad * 255.0 + 0.5, 0, 255).astype(np.uint8)
+        return g
+
+    def _overlay(self, img, bar, layout, stamp):
+        """Colour bar, its labels and the stamp, drawn on small crops only (labels are cached
+        sprites composited with PIL on their own box); the result equals drawing everything on
+        one full-frame RGBA layer and compositing it."""
+        from PIL import Image
+
+        H, W = img.shape[:2]
+        if not img.flags.writeable:
+            img = np.array(img, copy=True)
+        labels = []
         if bar is not None:
             vmin, vmax, title = bar
-            L = layout
-            h = L["y1"] - L["y0"]
-            t = np.linspace(1.0, 0.0, h)              # top row = vmax, bottom row = vmin
-            grad = colormap(t, 0.0, 1.0, self.cmap)
-            grad8 = np.clip(grad * 255.0 + 0.5, 0, 255).astype(np.uint8)
-            img = np.array(img, copy=True)
-            img[L["y0"]:L["y1"], L["x0"]:L["x1"]] = grad8[:, None, :]
-        pil = Image.fromarray(img).convert("RGBA")
-        layer = Image.new("RGBA", pil.size, (0, 0, 0, 0))
-        draw = ImageDraw.Draw(layer)
-        ink = (0, 0, 0, 255)
-
-        def label(xy, text, anchor):
-            l, t_, r, b = draw.textbbox(xy, text, font=font, anchor=anchor)
-            draw.rectangle((l - 2, t_ - 2, r + 2, b + 2), fill=(255, 255, 255, 170))
-            draw.text(xy, text, font=font, fill=ink, anchor=anchor)
-
-        if bar is not None:
-            x0, x1, y0, y1 = L["x0"], L["x1"], L["y0"], L["y1"]
-            draw.rectangle((x0 - 1, y0 - 1, x1, y1), outline=(0, 0, 0, 255))
-            label((x0 - 4, y0), _fmt(vmax), "ra")
-            label((x0 - 4, y1), _fmt(vmin), "rd")
-            label((x1, max(0, y0 - 6)), title, "rd")
+            x0, x1, y0, y1 = layout["x0"], layout["x1"], layout["y0"], layout["y1"]
+            grad8 = self._gradient(y1 - y0)
+            img[y0:y1, x0:x1] = grad8[:, None, :]
+            labels += [((x0 - 4, y0), _fmt(vmax), "ra"), ((x0 - 4, y1), _fmt(vmin), "rd"),
+                       ((x1, max(0, y0 - 6)), title, "rd")]
         if stamp is not None:
-            label((4, 4), stamp, "la")
-        box = layer.getbbox()           # composite only where labels were drawn (cheaper)
-        if box is not None:
-            pil.paste(Image.alpha_composite(pil.crop(box), layer.crop(box)), box[:2])
-        out = np.asarray(pil.convert("RGB"))
-        if bar is not None:  # keep the gradient exact (the frame and labels only touch its edge)
-            out = np.array(out, copy=True)
-            out[y0:y1, x0:x1] = grad8[:, None, :]
-        return out
+            labels.append(((4, 4), stamp, "la"))
+        # every label box composited over the frame as it was before any label (a later label
+        # replaces an earlier one where boxes overlap, as on a shared layer)
+        jobs = []
+        for (x, y), text, anchor in labels:
+            dx, dy, sprite = self._label_sprite(text, anchor)
+            bx0, by0 = x + dx, y + dy
+            cx0, cy0 = max(bx0, 0), max(by0, 0)
+            cx1, cy1 = min(bx0 + sprite.width, W), min(by0 + sprite.height, H)
+            if cx1 > cx0 and cy1 > cy0:
+                jobs.append((cx0, cy0, cx1, cy1, bx0, by0, sprite, img[cy0:cy1, cx0:cx1].copy()))
+        for cx0, cy0, cx1, cy1, bx0, by0, sprite, base in jobs:
+            if (cx0, cy0, cx1 - bx0, cy1 - by0) != (bx0, by0, sprite.width, sprite.height):
+                sprite = sprite.crop((cx0 - bx0, cy0 - by0, cx1 - bx0, cy1 - by0))
+            comp = Image.alpha_composite(Image.fromarray(base).convert("RGBA"), sprite)
+            img[cy0:cy1, cx0:cx1] = np.asarray(comp.convert("RGB"))
+        if bar is not None:
+            # 1-px black frame (x0 - 1, y0 - 1) .. (x1, y1) inclusive, under the label boxes
+            fx0, fy0, fx1, fy1 = x0 - 1, y0 - 1, x1, y1
+            sx0, sy0, sx1, sy1 = max(fx0, 0), max(fy0, 0), min(fx1, W - 1), min(fy1, H - 1)
+            if sx1 >= sx0 and sy1 >= sy0:
+                rr = np.arange(sy0, sy1 + 1)[:, None]
+                cc = np.arange(sx0, sx1 + 1)[None, :]
+                mask = (rr == fy0) | (rr == fy1) | (cc == fx0) | (cc == fx1)
+                for cx0, cy0, cx1, cy1, *_ in jobs:
+                    mask &= ~((rr >= cy0) & (rr < cy1) & (cc >= cx0) & (cc < cx1))
+                img[sy0:sy1 + 1, sx0:sx1 + 1][mask] = 0
+            img[y0:y1, x0:x1] = grad8[:, None, :]   # keep the gradient exact
+        return img
 
 
 def _to_np(a):

@@ -380,7 +380,7 @@ def test_save_png_and_annotate(tmp_path):
 def test_no_recompilation_for_new_sizes():
     """ndarray kernels compile once per dtype, whatever the scene or image size."""
     kernels = [render._raster_kernel, render._to_pixels_kernel, render._bbox_kernel,
-               render._clear_kernel, render._resolve_kernel]
+               render._clear_kernel, render._resolve_kernel, render._raster_u8_kernel, render._clear_u8_kernel]
     if not all(hasattr(getattr(k, "_primal", None), "compiled_kernels") for k in kernels):
         pytest.skip("Taichi internals changed")
     rng = np.random.default_rng(1)
@@ -589,7 +589,8 @@ def test_run_video_von_mises_frame_count(tmp_path):
 
 
 def test_render_sim_no_recompilation():
-    kernels = [render._tri_scalar_kernel, render._centroid_kernel]
+    kernels = [render._tri_scalar_kernel, render._centroid_kernel, render._sim_scalar_kernel,
+               render._raster_u8_kernel, render._bbox_kernel]
     if not all(hasattr(getattr(k, "_primal", None), "compiled_kernels") for k in kernels):
         pytest.skip("Taichi internals changed")
     sim, a, b = _two_triangles_sim()
@@ -602,3 +603,108 @@ def test_render_sim_no_recompilation():
     for mode in ("von_mises", "displacement", "min_principal"):
         render.RendererImage(50, 40, color_by=mode, follow=d).render_sim(sim2)
     assert [len(k._primal.compiled_kernels) for k in kernels] == before
+
+
+# ---------------------------------------------------------------------------------------------
+# the optimised frame path gives the same pixels as the straightforward one
+# ---------------------------------------------------------------------------------------------
+def _overlay_reference(r, img, bar, layout, stamp):
+    """The labels drawn directly: one full-frame RGBA layer composited over the frame."""
+    from PIL import Image, ImageDraw
+
+    font = r._get_font()
+    if bar is not None:
+        vmin, vmax, title = bar
+        L = layout
+        grad = render.colormap(np.linspace(1.0, 0.0, L["y1"] - L["y0"]), 0.0, 1.0, r.cmap)
+        grad8 = np.clip(grad * 255.0 + 0.5, 0, 255).astype(np.uint8)
+        img = np.array(img, copy=True)
+        img[L["y0"]:L["y1"], L["x0"]:L["x1"]] = grad8[:, None, :]
+    pil = Image.fromarray(img).convert("RGBA")
+    layer = Image.new("RGBA", pil.size, (0, 0, 0, 0))
+    draw = ImageDraw.Draw(layer)
+
+    def label(xy, text, anchor):
+        l, t_, rr, b = draw.textbbox(xy, text, font=font, anchor=anchor)
+        draw.rectangle((l - 2, t_ - 2, rr + 2, b + 2), fill=(255, 255, 255, 170))
+        draw.text(xy, text, font=font, fill=(0, 0, 0, 255), anchor=anchor)
+
+    if bar is not None:
+        x0, x1, y0, y1 = L["x0"], L["x1"], L["y0"], L["y1"]
+        draw.rectangle((x0 - 1, y0 - 1, x1, y1), outline=(0, 0, 0, 255))
+        label((x0 - 4, y0), render._fmt(vmax), "ra")
+        label((x0 - 4, y1), render._fmt(vmin), "rd")
+        label((x1, max(0, y0 - 6)), title, "rd")
+    if stamp is not None:
+        label((4, 4), stamp, "la")
+    out = np.array(Image.alpha_composite(pil, layer).convert("RGB"))
+    if bar is not None:
+        out[y0:y1, x0:x1] = grad8[:, None, :]
+    return out
+
+
+@pytest.mark.parametrize("size,text_size", [((960, 540), None), ((320, 200), None), ((64, 48), 12),
+                                            ((200, 120), 30), ((33, 71), 4)])
+def test_label_sprites_equal_direct_drawing(size, text_size):
+    rng = np.random.default_rng(7)
+    r = render.RendererImage(*size, text_size=text_size, cmap="coolwarm")
+    layout = r._bar_layout()
+    cases = [((0.0, 1.234e5, "von Mises stress [Pa]"), "t = 0.0123 s  step 4567"),
+             ((-3.5e-7, 2.0, "speed |v| [m/s]"), None), (None, "t = 1 s  step 2"),
+             ((0.0, 1.234e5, "von Mises stress [Pa]"), "t = 0.0124 s  step 4568")]
+    for _ in range(2):       # the second pass draws from the sprite cache
+        for bar, stamp in cases:
+            frame = rng.integers(0, 256, (size[1], size[0], 3), dtype=np.uint8)
+            expected = _overlay_reference(r, frame, bar, layout, stamp)
+            got = r._overlay(frame.copy(), bar, layout, stamp)
+            assert np.array_equal(got, expected), (bar, stamp)
+    assert len(r._sprites) > 0
+
+
+def _reference_frame(r, sim, mode):
+    """render_sim's frame without labels through the float-image kernels and host colour map."""
+    vals = r.tri_scalars(sim, mode)
+    fin = np.isfinite(vals)
+    vmin = r.vmin if r.vmin is not None else float(vals[fin].min())
+    vmax = r.vmax if r.vmax is not None else float(vals[fin].max())
+    cols = np.ascontiguousarray(render.colormap(vals, vmin, vmax, r.cmap))
+    x = sim.node_x.to_numpy()
+    view, scale = r._letterbox(r._world_box(sim.node_x), r._bar_layout()["reserve"] if r.colorbar else 0)
+    img = ti.Vector.ndarray(3, ti.f32, shape=(r.height, r.width))
+    out = ti.ndarray(ti.u8, shape=(r.height, r.width, 3))
+    p = ti.Vector.ndarray(2, ti.f32, shape=(x.shape[0],))
+    params = ti.ndarray(sim.node_x.dtype, shape=(3,))
+    params.from_numpy(np.array([view[0], view[3], scale], dtype=x.dtype))
+    c = ti.Vector.ndarray(3, ti.f32, shape=(cols.shape[0],))
+    c.from_numpy(cols)
+    render._clear_kernel(img, ti.Vector(r.background, dt=ti.f32))
+    render._to_pixels_kernel(sim.node_x, params, p)
+    render._raster_kernel(p, sim.tri_nodes, c, img, ti.Vector(r.edge_color, dt=ti.f32),
+                          float(0.5 * r.edge_width), int(r.draw_edges and r.edge_width > 0))
+    render._resolve_kernel(img, out, 1)
+    return out.to_numpy(), (vmin, vmax)
+
+
+@pytest.mark.parametrize("mode,rng", [("speed", None), ("von_mises", None), ("displacement", (0.0, 0.01)),
+                                      ("min_principal", None)])
+def test_fused_raster_equals_reference_pipeline(mode, rng):
+    mat = fdem.Material(**ROCK)
+    sc = fdem.Scene(gravity=(0.0, -9.81))
+    sc.add_body(fdem.mesh.disk(radius=0.05, h=0.01), mat, velocity=(0.3, -0.2), angular_velocity=4.0)
+    sc.add_body(fdem.mesh.rectangle(0.2, 0.02, 0.01), mat, position=(0.0, -0.07), fixed=True)
+    sim = sc.build()
+    sim.step(200)
+    vmin, vmax = rng if rng is not None else (None, None)
+    r = render.RendererImage(200, 120, color_by=mode, vmin=vmin, vmax=vmax, stamp=False, colorbar=False)
+    img = r.render_sim(sim)
+    ref, ref_range = _reference_frame(r, sim, mode)
+    assert r.last_range == pytest.approx(ref_range, rel=0, abs=0)
+    assert np.array_equal(img, ref)
+    assert np.array_equal(r.last_scalars, r.tri_scalars(sim, mode))
+    # the full frame (colour bar, stamp) equals the reference frame with labels drawn directly
+    r2 = render.RendererImage(200, 120, color_by=mode, vmin=vmin, vmax=vmax)
+    full = r2.render_sim(sim)
+    ref2, (lo, hi) = _reference_frame(r2, sim, mode)
+    stamp = f"t = {sim.time:.4g} s  step {sim.step_count}"
+    expected = _overlay_reference(r2, ref2, (lo, hi, render.COLOR_MODES[mode][1]), r2._bar_layout(), stamp)
+    assert np.array_equal(full, expected)
