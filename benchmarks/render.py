@@ -133,6 +133,7 @@ def demo_child(name, short):
 
     acc = Acc()
     acc.wrap(render.RendererImage, "render_sim", "render")
+    acc.wrap(render, "annotate", "annotate")          # demos/incline.py's extra label
     acc.wrap(render.VideoWriter, "append", "encode")
     acc.wrap(render.VideoWriter, "close", "close")
     mod = importlib.import_module(name)
@@ -142,7 +143,7 @@ def demo_child(name, short):
     mod.main(argv)
     run = time.perf_counter() - t0
     res = {"demo": name, "run_s": run, "frames": acc.n.get("render", 0),
-           "render_s": acc.t.get("render", 0.0),
+           "render_s": acc.t.get("render", 0.0) + acc.t.get("annotate", 0.0),
            "encode_s": acc.t.get("encode", 0.0) + acc.t.get("close", 0.0)}
     print("BENCH_RENDER_JSON " + json.dumps(res), flush=True)
 

@@ -1146,14 +1146,28 @@ def annotate(image, text, xy=(4, 4), color=(0, 0, 0), size=None, box=True) -> np
         font = ImageFont.load_default(size=size)
     except TypeError:  # Pillow < 10.1: fixed-size bitmap font
         font = ImageFont.load_default()
-    pil = Image.fromarray(img).convert("RGBA")
+    # draw on a layer covering only the label (shifted by whole pixels: same glyphs) and
+    # composite that crop; the rest of the image is untouched
+    text = str(text)
+    xy = tuple(xy)
+    H, W = img.shape[:2]
+    l, t, r, b = ImageDraw.Draw(Image.new("RGBA", (1, 1))).textbbox(xy, text, font=font)
+    cx0, cy0 = max(int(math.floor(l)) - 3, 0), max(int(math.floor(t)) - 3, 0)
+    cx1, cy1 = min(int(math.ceil(r)) + 4, W), min(int(math.ceil(b)) + 4, H)
+    if not all(float(v).is_integer() for v in xy):   # fractional positions: no shifting
+        cx0, cy0, cx1, cy1 = 0, 0, W, H
+    out = np.array(img, copy=True)
+    if cx1 <= cx0 or cy1 <= cy0:
+        return out
+    pil = Image.fromarray(img[cy0:cy1, cx0:cx1]).convert("RGBA")
     layer = Image.new("RGBA", pil.size, (0, 0, 0, 0))
     draw = ImageDraw.Draw(layer)
+    sxy = (xy[0] - cx0, xy[1] - cy0)
     if box:
-        l, t, r, b = draw.textbbox(tuple(xy), str(text), font=font)
-        draw.rectangle((l - 2, t - 2, r + 2, b + 2), fill=(255, 255, 255, 170))
-    draw.text(tuple(xy), str(text), font=font, fill=tuple(int(c) for c in color) + (255,))
-    return np.asarray(Image.alpha_composite(pil, layer).convert("RGB"))
+        draw.rectangle((l - 2 - cx0, t - 2 - cy0, r + 2 - cx0, b + 2 - cy0), fill=(255, 255, 255, 170))
+    draw.text(sxy, text, font=font, fill=tuple(int(c) for c in color) + (255,))
+    out[cy0:cy1, cx0:cx1] = np.asarray(Image.alpha_composite(pil, layer).convert("RGB"))
+    return out
 
 
 def _path_kind(path) -> str:

@@ -708,3 +708,23 @@ def test_fused_raster_equals_reference_pipeline(mode, rng):
     stamp = f"t = {sim.time:.4g} s  step {sim.step_count}"
     expected = _overlay_reference(r2, ref2, (lo, hi, render.COLOR_MODES[mode][1]), r2._bar_layout(), stamp)
     assert np.array_equal(full, expected)
+
+
+def test_annotate_crop_equals_full_frame_composite():
+    from PIL import Image, ImageDraw, ImageFont
+
+    rng = np.random.default_rng(3)
+    for w, h in ((300, 120), (40, 20)):
+        img = rng.integers(0, 256, (h, w, 3), dtype=np.uint8)
+        for xy in ((4, 4), (8, h - 30), (-5, 3), (w - 10, h - 5), (3.5, 7.25)):
+            for box in (True, False):
+                got = render.annotate(img, "analytic s = 0.123 m", xy=xy, color=(200, 0, 0), size=14, box=box)
+                font = ImageFont.load_default(size=14)
+                pil = Image.fromarray(img).convert("RGBA")
+                layer = Image.new("RGBA", pil.size, (0, 0, 0, 0))
+                d = ImageDraw.Draw(layer)
+                if box:
+                    l, t, r, b = d.textbbox(xy, "analytic s = 0.123 m", font=font)
+                    d.rectangle((l - 2, t - 2, r + 2, b + 2), fill=(255, 255, 255, 170))
+                d.text(xy, "analytic s = 0.123 m", font=font, fill=(200, 0, 0, 255))
+                assert np.array_equal(got, np.asarray(Image.alpha_composite(pil, layer).convert("RGB")))
