@@ -60,18 +60,24 @@ def unused_features(fdem, seconds: float) -> list:
             scene.add_body(fdem.mesh.rectangle(0.5, 0.1, 0.05), other, position=(10.0, 0.0), fixed=True)
         sim = scene.build()
         r = sim.info()
-        sps = steps_per_second(sim, seconds)
+        sim.step(10)                                 # compile outside the timing
         rows.append(dict(variant=name, triangles=sim.tri_count, moving_triangles=body.mesh.triangle_count,
                          contact=r["contact"], friction=r["friction"], couples=sim.couple_count,
-                         steps_per_s=sps))
-        print(rows[-1], flush=True)
+                         steps_per_s=0.0, sim=sim))
+    # interleaved rounds, best of each: the machine is shared, so take the least disturbed round
+    for _ in range(3):
+        for r in rows:
+            r["steps_per_s"] = max(r["steps_per_s"], steps_per_second(r["sim"], seconds / 3))
+    for r in rows:
+        del r["sim"]
+        print(r, flush=True)
     base = rows[0]["steps_per_s"]
     for r in rows:
         r["relative"] = r["steps_per_s"] / base
     return rows
 
 
-def sparse_contact(fdem, pairs=(0, 1, 4, 16, 32), steps: int = 300) -> list:
+def sparse_contact(fdem, pairs=(0, 1, 4, 16, 32), steps: int = 500) -> list:
     rows = []
     R = 0.05
     mat = fdem.Material(density=1000.0, young=1e7, poisson=0.25)
@@ -87,9 +93,9 @@ def sparse_contact(fdem, pairs=(0, 1, 4, 16, 32), steps: int = 300) -> list:
             x += 1.0
         sim = scene.build(strategy="parallel")
         sim.profile(20)                              # warm up
-        prof = sim.profile(steps)
+        prof = min((sim.profile(steps) for _ in range(3)), key=lambda p: p["total"])
         serial = scene.build()
-        sps = steps_per_second(serial, 1.0)
+        sps = max(steps_per_second(serial, 0.5) for _ in range(3))
         rows.append(dict(touching_pairs=k, bodies=64, triangles=sim.tri_count, couples=sim.couple_count,
                          contact_ms_per_step=1e3 * prof["contact"] / steps,
                          total_ms_per_step=1e3 * prof["total"] / steps, serial_steps_per_s=sps))
