@@ -41,6 +41,7 @@ COLOR_MODES = {
     "von_mises": (2, "von Mises stress [Pa]"),
     "max_principal": (3, "max principal stress [Pa]"),
     "min_principal": (4, "min principal stress [Pa]"),
+    "damage": (-1, "damage"),       # Simulation.tri_damage() (joint model), range [0, 1]
 }
 
 # Pixel coordinates are clamped to +-_PIX_LIMIT (also maps NaN to -_PIX_LIMIT) so that runaway
@@ -779,6 +780,8 @@ class RendererImage:
         kid = COLOR_MODES[mode][0]
         if kid is None:
             raise ValueError(f"tri_scalars: color_by={mode!r} is not a scalar mode")
+        if kid < 0:      # "damage"
+            return np.asarray(sim.tri_damage(), dtype=np.float64)
         backend.ensure_init()
         consts = self._sim_consts(sim)
         x0 = consts.get("x0")
@@ -809,6 +812,10 @@ class RendererImage:
         info = self._np_small.get("range")
         if info is None:
             info = self._np_small["range"] = np.zeros(3, dtype=np.float64)
+        if kid < 0:      # "damage": per-triangle joint damage from the simulation, fixed range [0, 1]
+            scal.from_numpy(np.ascontiguousarray(sim.tri_damage(), dtype=_np_dtype(sim.node_x.dtype)))
+            info[:] = (0.0, 1.0, sim.tri_count)
+            return scal, info
         _sim_scalar_kernel(sim.node_x, sim.node_v, x0, sim.tri_nodes, sim.tri_rest_inv, sim.tri_mat,
                            sim.mat_mu, sim.mat_lam, int(kid), scal, info)
         return scal, info

@@ -253,3 +253,170 @@ def test_wave_speed_jointed_strip():
     assert x / t_plain == pytest.approx(c0, rel=0.03)
     assert lo <= ratio <= hi
     assert ratio >= 0.9
+
+
+# ------------------------------------------------------------------------------------------------
+# Brazilian disc (§8.8)
+# ------------------------------------------------------------------------------------------------
+def brazilian_scene(D=0.1, elements=40, alpha_deg=10.0, load_time=60.0, damping=1.0):
+    """A disc of diameter D (ring mesh, h = D/elements) with flattened caps of half-angle α
+    (nodes clipped to |y| ≤ R cos α: the load spreads over ~2α instead of one node), between two
+    stiff platens moving at ±v; v is chosen so that the expected platen approach at peak is
+    covered in ``load_time`` × D/c_p.  Returns (sim, disk, top, bottom, v, material)."""
+    R, h = 0.5 * D, D / elements
+    mat = fdem.Material(density=2500.0, young=10e9, poisson=0.2, damping=damping, tensile_strength=5e6,
+                        fracture_energy=50.0, cohesion=15e6, friction_angle=35.0, name="rock")
+    platen = fdem.Material(density=2500.0, young=100e9, poisson=0.2, penalty=3 * mat.young, name="steel")
+    d0 = fdem.mesh.disk(R, h)
+    yc = R * math.cos(math.radians(alpha_deg))
+    pts = d0.points.copy()
+    pts[:, 1] = np.clip(pts[:, 1], -yc, yc)
+    scene = fdem.Scene(gravity=(0.0, 0.0), plane="strain")
+    disk = scene.add_body(TriMesh(pts, d0.triangles), mat, fracture=True, name="disc")
+    cp = mat.p_wave_speed("strain")
+    approach = 6e-4 * D / 0.1                  # platen approach at peak (measured ≈ 5e-4 m for D = 0.1 m)
+    v = 0.5 * approach / (load_time * D / cp)
+    pm = fdem.mesh.rectangle(0.5 * D, 0.1 * D, D / 20)
+    top = scene.add_body(pm, platen, position=(0.0, yc + 0.05 * D + 1e-9), prescribed_velocity=(0.0, -v), name="top")
+    bot = scene.add_body(pm, platen, position=(0.0, -yc - 0.05 * D - 1e-9), prescribed_velocity=(0.0, v), name="bottom")
+    sim = scene.build(safety=0.35)
+    return sim, disk, top, bot, v, mat
+
+
+def run_brazilian(sim, top, bot, v, D, load_time, cp, samples=200, callback=None):
+    """Load with a ramp of the platen speed over 0.1 load_time D/c_p; sample P (per unit thickness,
+    on the top platen) and the platen approach until the load has dropped below 30 % of its peak.
+    Returns dict(t, P, approach, broken)."""
+    t_load = load_time * D / cp
+    n_total = int(1.3 * t_load / sim.dt)
+    k = max(1, n_total // samples)
+    vbc0 = sim.node_vbc.to_numpy()
+    t_ramp = 0.1 * t_load
+    y_top0, y_bot0 = sim.node_positions(top)[:, 1].mean(), sim.node_positions(bot)[:, 1].mean()
+    out = {"t": [], "P": [], "approach": [], "broken": []}
+    while sim.step_count < n_total:
+        if sim.time < t_ramp + k * sim.dt:
+            sim.node_vbc.from_numpy(vbc0 * min(1.0, (sim.time + 0.5 * k * sim.dt) / t_ramp))
+        sim.step(k)
+        P = float(sim.forces()[top.nodes, 1].sum())           # thickness 1: per unit thickness
+        out["t"].append(sim.time)
+        out["P"].append(P)
+        out["approach"].append(float((y_top0 - sim.node_positions(top)[:, 1].mean())
+                                     + (sim.node_positions(bot)[:, 1].mean() - y_bot0)))
+        out["broken"].append(sim.broken_joint_count)
+        if callback is not None:
+            callback(sim)
+        if out["broken"][-1] and P < 0.3 * max(out["P"]):
+            break
+    return {key: np.array(val) for key, val in out.items()}
+
+
+def test_brazilian_disc():
+    D, load_time = 0.1, 60.0
+    sim, disk, top, bot, v, mat = brazilian_scene(D, 40, load_time=load_time)
+    cp = mat.p_wave_speed("strain")
+    r = run_brazilian(sim, top, bot, v, D, load_time, cp)
+    i = int(np.argmax(r["P"]))
+    sigma_t = 2.0 * r["P"][i] / (math.pi * D * 1.0)
+    ratio = sigma_t / mat.tensile_strength
+    alpha = math.radians(10.0)
+    hondros = (math.sin(2 * alpha) - alpha) / alpha            # centre stress factor of a load spread over 2α
+    bj = sim.broken_joints()
+    j = min(i + 10, len(r["t"]) - 1)
+    sel = bj["time"] <= r["t"][j]
+    central = float(np.mean(np.abs(bj["position"][sel, 0]) < 0.15 * D)) if sel.any() else 0.0
+    print(f"\nbrazilian: {sim.info()['triangles']} triangles, loading time to peak {r['t'][i] * cp / D:.0f} D/c_p; "
+          f"σ_t/f_t = {ratio:.4f} (with the Hondros factor {hondros:.3f}: {ratio * hondros:.4f}); "
+          f"{sel.sum()} joints broken by shortly after the peak, {central:.0%} with |x| < 0.15 D; "
+          f"fragments {sim.fragment_count(disk)}")
+    assert ratio == pytest.approx(1.0, rel=0.15)
+    assert sel.sum() >= 5
+    assert central >= 0.8
+
+
+# ------------------------------------------------------------------------------------------------
+# fracturing impact: energy balance and fragments
+# ------------------------------------------------------------------------------------------------
+def _components(n_tri, pairs):
+    """Connected components of n_tri triangles linked by ``pairs`` (union-find, brute force)."""
+    parent = list(range(n_tri))
+
+    def find(a):
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+    for a, b in pairs:
+        ra, rb = find(int(a)), find(int(b))
+        if ra != rb:
+            parent[ra] = rb
+    return len({find(a) for a in range(n_tri)})
+
+
+def impact_scene(plate_h=0.02, speed=30.0):
+    mat = fdem.Material(density=1000.0, young=1e8, poisson=0.25, tensile_strength=2e5, fracture_energy=20.0,
+                        name="plate")
+    proj = fdem.Material(density=3000.0, young=1e8, poisson=0.25, name="projectile")
+    scene = fdem.Scene(gravity=(0.0, 0.0))
+    plate = scene.add_body(fdem.mesh.rectangle(0.4, 0.1, plate_h), mat, fracture=True, name="plate")
+    ball = scene.add_body(fdem.mesh.disk(0.03, 0.015), proj, position=(0.0, 0.085), velocity=(0.0, -speed),
+                          name="projectile")
+    return scene, plate, ball
+
+
+def test_fracturing_impact_energy_and_fragments():
+    scene, plate, ball = impact_scene()
+    sim = scene.build()
+    e0 = sim.energies()["total"]
+    worst = 0.0
+    for _ in range(30):
+        sim.step(100)
+        worst = max(worst, abs(sim.energies()["total"] - e0) / e0)
+    e = sim.energies()
+    nb = sim.broken_joint_count
+    jt = sim._joint_tris_np
+    intact = sim.joint_state.to_numpy()[: sim.joint_count] == 0
+    plate_tris = np.arange(plate.triangles.start, plate.triangles.stop)
+    ref = _components(sim.tri_count, jt[intact]) - (sim.tri_count - len(plate_tris))
+    print(f"\nimpact: {nb} joints broken, fracture energy {e['fracture']:.4g} J of {e0:.4g} J; worst |ΔE|/E0 = "
+          f"{worst:.4%}; fragments of the plate {sim.fragment_count(plate)} (brute force {ref})")
+    assert nb >= 5
+    assert e["fracture"] > 0
+    assert worst < 0.02
+    assert sim.fragment_count(plate) == ref
+    assert sim.fragment_count() == ref + 1
+
+
+# ------------------------------------------------------------------------------------------------
+# skip and validation
+# ------------------------------------------------------------------------------------------------
+def test_no_fracture_no_joint_kernel():
+    mat = fdem.Material(density=1000.0, young=1e7, poisson=0.3)
+    scene = fdem.Scene(gravity=(0.0, 0.0))
+    scene.add_body(fdem.mesh.disk(0.1, 0.05), mat, position=(-0.11, 0.0), velocity=(1.0, 0.0))
+    scene.add_body(fdem.mesh.disk(0.1, 0.05), mat, position=(0.11, 0.0))
+    sim = scene.build(strategy="parallel")
+    sim.step(20)
+    sim.forces()
+    sim.profile(5)
+    assert sim.fracture is False and sim.joint_count == 0
+    assert "eval_joints" not in sim.launches
+    assert sim.launches                                  # the parallel strategy counts its launches
+    assert sim.joint_nodes.shape[0] == 1 and sim.joint_state.shape[0] == 1
+    assert sim.broken_joint_count == 0 and sim.fragment_count() == 2
+    assert sim.energies()["fracture"] == 0.0 and sim.energies()["joints"] == 0.0
+    assert np.all(sim.tri_damage() == 0.0)
+
+
+def test_fracture_parameters_validated():
+    scene = fdem.Scene()
+    with pytest.raises(ValueError, match="tensile_strength.*fracture_energy"):
+        scene.add_body(_square(), fdem.Material(), fracture=True)
+    with pytest.raises(ValueError, match="tensile_strength.*fracture_energy"):
+        scene.add_body(_square(), fdem.Material(tensile_strength=1e6), fracture=True)
+    with pytest.raises(ValueError, match="fracture_energy"):
+        fdem.Material(tensile_strength=1e6, fracture_energy=-1.0)
+    soft = fdem.Material(young=1e8, tensile_strength=1e5, fracture_energy=1e3, joint_penalty=2e8)
+    scene.add_body(_square(), soft, fracture=True)
+    with pytest.warns(RuntimeWarning, match="joint_penalty"):
+        scene.build()
