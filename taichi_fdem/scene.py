@@ -238,10 +238,13 @@ class Scene:
 
         Parameters
         ----------
-        dt : time step [s].  None (default): ``safety`` × the estimated stable limit
-            (FDEM_SPEC §6.2: elements h/c_p with damping, contact h√(ρ/p)).  A dt above the
-            limit raises ValueError unless ``force_dt=True``.
-        safety : fraction of the stable limit used when dt is None (0 < safety ≤ 1).
+        dt : time step [s].  None (default): ``safety`` × the book's estimate ``sim.dt_estimate``
+            (FDEM_SPEC §6.2: elements h/c_p with damping, contact h√(ρ/p), joints L√(ρ/p_f)).
+            A dt above the stable limit ``sim.dt_limit`` (the same with contact and joint terms
+            × 0.4 and damping rated on the element size, as measured in the stress tests) raises
+            ValueError unless ``force_dt=True``.
+        safety : fraction of the estimate used when dt is None (default 0.2, which keeps a margin
+            of ≥ 2 on the measured limit; at most dt_limit/dt_estimate unless force_dt).
         buffer : contact buffer b [m] (§4.1); default ¼ of the mean edge length of the
             contact triangles.
         strategy : "auto", "serial" (one launch runs many steps: small scenes) or "parallel"

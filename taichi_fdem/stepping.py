@@ -25,6 +25,7 @@ from .slots import *  # noqa: F401,F403  (slot indices shared with the host)
 from .slots import (A_BOUNDARY, R_TIME, I_COUPLES, I_DETECTIONS, I_FOUND, I_INVERTED, I_NONFINITE, I_OVERFLOW,
                     I_SPEED, R_BUFFER, R_CELL, R_DACC, R_DT, R_GX, R_GY, R_RMAX, R_VLIMIT, R_VMAX)
 
+UNSTABLE_BIT = 1 << 24   # added to run_steps_serial's return value (steps per launch < 2^24)
 CHUNK = 256   # nodes per chunk in reductions (one atomic per chunk, not per node)
 
 
@@ -268,7 +269,8 @@ def run_steps_serial(nsteps: ti.i32, node_x: ti.types.ndarray(), node_v: ti.type
 
     Stops early, before the step that needs it, when the couple buffer is too small (the
     count is left in sim_int[I_OVERFLOW]; grow and call again), and after a step that
-    produced a non-finite value or an inverted element.  Returns the number of steps done.
+    produced a non-finite value or an inverted element.  Returns the number of steps done, plus
+    ``UNSTABLE_BIT`` when the state is unstable (so the host needs no extra read to know).
     """
     done = 0
     ti.loop_config(serialize=True)
@@ -303,7 +305,8 @@ def run_steps_serial(nsteps: ti.i32, node_x: ti.types.ndarray(), node_v: ti.type
                 stop = 1
         if stop != 0:
             break
-    return done
+    # steps done, plus UNSTABLE_BIT when the last step left a non-finite / inverted / too-fast state
+    return done + ti.select(status_code(sim_real, sim_int) >= 2, UNSTABLE_BIT, 0)
 
 
 # ---------------------------------------------------------------------------------------------

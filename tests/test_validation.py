@@ -163,7 +163,7 @@ def test_dt_above_stable_limit_raises_unless_forced():
     scene = fdem.Scene()
     scene.add_body(fdem.mesh.rectangle(1, 1, 0.25), MAT)
     limit = scene.build().dt_limit
-    assert scene.build().dt == pytest.approx(0.2 * limit, rel=1e-12)       # default safety 0.2
+    assert scene.build().dt == pytest.approx(0.2 * scene.build().dt_estimate, rel=1e-12)   # default safety 0.2
     with pytest.raises(ValueError, match="stable limit"):
         scene.build(dt=2.0 * limit)
     sim = scene.build(dt=2.0 * limit, force_dt=True)
@@ -172,26 +172,33 @@ def test_dt_above_stable_limit_raises_unless_forced():
 
 
 def test_stable_limit_follows_the_spec_formula():
-    """§6.2: Δt_el = h_min/c_p (plane strain c_p), Δt_c = h_min √(ρ/p) over contact triangles."""
+    """§6.2: Δt_el = h_min/c_p (plane strain c_p), Δt_c = h_min √(ρ/p) over contact triangles.
+
+    These are the book's estimates (``dt_estimate``, the base of the default step); the limit
+    used to refuse a step (``dt_limit``) takes 0.4 of the contact term, as measured.
+    """
     E, nu, rho = 1e6, 0.25, 1000.0
     mesh = fdem.mesh.rectangle(1.0, 0.5, 0.25)
     h_min = mesh.min_altitude()
     cp = math.sqrt(E * (1 - nu) / (rho * (1 + nu) * (1 - 2 * nu)))
     scene = fdem.Scene()
     scene.add_body(mesh, MAT)
+    assert scene.build().dt_estimate == pytest.approx(h_min / cp, rel=1e-12)
     assert scene.build().dt_limit == pytest.approx(h_min / cp, rel=1e-12)
     scene.add_body(mesh, MAT, position=(0.0, 2.0))
     p = 10.0 * E                                                            # default penalty 10 E
-    assert scene.build().dt_limit == pytest.approx(h_min * math.sqrt(rho / p), rel=1e-12)
+    assert scene.build().dt_estimate == pytest.approx(h_min * math.sqrt(rho / p), rel=1e-12)
+    assert scene.build().dt_limit == pytest.approx(0.4 * h_min * math.sqrt(rho / p), rel=1e-12)
     # damping ratio ξ lowers the limits by √(1+ξ²) − ξ (elements: β; contact: ξ of §5.2)
     damped = fdem.Scene()
     damped.add_body(mesh, MAT.with_(damping=0.5))
-    assert damped.build().dt_limit == pytest.approx(h_min / cp * (math.sqrt(1.25) - 0.5), rel=1e-12)
+    assert damped.build().dt_estimate == pytest.approx(h_min / cp * (math.sqrt(1.25) - 0.5), rel=1e-12)
+    assert damped.build().dt_limit < damped.build().dt_estimate      # damping rated on h_eq ≥ h_min
     cdamped = fdem.Scene()
     cdamped.add_body(mesh, MAT.with_(contact_damping=0.5))
     cdamped.add_body(mesh, MAT.with_(contact_damping=0.5), position=(0.0, 2.0))
-    assert cdamped.build().dt_limit == pytest.approx(h_min * math.sqrt(rho / p) * (math.sqrt(1.25) - 0.5),
-                                                     rel=1e-12)
+    assert cdamped.build().dt_estimate == pytest.approx(h_min * math.sqrt(rho / p) * (math.sqrt(1.25) - 0.5),
+                                                        rel=1e-12)
 
 
 def test_overlapping_bodies_warn_and_touching_bodies_do_not():
