@@ -106,7 +106,7 @@ def edge_integrals(a, b, ci, cj, t0, t1, t2, inv2Ac):
 
 @ti.func
 def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, acc: ti.template(),
-                 friction: ti.template(), cdamping: ti.template()):
+                 friction: ti.template(), cdamping):
     """One pass: contactor triangle C against target triangle T (§2.3.2 CONTACT_PASS).
 
     C, T: 3×2 matrices of node positions (row r = node r) [m]; U, W: their node velocities
@@ -139,7 +139,10 @@ def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, acc:
             Fnj = p * Phi1
             gi = -Fni * n
             gj = -Fnj * n
-            if ti.static(friction or cdamping):
+            use_v = cdamping
+            if ti.static(friction):
+                use_v = 1
+            if use_v != 0:
                 ui = vec2(U[i, 0], U[i, 1])
                 uj = vec2(U[j, 0], U[j, 1])
                 # relative velocity at the representative point P(s̄) (§5.1 steps 1–2)
@@ -163,7 +166,7 @@ def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, acc:
                     wi = (Phi0 - Phi1) / Phi0
                     gi += (Ft * wi) * that
                     gj += (Ft * (1.0 - wi)) * that
-                if ti.static(cdamping):
+                if cdamping != 0:
                     # normal viscous traction c_n ḋ on the clipped span (§5.2)
                     nhat = n / L
                     rate = -vrel.dot(nhat)                # penetration rate ḋ [m/s]
@@ -202,7 +205,7 @@ def boxes_overlap(a0, a1, a2, b0, b1, b2):
 
 @ti.func
 def eval_couple(c, couple_a: ti.template(), couple_b: ti.template(), node_x: ti.template(), node_v: ti.template(), node_f: ti.template(), tri_nodes: ti.template(), tri_mat: ti.template(), pair_prop: ti.template(),
-                couple_hist: ti.template(), acc: ti.template(), dt, friction: ti.template(), cdamping: ti.template()):
+                couple_hist: ti.template(), acc: ti.template(), dt, friction: ti.template(), cdamping):
     """Contact forces of couple c (both passes) added to node_f (§2.3.2 COUPLE)."""
     A = couple_a[c]
     B = couple_b[c]
@@ -216,7 +219,10 @@ def eval_couple(c, couple_a: ti.template(), couple_b: ti.template(), node_x: ti.
         XB = mat32_rows(b0, b1, b2)
         VA = ti.Matrix.zero(float, 3, 2)
         VB = ti.Matrix.zero(float, 3, 2)
-        if ti.static(friction or cdamping):
+        use_v = cdamping
+        if ti.static(friction):
+            use_v = 1
+        if use_v != 0:
             for r in ti.static(range(3)):
                 va = node_v[na[r]]
                 vb = node_v[nb[r]]

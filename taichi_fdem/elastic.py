@@ -36,7 +36,7 @@ def strain_energy_density(F, J, mu, lam):
 
 @ti.func
 def eval_tri_elastic(e, node_x: ti.template(), node_v: ti.template(), node_f: ti.template(), tri_nodes: ti.template(), tri_rest_inv: ti.template(), tri_mat: ti.template(), mat_mu: ti.template(), mat_lam: ti.template(),
-                     tri_visc: ti.template(), tri_diss: ti.template(), sim_int: ti.template(), dt, damping: ti.template()):
+                     tri_visc: ti.template(), tri_diss: ti.template(), sim_int: ti.template(), dt, damping):
     """Add the internal nodal forces of triangle e to node_f (§3.5: f_i += ½ T n_i).
 
     With ``damping`` the viscous stress k_s D is added and its dissipated work
@@ -51,7 +51,7 @@ def eval_tri_elastic(e, node_x: ti.template(), node_v: ti.template(), node_f: ti
     else:
         m = tri_mat[e]
         T = cauchy_elastic(F, J, mat_mu[m], mat_lam[m])
-        if ti.static(damping):
+        if damping != 0:                              # a runtime switch: one compiled variant
             v0, v1, v2 = node_v[n[0]], node_v[n[1]], node_v[n[2]]
             Lx = mat2_cols(v1 - v0, v2 - v0)
             L = Lx @ Fx.inverse()

@@ -234,7 +234,10 @@ class Simulation:
         dt_j = np.inf
         if self.fracture:
             pf_j = mat_joint[joint_mat, 5]
-            dt_j = float(np.min(joint_len * np.sqrt(rho_all[joint_mat] / pf_j)))
+            # the node mass a joint moves is set by its triangles' size: use their smallest
+            # altitude, not the joint length (the length alone was optimistic on slender meshes)
+            h_j = np.minimum(np.minimum(altitude[joint_tris[:, 0]], altitude[joint_tris[:, 1]]), joint_len)
+            dt_j = float(np.min(h_j * np.sqrt(rho_all[joint_mat] / pf_j)))
         self.dt_joint = float(dt_j)
         self.dt_elastic, self.dt_contact = float(dt_el), float(dt_c)
         # The book's estimates (§6.2) set the default step; the stable limit used to refuse a
@@ -441,8 +444,11 @@ class Simulation:
         return int(self.sim_int.to_numpy()[I_DETECTIONS])
 
     def _flags(self):
-        return (self.contact, self.damping, self.friction, self.contact_damping, self.has_bc, self.has_bc_work,
-                self.fracture)
+        # contact, friction and fracture are compile-time switches (their code is large: absent
+        # features are not compiled); damping, contact damping and prescribed velocities are
+        # runtime switches (a branch each), which keeps the number of compiled variants small
+        return (self.contact, int(self.damping), self.friction, int(self.contact_damping), int(self.has_bc),
+                int(self.has_bc_work), self.fracture)
 
     def _joint_args(self):
         return (self.joint_nodes, self.joint_mat, self.joint_state, self.joint_dmax, self.joint_fs, self.joint_work,

@@ -95,7 +95,7 @@ def phase_detect_fill(ctri: ti.template(), tri_nodes: ti.template(), tri_body: t
 
 @ti.func
 def phase_elastic(node_x: ti.template(), node_v: ti.template(), node_f: ti.template(), tri_nodes: ti.template(), tri_rest_inv: ti.template(), tri_mat: ti.template(), mat_mu: ti.template(), mat_lam: ti.template(), tri_visc: ti.template(),
-                  tri_diss: ti.template(), sim_real: ti.template(), sim_int: ti.template(), damping: ti.template()):
+                  tri_diss: ti.template(), sim_real: ti.template(), sim_int: ti.template(), damping):
     dt = sim_real[R_DT]
     for e in range(tri_nodes.shape[0]):
         eval_tri_elastic(e, node_x, node_v, node_f, tri_nodes, tri_rest_inv, tri_mat, mat_mu, mat_lam,
@@ -122,7 +122,7 @@ def phase_joint_work(joint_nodes: ti.template(), joint_g: ti.template(), joint_w
 
 @ti.func
 def phase_contact(couple_a: ti.template(), couple_b: ti.template(), node_x: ti.template(), node_v: ti.template(), node_f: ti.template(), tri_nodes: ti.template(), tri_mat: ti.template(), pair_prop: ti.template(), couple_hist: ti.template(),
-                  acc: ti.template(), sim_real: ti.template(), sim_int: ti.template(), friction: ti.template(), cdamping: ti.template()):
+                  acc: ti.template(), sim_real: ti.template(), sim_int: ti.template(), friction: ti.template(), cdamping):
     dt = sim_real[R_DT]
     for c in range(sim_int[I_COUPLES]):
         eval_couple(c, couple_a, couple_b, node_x, node_v, node_f, tri_nodes, tri_mat, pair_prop,
@@ -131,7 +131,7 @@ def phase_contact(couple_a: ti.template(), couple_b: ti.template(), node_x: ti.t
 
 @ti.func
 def phase_integrate(node_x: ti.template(), node_v: ti.template(), node_f: ti.template(), node_mass: ti.template(), node_free: ti.template(), node_vbc: ti.template(), acc: ti.template(), sim_real: ti.template(), sim_int: ti.template(),
-                    bc: ti.template(), bc_work: ti.template()):
+                    bc, bc_work):
     """Central difference (§6.1): v += Δt (f/m + g); prescribed velocities; x += Δt v; f = 0."""
     N = node_x.shape[0]
     dt = sim_real[R_DT]
@@ -145,10 +145,10 @@ def phase_integrate(node_x: ti.template(), node_v: ti.template(), node_f: ti.tem
         for i in range(chunk * CHUNK, ti.min(N, chunk * CHUNK + CHUNK)):
             m = node_mass[i]
             v = node_v[i] + dt * (node_f[i] / m + g)
-            if ti.static(bc):
+            if bc != 0:
                 free = node_free[i]
                 vb = node_vbc[i]
-                if ti.static(bc_work):
+                if bc_work != 0:
                     # work of the constraint force R = m (v_b − v_free)/Δt over x_{n+1} − x_n = Δt v_b
                     work += ((1.0 - free) * m * (vb - v)).dot(vb)
                 v = free * v + (1.0 - free) * vb
@@ -163,7 +163,7 @@ def phase_integrate(node_x: ti.template(), node_v: ti.template(), node_f: ti.tem
         ti.atomic_max(sim_real[R_VMAX], ti.sqrt(vmax2))
         if bad > 0:
             ti.atomic_max(sim_int[I_NONFINITE], bad)
-        if ti.static(bc_work):
+        if bc_work != 0:
             ti.atomic_add(acc[A_BOUNDARY], work)
     for _ in range(1):
         # re-detection trigger D_acc += 2 Δt v_max (§4.1)
@@ -226,8 +226,8 @@ def step_parallel(node_x: ti.types.ndarray(), node_v: ti.types.ndarray(), node_f
                   joint_fs: ti.types.ndarray(), joint_work: ti.types.ndarray(), joint_break: ti.types.ndarray(), joint_mode: ti.types.ndarray(),
                   mat_joint: ti.types.ndarray(),
                   joint_g: ti.types.ndarray(),
-                  contact: ti.template(), damping: ti.template(), friction: ti.template(),
-                  cdamping: ti.template(), bc: ti.template(), bc_work: ti.template(),
+                  contact: ti.template(), damping: ti.i32, friction: ti.template(),
+                  cdamping: ti.i32, bc: ti.i32, bc_work: ti.i32,
                   fracture: ti.template()) -> ti.i32:
     """One step, each phase a parallel loop.  Returns :func:`status_code`."""
     phase_elastic(node_x, node_v, node_f, tri_nodes, tri_rest_inv, tri_mat, mat_mu, mat_lam, tri_visc,
@@ -262,8 +262,8 @@ def run_steps_serial(nsteps: ti.i32, node_x: ti.types.ndarray(), node_v: ti.type
                   joint_fs: ti.types.ndarray(), joint_work: ti.types.ndarray(), joint_break: ti.types.ndarray(), joint_mode: ti.types.ndarray(),
                   mat_joint: ti.types.ndarray(),
                   joint_g: ti.types.ndarray(),
-                     contact: ti.template(), damping: ti.template(), friction: ti.template(),
-                     cdamping: ti.template(), bc: ti.template(), bc_work: ti.template(),
+                     contact: ti.template(), damping: ti.i32, friction: ti.template(),
+                     cdamping: ti.i32, bc: ti.i32, bc_work: ti.i32,
                      fracture: ti.template()) -> ti.i32:
     """Up to ``nsteps`` whole steps, detection included, in one serial loop (small scenes).
 
@@ -317,7 +317,7 @@ def eval_elastic(node_x: ti.types.ndarray(), node_v: ti.types.ndarray(), node_f:
                  tri_nodes: ti.types.ndarray(), tri_rest_inv: ti.types.ndarray(), tri_mat: ti.types.ndarray(),
                  mat_mu: ti.types.ndarray(), mat_lam: ti.types.ndarray(), tri_visc: ti.types.ndarray(),
                  tri_diss: ti.types.ndarray(), sim_real: ti.types.ndarray(), sim_int: ti.types.ndarray(),
-                 damping: ti.template()):
+                 damping: ti.i32):
     phase_elastic(node_x, node_v, node_f, tri_nodes, tri_rest_inv, tri_mat, mat_mu, mat_lam, tri_visc,
                   tri_diss, sim_real, sim_int, damping)
 
@@ -337,7 +337,7 @@ def eval_contact(couple_a: ti.types.ndarray(), couple_b: ti.types.ndarray(), nod
                  node_v: ti.types.ndarray(), node_f: ti.types.ndarray(), tri_nodes: ti.types.ndarray(),
                  tri_mat: ti.types.ndarray(), pair_prop: ti.types.ndarray(), couple_hist: ti.types.ndarray(),
                  acc: ti.types.ndarray(), sim_real: ti.types.ndarray(), sim_int: ti.types.ndarray(),
-                 friction: ti.template(), cdamping: ti.template()):
+                 friction: ti.template(), cdamping: ti.i32):
     phase_contact(couple_a, couple_b, node_x, node_v, node_f, tri_nodes, tri_mat, pair_prop, couple_hist,
                   acc, sim_real, sim_int, friction, cdamping)
 
@@ -346,7 +346,7 @@ def eval_contact(couple_a: ti.types.ndarray(), couple_b: ti.types.ndarray(), nod
 def integrate(node_x: ti.types.ndarray(), node_v: ti.types.ndarray(), node_f: ti.types.ndarray(),
               node_mass: ti.types.ndarray(), node_free: ti.types.ndarray(), node_vbc: ti.types.ndarray(),
               acc: ti.types.ndarray(), sim_real: ti.types.ndarray(), sim_int: ti.types.ndarray(),
-              bc: ti.template(), bc_work: ti.template()) -> ti.i32:
+              bc: ti.i32, bc_work: ti.i32) -> ti.i32:
     phase_integrate(node_x, node_v, node_f, node_mass, node_free, node_vbc, acc, sim_real, sim_int, bc, bc_work)
     return status_code(sim_real, sim_int)
 

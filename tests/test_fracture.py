@@ -330,7 +330,10 @@ def test_brazilian_disc():
           f"σ_t/f_t = {ratio:.4f} (with the Hondros factor {hondros:.3f}: {ratio * hondros:.4f}); "
           f"{sel.sum()} joints broken by shortly after the peak, {central:.0%} with |x| < 0.15 D; "
           f"fragments {sim.fragment_count(disk)}")
-    assert ratio == pytest.approx(1.0, rel=0.15)
+    # The caps are flattened over ±α, so the analytic centre stress of this geometry is
+    # 2P/(πDt) × (sin 2α − α)/α (Hondros); the peak load itself is sensitive to round-off (the
+    # first joints to break decide the crack path): seen 1.107 and 1.162 for two builds.
+    assert ratio * hondros == pytest.approx(1.0, rel=0.15)
     assert sel.sum() >= 5
     assert central >= 0.8
 
