@@ -185,7 +185,9 @@ def test_gui_image_layout_and_colour_cycle():
     assert np.array_equal(_from_gui(np.concatenate([g, np.ones((4, 3, 1), np.float32)], axis=2)), img)
     sim = _small_sim()
     v = Viewer(sim, RendererImage(32, 32))
-    seen = [v.renderer.color_by] + [v.cycle_color() for _ in range(7)]
-    assert seen[0] == seen[-1] == "body" and len(set(seen)) == 7
+    from taichi_fdem.render import COLOR_MODES
+    n = len(COLOR_MODES)
+    seen = [v.renderer.color_by] + [v.cycle_color() for _ in range(n)]
+    assert seen[0] == seen[-1] == "body" and len(set(seen)) == n
     with pytest.raises(ValueError):
         Viewer(sim, steps_per_frame=0)
