@@ -45,7 +45,7 @@ def build(short: bool):
                            fixed=True, name="incline")
     start = -0.5 * L + 0.6 * BW                               # along the slope from its centre
     pos = start * down + (0.5 * T + 0.5 * BH) * normal
-    block = scene.add_body(fdem.mesh.rectangle(BW, BH, 0.025), mat, position=pos, rotation=-THETA, name="block")
+    block = scene.add_body(fdem.mesh.rectangle(BW, BH, 0.025 if short else 0.0125), mat, position=pos, rotation=-THETA, name="block")
     sim = scene.build()
     duration = 0.25 if short else 1.0
     return sim, slope, block, down, duration

@@ -28,7 +28,7 @@ VMAX_STRESS = 1.5e5   # Pa, top of the colour scale of the video
 
 def build(short: bool):
     import taichi_fdem as fdem
-    h = 0.4 * RADIUS if short else 0.2 * RADIUS
+    h = 0.4 * RADIUS if short else 0.1 * RADIUS
     gap = 0.1 * RADIUS if short else 0.5 * RADIUS      # initial gap between the two disks [m]
     mat = fdem.Material(**MATERIAL, name="rubber")
     scene = fdem.Scene(gravity=(0.0, 0.0))
@@ -98,7 +98,7 @@ def main(argv=None) -> dict:
 
     sim, bodies, duration = build(args.short)
     initial = state(sim, bodies)
-    frames = 12 if args.short else 75            # 5 s of video at 15 fps (rendering < 10 % of the run)
+    frames = 12 if args.short else 50            # 3.3 s of video at 15 fps (rendering < 10 % of the run)
     size = (320, 160) if args.short else (960, 384)
     view = (-2.6 * RADIUS, 4.0 * RADIUS, -1.3 * RADIUS, 1.3 * RADIUS) if not args.short else \
         (-2.2 * RADIUS, 2.2 * RADIUS, -1.1 * RADIUS, 1.1 * RADIUS)
