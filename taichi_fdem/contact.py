@@ -10,7 +10,7 @@ the contactor nodes, so that force and moment are conserved to round-off.
 """
 import taichi as ti
 
-from ._tiutil import mat2_cols, mat32_rows, vec2, vec3
+from ._tiutil import mat32_rows, vec2, vec3
 
 
 # Tolerance in barycentric space (values are O(1)), FDEM_SPEC §9.2.  Chosen per precision at

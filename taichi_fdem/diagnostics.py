@@ -1,7 +1,7 @@
 """Diagnostics kernels: energies and contact-overlap checks (not on the hot path)."""
 import taichi as ti
 
-from ._tiutil import mat2_cols, mat32_rows, vec2, vec3
+from ._tiutil import vec2
 
 from .contact import boxes_overlap
 from .elastic import tri_strain_energy

@@ -6,7 +6,7 @@ kernel (small scenes); see :mod:`taichi_fdem.stepping`.
 """
 import taichi as ti
 
-from ._tiutil import mat2_cols, mat32_rows, vec2, vec3
+from ._tiutil import mat2_cols, vec2
 
 
 

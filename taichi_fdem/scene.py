@@ -6,7 +6,7 @@ Pure Python and NumPy; nothing here touches Taichi.  :meth:`Scene.build` turns a
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable, Optional
 
 import numpy as np

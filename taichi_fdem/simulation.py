@@ -12,7 +12,7 @@ import taichi as ti
 
 from . import backend, slots, stepping
 from .diagnostics import energy_terms, overlap_areas
-from .slots import (A_BOUNDARY, A_CDAMPING, A_FRICTION, I_COUPLES, I_DETECTIONS, I_FOUND, I_INVERTED,
+from .slots import (A_BOUNDARY, A_CDAMPING, A_FRICTION, I_COUPLES, I_DETECTIONS, I_INVERTED,
                        I_NONFINITE, I_OVERFLOW, I_SPEED, I_BROKEN, R_BIG, R_BUFFER, R_DACC, R_DT, R_GX, R_GY, R_VLIMIT, R_VMAX)
 
 # Execution strategy.  Measured on the 2-core CPU (benchmarks/pile.py): the serial many-step
@@ -326,7 +326,7 @@ class Simulation:
         self.joint_nodes = _ndarray(joint_nodes, ti.i32, vec=4)
         self.joint_mat = sc(joint_mat, np.int32)
         self.joint_state = sc(np.zeros(len(joint_nodes), np.int32), np.int32)
-        self.joint_dmax = v3r = _ndarray(np.zeros((len(joint_nodes), 3), real), rti, vec=3)
+        self.joint_dmax = _ndarray(np.zeros((len(joint_nodes), 3), real), rti, vec=3)
         self.joint_fs = _ndarray(np.repeat(mat_joint[joint_mat, 1:2], 3, axis=1).astype(real), rti, vec=3)
         self.joint_work = sc(np.zeros(len(joint_nodes)))
         self.joint_break = _ndarray(np.zeros((len(joint_nodes), 3), real), rti, vec=3)

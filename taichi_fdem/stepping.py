@@ -13,7 +13,7 @@ Scalar slots shared between host and kernels are in :mod:`taichi_fdem.slots`.
 """
 import taichi as ti
 
-from ._tiutil import mat2_cols, mat32_rows, vec2, vec3
+from ._tiutil import vec2
 
 from .contact import eval_couple
 from .detection import bin_circle, prepare_circle, scan_partners

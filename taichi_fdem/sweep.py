@@ -71,7 +71,7 @@ import socket
 import threading
 import time
 from collections import deque
-from typing import Any, Callable
+from typing import Callable
 
 __all__ = ["Sweep", "SweepError", "METRICS", "group_params", "registry_metrics", "run_point", "load"]
 
@@ -166,7 +166,6 @@ def _body_of(sim, name: str):
 
 
 def _centroid(sim, body, what):
-    import numpy as np
     m = sim.node_masses(body)
     x = {"displacement": sim.node_displacements, "position": sim.node_positions,
          "velocity": sim.node_velocities}[what](body)

@@ -362,7 +362,7 @@ def case_rotation(resolution: int = 8, safety: float = 0.2, penalty_factor: floa
     L = 10 * d
     mat = Material(density=RHO, young=E, poisson=NU)
     scene = Scene(gravity=(0.0, 0.0))
-    body = scene.add_body(mesh.rectangle(L, d, d / resolution, origin=(0.0, -0.5 * d)), mat)
+    scene.add_body(mesh.rectangle(L, d, d / resolution, origin=(0.0, -0.5 * d)), mat)
     sim, build = _build(scene, safety)
     X = sim._X
     worst = worst_f = 0.0
