@@ -52,6 +52,13 @@ CASES = {
                   order_dt=None, note="two-disk impact: energy balance after separation (§8.4)"),
     "rotation": dict(default=dict(resolution=4), res=([4], [4]), contact=False, order_h=None, order_dt=None,
                      note="rigid rotation of the beam: max |σ|/E (objectivity, §8.6)"),
+    # fracture (§8.7): resolution = load increments per δ_p (joint pull), elements across the
+    # strip (direct tension); the penalty sweep is over the joint penalty p_f/E
+    "joint_pull": dict(default=dict(resolution=100), res=([25, 50, 100, 200], [25, 100]), contact=True,
+                       penalties=[1.0, 100.0], order_h=None, order_dt=None,
+                       note="single-joint mode I pull: peak, breakage opening, work (§8.7)"),
+    "direct_tension": dict(default=dict(resolution=2), res=([2, 4], [2]), contact=True, penalties=[100.0],
+                           order_h=None, order_dt=None, note="direct tension of a jointed strip: peak = f_t (§8.7)"),
 }
 SAFETIES = ([0.05, 0.1, 0.2, 0.4, 0.8], [0.1, 0.2, 0.4, 0.8])
 PENALTIES = [1.0, 10.0, 100.0]

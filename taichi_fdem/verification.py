@@ -472,5 +472,111 @@ def case_disks(resolution: int = 3, safety: float = 0.2, penalty_factor: float =
                    momentum_error=worst_p, energy_before=e0, energy_after=e["total"])
 
 
+# ------------------------------------------------------------------------------------------------
+# §8.7 single-joint pull (mode I) and direct tension of a jointed strip (fracture)
+# ------------------------------------------------------------------------------------------------
+def case_joint_pull(resolution: int = 100, safety: float = 0.2, penalty_factor: float = 10.0,
+                    precision: str = "f64", **kw) -> dict:
+    """Mode I pull of one joint between the two triangles of a unit square (§8.7).
+
+    Both triangles' nodes are prescribed: A moves along n̂ by δ_p/``resolution`` per step (the
+    time step only scales time: nothing is integrated freely, so ``safety`` is not used).
+    ``penalty_factor`` = p_f/E.  Error: the largest relative error of the peak stress (f_t), the
+    opening at breakage (δ_p + Δ_n) and the work per unit length f_t(2δ_p/3 + 0.3863 Δ_n).
+    """
+    _precision(precision)
+    from .scene import explode_for_fracture
+    t_start = _time.perf_counter()
+    E = 1e8
+    mat = Material(density=1000.0, young=E, poisson=0.25, tensile_strength=1e6, fracture_energy=1e4,
+                   joint_penalty=penalty_factor * E)
+    ft, c, tanphi, gI, gII, pf = mat.joint_properties()
+    sq = mesh.TriMesh(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]), np.array([[0, 1, 2], [0, 2, 3]]))
+    ex, jn, jt = explode_for_fracture(sq)
+    A = np.arange(3 * int(jt[0, 0]), 3 * int(jt[0, 0]) + 3)
+    B = np.arange(3 * int(jt[0, 1]), 3 * int(jt[0, 1]) + 3)
+    x0, x1, x2, x3 = ex.points[jn[0]]
+    e = 0.5 * (x1 + x2 - x0 - x3)
+    L = float(np.linalg.norm(e))
+    n = np.array([-e[1], e[0]]) / L
+    scene = Scene(gravity=(0.0, 0.0))
+    body = scene.add_body(sq, mat, fracture=True)
+    scene.fix_nodes(lambda x, y: np.isin(np.arange(len(x)), A), body=body, velocity=(0.0, 0.0))
+    scene.fix_nodes(lambda x, y: np.isin(np.arange(len(x)), B), body=body, velocity=(0.0, 0.0))
+    dt = 1e-4
+    t0 = _time.perf_counter()
+    sim = scene.build(dt=dt)
+    build = _time.perf_counter() - t0
+    dp = 2.0 * L * ft / pf
+    dn = 3.0 * gI / ft
+    inc = dp / resolution
+    vbc = sim.node_vbc.to_numpy()
+    vbc[A] = n * inc / dt
+    sim.node_vbc.from_numpy(vbc)
+    j = sim.joint_nodes.to_numpy()[0]
+
+    def opening():
+        x = sim.node_positions()
+        return float((0.5 * ((x[j[0]] - x[j[3]]) + (x[j[1]] - x[j[2]]))) @ n)
+
+    def stress():
+        f = sim.forces() - sim.forces(contact_only=True)
+        return float(-(f[A].sum(axis=0) @ n) / L)
+
+    os_, ss = [opening()], [stress()]
+    total = int(1.5 * (dp + dn) / inc)
+    while sim.step_count < total and not sim.broken_joint_count:
+        sim.step(1 if os_[-1] < 1.3 * dp else 10)
+        os_.append(opening())
+        ss.append(stress())
+    o, s = np.array(os_[:-1]), np.array(ss[:-1])
+    o_break = float(sim.broken_joints()["time"][0]) * inc / dt if sim.broken_joint_count else math.nan
+    work = float(np.sum(0.5 * (s[1:] + s[:-1]) * np.diff(o)))
+    w_ref = ft * (2.0 * dp / 3.0 + 0.3863 * dn)
+    errs = (abs(s.max() / ft - 1), abs(o_break / (dp + dn) - 1), abs(work / w_ref - 1))
+    return _result(sim, _time.perf_counter() - t_start, build, error=max(errs), peak_error=errs[0],
+                   break_error=errs[1], work_error=errs[2])
+
+
+def case_direct_tension(resolution: int = 2, safety: float = 0.2, penalty_factor: float = 10.0,
+                        precision: str = "f64", **kw) -> dict:
+    """Direct tension of a fully jointed strip (1 × 0.2 m, plane stress), quasi-static pull.
+
+    ``resolution`` = elements across the height; ``penalty_factor`` = p_f/E.  Error: peak
+    stress (reaction / height) against f_t.
+    """
+    _precision(precision)
+    t_start = _time.perf_counter()
+    W, H = 1.0, 0.2
+    h = H / resolution
+    E, rho, ft = 1e8, 1000.0, 1e5
+    mat = Material(density=rho, young=E, poisson=0.2, damping=0.7, tensile_strength=ft, fracture_energy=20.0,
+                   joint_penalty=penalty_factor * E)
+    scene = Scene(gravity=(0.0, 0.0), plane="stress")
+    body = scene.add_body(mesh.rectangle(W, H, h, origin=(0.0, 0.0)), mat, fracture=True)
+    c = mat.p_wave_speed("stress")
+    u_peak = 1.2 * W * ft / E
+    v = u_peak / (150.0 * W / c)
+    tol = 1e-9
+    scene.fix_nodes(lambda x, y: x < tol, body=body, velocity=(0.0, None))
+    scene.fix_nodes(lambda x, y: (x < tol) & (y < tol), body=body, velocity=(0.0, 0.0))
+    scene.fix_nodes(lambda x, y: x > W - tol, body=body, velocity=(v, None))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        sim, build = _build(scene, safety)
+    right = sim.node_positions()[:, 0] > W - tol
+    n_total = int(2.5 * u_peak / v / sim.dt)
+    k = max(1, n_total // 400)
+    stress = []
+    while sim.step_count < n_total:
+        sim.step(k)
+        stress.append(-sim.forces()[right, 0].sum() / H)
+        if sim.broken_joint_count and stress[-1] < 0.3 * max(stress):
+            break
+    peak = float(max(stress))
+    return _result(sim, _time.perf_counter() - t_start, build, error=abs(peak / ft - 1), peak_over_ft=peak / ft)
+
+
 CASES = {"wave": case_wave, "two_bars": case_two_bars, "hertz": case_hertz, "cantilever": case_cantilever,
-         "rotation": case_rotation, "incline": case_incline, "disks": case_disks}
+         "rotation": case_rotation, "incline": case_incline, "disks": case_disks,
+         "joint_pull": case_joint_pull, "direct_tension": case_direct_tension}

@@ -73,3 +73,15 @@ def test_elastic_impact_of_two_disks():
     assert r["momentum_error"] < 1e-12, r
     assert 0.9 < r["restitution"] <= 1.0, r
     assert math.isclose(r["restitution"] ** 2 + r["vibration_share"], 1.0, abs_tol=0.01)
+
+
+def test_joint_pull_case():
+    """§8.7: peak f_t, breakage at δ_p + Δ_n and work f_t(2δ_p/3 + 0.3863 Δ_n), each within 2 %."""
+    r = V.case_joint_pull(resolution=50)
+    assert r["error"] < 0.02, r
+
+
+def test_direct_tension_case():
+    """§8.7: the peak stress of a jointed strip in direct tension equals f_t within 2 %."""
+    r = V.case_direct_tension(resolution=2)
+    assert r["error"] < 0.02, r
