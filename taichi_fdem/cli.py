@@ -1,6 +1,6 @@
 """The ``taichi-fdem`` command line.
 
-    taichi-fdem run SCENE.toml [--duration S] [--video PATH | --no-video] [--vtu DIR]
+    taichi-fdem run SCENE.toml [--duration S] [--video PATH | --no-video] [--vtu DIR] [--from CHECKPOINT]
     taichi-fdem sweep SWEEP.toml [--workers N] [--output CSV] [--scheduler tcp://host:port] [--no-resume]
     taichi-fdem demo [NAME] [demo arguments ...]
     taichi-fdem info
@@ -66,6 +66,16 @@ def cmd_run(args) -> int:
         spec.output["vtu"] = args.vtu
     _init(args)
     sim, settings = spec.build()
+    if args.resume_from:
+        from .checkpoint import CheckpointError
+        from .simulation import Simulation
+        try:
+            sim = Simulation.load(args.resume_from)
+        except FileNotFoundError:
+            raise _BadInput(f"--from: no checkpoint file {args.resume_from!r}") from None
+        except CheckpointError as exc:
+            raise _BadInput(f"--from: {exc}") from None
+        print(f"resumed from {args.resume_from} at t = {sim.time:.6g} s (step {sim.step_count:,})")
     info = sim.info()
     print(f"{os.path.basename(args.scene)}: {len(sim.bodies)} bodies, {info['triangles']} triangles, "
           f"{info['nodes']} nodes; dt = {sim.dt:.4g} s (stable limit {sim.dt_limit:.4g} s), "
@@ -208,6 +218,9 @@ def build_parser() -> argparse.ArgumentParser:
                                    "says; prints a summary and the energy account.")
     p.add_argument("scene", metavar="SCENE.toml", help="the scene file")
     p.add_argument("--duration", type=float, help="simulated time [s] (overrides [solver] duration)")
+    p.add_argument("--from", dest="resume_from", metavar="CHECKPOINT",
+                   help="continue from a checkpoint (Simulation.save) instead of the scene's initial state; "
+                        "the scene file still gives the outputs and the duration to run")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--video", help="video path (.mp4, .gif or a folder of PNGs; overrides [output] video)")
     g.add_argument("--no-video", action="store_true", help="write no video")

@@ -195,3 +195,14 @@ def test_run_checkpoint(capsys, tmp_path):
     assert f"wrote checkpoint: {ck.as_posix()}" in out
     sim = fdem.Simulation.load(str(ck))
     assert sim.time == pytest.approx(0.005, abs=sim.dt) and [b.name for b in sim.bodies] == ["floor", "block"]
+    # continue from it: the run starts where the checkpoint ended
+    (tmp_path / "s2.toml").write_text(SLIDE)
+    code, out, err = run(capsys, "run", str(tmp_path / "s2.toml"), "--no-progress", "--no-video",
+                         "--from", str(ck), "--duration", "0.002")
+    assert code == 0, err
+    assert "resumed from" in out
+    import re
+    t_end = float(re.search(r"done: t = ([0-9.eE+-]+) s", out).group(1))
+    assert t_end == pytest.approx(0.007, abs=2 * sim.dt)          # 0.005 s + 0.002 s
+    code, out, err = run(capsys, "run", str(tmp_path / "s2.toml"), "--from", str(tmp_path / "missing.ckpt"))
+    assert code == 2 and "no checkpoint file" in err
