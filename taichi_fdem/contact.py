@@ -53,16 +53,18 @@ def edge_integrals(a, b, ci, cj, t0, t1, t2, inv2Ac):
     smin = 0.0
     smax = 1.0
     sbar = 0.5
-    # 2.i: the target's vertices relative to the line of the edge
-    ne = perp(cj - ci)
-    g0 = (ci - t0).dot(ne) * inv2Ac
-    g1 = (ci - t1).dot(ne) * inv2Ac
-    g2 = (ci - t2).dot(ne) * inv2Ac
-    reject = (g0 > -eps and g1 > -eps and g2 > -eps) or (g0 < eps and g1 < eps and g2 < eps)
-    # 2.ii: both end points outside the same target edge (also rejects shared edges)
+    # 2.ii first (it reuses a, b): both end points outside the same target edge (also rejects
+    # shared edges); then 2.i: the target's vertices relative to the line of the edge
+    reject = False
     for k in ti.static(range(3)):
         if a[k] < eps and b[k] < eps:
             reject = True
+    if not reject:
+        ne = perp(cj - ci)
+        g0 = (ci - t0).dot(ne) * inv2Ac
+        g1 = (ci - t1).dot(ne) * inv2Ac
+        g2 = (ci - t2).dot(ne) * inv2Ac
+        reject = (g0 > -eps and g1 > -eps and g2 > -eps) or (g0 < eps and g1 < eps and g2 < eps)
     if not reject:
         # 3. clipping to the target
         for k in ti.static(range(3)):
@@ -125,7 +127,18 @@ def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, acc:
         br = barycentric(vec2(C[r, 0], C[r, 1]), t0, t1, t2, inv2At)
         Bm[r, 0], Bm[r, 1], Bm[r, 2] = br[0], br[1], br[2]
     gC = ti.Matrix.zero(float, 3, 2)
-    for i in range(3):                        # a runtime loop: one copy of the edge code
+    # the whole contactor outside one target edge line: no edge can touch (exact early out;
+    # it is what most couples of a jointed mesh are, and fragments drifting apart)
+    eps = ti.static(_eps())
+    outside = False
+    for k in ti.static(range(3)):
+        if Bm[0, k] < eps and Bm[1, k] < eps and Bm[2, k] < eps:
+            outside = True
+    if outside:
+        if ti.static(friction):
+            for i in ti.static(range(3)):
+                hist[hslot + i] = 0.0
+    for i in range(0 if outside else 3):      # a runtime loop: one copy of the edge code
         j = (i + 1) % 3
         a = vec3(Bm[i, 0], Bm[i, 1], Bm[i, 2])
         b = vec3(Bm[j, 0], Bm[j, 1], Bm[j, 2])
