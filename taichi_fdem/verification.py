@@ -574,7 +574,8 @@ def case_direct_tension(resolution: int = 2, safety: float = 0.2, penalty_factor
         if sim.broken_joint_count and stress[-1] < 0.3 * max(stress):
             break
     peak = float(max(stress))
-    return _result(sim, _time.perf_counter() - t_start, build, error=abs(peak / ft - 1), peak_over_ft=peak / ft)
+    return _result(sim, _time.perf_counter() - t_start, build, error=abs(peak / ft - 1), peak_over_ft=peak / ft,
+                   broken_joints=sim.broken_joint_count, fragments=sim.fragment_count())
 
 
 CASES = {"wave": case_wave, "two_bars": case_two_bars, "hertz": case_hertz, "cantilever": case_cantilever,
