@@ -7,14 +7,61 @@
     disk = scene.add_body(fdem.mesh.disk(radius=0.05, h=0.01), rock, position=(0.0, 0.2))
     sim = scene.build()
     sim.run(duration=0.1)
+
+Layers (imports run downwards only; see docs/architecture.md):
+
+* bottom: :mod:`backend` (``fdem.init``), :mod:`material`, :mod:`mesh`;
+* :mod:`engine`: Taichi kernels by physics and the step;
+* :mod:`model` (scene → model + state, :mod:`timestep`), then the driver :mod:`simulation`
+  (with :mod:`guards`, :mod:`energies`, :mod:`results`), then the builder :mod:`scene`;
+* drivers on top: :mod:`render`, :mod:`io` (VTU, checkpoints, scene files), :mod:`viewer`,
+  :mod:`cli`, :mod:`sweep`, :mod:`verification`, :mod:`stability`.  They are imported on first
+  use (``fdem.render``, ``fdem.sweep``, ...), so importing the core loads none of them.
 """
-from . import checkpoint, export, mesh, render, scenefile, sweep
+import importlib
+
+from . import mesh
 from .backend import init
+from .guards import SimulationError
 from .material import Material
 from .scene import Body, Scene
-from .simulation import Simulation, SimulationError
+from .simulation import Simulation
 
 __version__ = "0.1.0"
 __all__ = ["init", "mesh", "render", "export", "checkpoint", "scenefile", "sweep", "Material", "Scene", "Body",
            "Simulation", "SimulationError", "__version__"]
-# The live window (taichi_fdem.viewer.Viewer) is imported on demand: the core never opens a window.
+
+# driver modules, loaded on first attribute access (PEP 562)
+_LAZY = {"render": "taichi_fdem.render", "export": "taichi_fdem.io.vtu", "checkpoint": "taichi_fdem.io.checkpoint",
+         "scenefile": "taichi_fdem.io.scenefile", "sweep": "taichi_fdem.sweep", "io": "taichi_fdem.io",
+         "verification": "taichi_fdem.verification", "stability": "taichi_fdem.stability",
+         "viewer": "taichi_fdem.viewer", "cli": "taichi_fdem.cli"}
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        module = importlib.import_module(_LAZY[name])
+        globals()[name] = module
+        return module
+    raise AttributeError(f"module 'taichi_fdem' has no attribute {name!r}")
+
+
+def _video_sink(sim, video, fps, png_dir, renderer):
+    """The frame sink of ``Simulation.run(video=...)``: (writer context, draw())."""
+    from .render import RendererImage, VideoWriter, body_colors
+    renderer = renderer or RendererImage()
+    writer = VideoWriter(video, fps=fps, png_dir=png_dir)
+    if hasattr(renderer, "render_sim"):
+        return writer, lambda: writer.append(renderer.render_sim(sim))
+    colors = body_colors(sim.model.tri_body_np)
+    return writer, lambda: writer.append(renderer.render(sim.state.node_x, sim.model.tri_nodes, colors))
+
+
+class _LazyCheckpoint:
+    def __getattr__(self, name):
+        return getattr(importlib.import_module("taichi_fdem.io.checkpoint"), name)
+
+
+# the drivers above the simulation hand themselves in (the simulation imports neither)
+Simulation.video_sink_factory = staticmethod(_video_sink)
+Simulation.checkpoint_io = _LazyCheckpoint()

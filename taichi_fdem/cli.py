@@ -50,7 +50,7 @@ def _fmt_energy(e: dict) -> str:
 
 # ----------------------------------------------------------------------------------------------
 def cmd_run(args) -> int:
-    from . import scenefile
+    from .io import scenefile
     spec = scenefile.load(args.scene)
     if args.duration is not None:
         if not (math.isfinite(args.duration) and args.duration >= 0):
@@ -61,13 +61,13 @@ def cmd_run(args) -> int:
     elif args.video:
         spec.output["video"] = args.video
     if args.vtu:
-        if importlib.util.find_spec("taichi_fdem.export") is None:
-            raise _BadInput("--vtu needs taichi_fdem.export, which this version does not have")
+        if importlib.util.find_spec("taichi_fdem.io.vtu") is None:
+            raise _BadInput("--vtu needs taichi_fdem.io.vtu, which this version does not have")
         spec.output["vtu"] = args.vtu
     _init(args)
     sim, settings = spec.build()
     if args.resume_from:
-        from .checkpoint import CheckpointError
+        from .io.checkpoint import CheckpointError
         from .simulation import Simulation
         try:
             sim = Simulation.load(args.resume_from)
@@ -259,7 +259,7 @@ def main(argv=None) -> int:
     if args.command is None:
         ap.print_help()
         return EXIT_BAD_INPUT
-    from .scenefile import SceneFileError
+    from .io.scenefile import SceneFileError
     from .simulation import SimulationError
     from .sweep import SweepError
     try:

@@ -26,7 +26,7 @@ import numpy as np
 import taichi as ti
 
 from taichi_fdem import backend
-from taichi_fdem.elastic import cauchy_elastic, deformation
+from taichi_fdem.engine.elastic import cauchy_elastic, deformation
 
 __all__ = ["RendererImage", "colormap", "body_colors", "VideoWriter", "save_png", "annotate",
            "COLORMAPS", "COLOR_MODES"]

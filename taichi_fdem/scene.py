@@ -1,7 +1,8 @@
 """Scene description: bodies (mesh + material + placement), boundary conditions, settings.
 
-Pure Python and NumPy; nothing here touches Taichi.  :meth:`Scene.build` turns a scene into a
-:class:`~taichi_fdem.simulation.Simulation`, the one place where arrays are allocated.
+The builder layer, on top of the simulation: a scene is pure Python and NumPy data, and
+:meth:`Scene.build` turns it into a :class:`~taichi_fdem.simulation.Simulation` (which computes
+the model, :mod:`taichi_fdem.model`, the one place where arrays are allocated).
 """
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import numpy as np
 
 from .material import Material, check_finite
 from .mesh import TriMesh
+from .simulation import Simulation
 
 
 def _vec2(value, name: str, where: str) -> np.ndarray:
@@ -253,6 +255,5 @@ class Scene:
         speed_limit : a node speed [m/s] above which the run stops as unstable (default: 2× the
             largest P-wave speed of the materials, or 10× the fastest initial speed if larger).
         """
-        from .simulation import Simulation
         return Simulation(self, dt=dt, safety=safety, force_dt=force_dt, buffer=buffer, strategy=strategy,
                           check_overlap=check_overlap, speed_limit=speed_limit)

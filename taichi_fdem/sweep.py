@@ -266,7 +266,7 @@ def _build_point(base, params: dict, duration):
     params = dict(params)
     dur = params.get("solver.duration")
     if isinstance(base, (str, os.PathLike)):
-        from . import scenefile
+        from .io import scenefile
         sim, settings = scenefile.load(base, overrides=params).build()
         # precedence: the point's solver.duration, then the sweep's duration, then the file's
         return sim, duration if duration is not None and "solver.duration" not in params else settings.duration
@@ -453,7 +453,7 @@ class Sweep:
         self._spec = None
         if isinstance(base, (str, os.PathLike)):
             base = os.path.abspath(os.fspath(base))
-            from . import scenefile
+            from .io import scenefile
             try:
                 self._spec = scenefile.load(base)
             except scenefile.SceneFileError as exc:
@@ -499,7 +499,7 @@ class Sweep:
                 seen[key] = i
         self.param_cols = keys
         if self._spec is not None:
-            from . import scenefile
+            from .io import scenefile
             for i, p in enumerate(self.points):
                 try:
                     scenefile.load(base, overrides=p)
@@ -737,7 +737,7 @@ def load(path) -> tuple[Sweep, dict]:
         # [[sweep.points]]
         # "materials.rock.friction" = 0.2
     """
-    from . import scenefile
+    from .io import scenefile
     path = os.fspath(path)
     try:
         data, text = scenefile.read_toml(path)

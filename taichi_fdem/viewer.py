@@ -60,12 +60,10 @@ class Viewer:
     def __init__(self, sim, renderer: RendererImage | None = None, steps_per_frame: int | None = None,
                  name: str = "taichi_fdem", fallback_video="out/viewer.mp4", fps: int = 30,
                  readback: bool = False):
-        from .simulation import SERIAL_MAX_STEPS, SERIAL_TRI_STEPS
-
         self.sim = sim
         self.renderer = renderer if renderer is not None else RendererImage()
         if steps_per_frame is None:
-            steps_per_frame = max(1, min(SERIAL_MAX_STEPS, SERIAL_TRI_STEPS // max(1, sim.tri_count)))
+            steps_per_frame = sim.steps_per_launch()
         if isinstance(steps_per_frame, bool) or int(steps_per_frame) != steps_per_frame or steps_per_frame < 1:
             raise ValueError(f"Viewer: steps_per_frame must be an integer >= 1, got {steps_per_frame!r}")
         self.steps_per_frame = int(steps_per_frame)

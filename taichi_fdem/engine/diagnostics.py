@@ -1,7 +1,8 @@
-"""Diagnostics kernels: energies and contact-overlap checks (not on the hot path)."""
+"""Diagnostics kernels: energies, contact overlaps and penetration depths (not on the hot path)."""
 import taichi as ti
 
-from ._tiutil import vec2
+from .groups import SWITCH_DAMPING, ContactGroup, MaterialGroup, NodeGroup, StepGroup, TriGroup
+from .tiutil import vec2
 
 from .contact import boxes_overlap
 from .elastic import tri_strain_energy
@@ -78,35 +79,34 @@ def pass_potential(c0, c1, c2, t0, t1, t2):
 
 
 @ti.kernel
-def energy_terms(node_x: ti.types.ndarray(), node_v: ti.types.ndarray(), node_mass: ti.types.ndarray(),
-                 tri_nodes: ti.types.ndarray(), tri_rest_inv: ti.types.ndarray(), tri_area0: ti.types.ndarray(),
-                 tri_mat: ti.types.ndarray(), mat_mu: ti.types.ndarray(), mat_lam: ti.types.ndarray(),
-                 tri_diss: ti.types.ndarray(), couple_a: ti.types.ndarray(), couple_b: ti.types.ndarray(),
-                 pair_prop: ti.types.ndarray(), couple_hist: ti.types.ndarray(), couple_count: ti.i32,
-                 gx: float, gy: float, out: ti.types.ndarray(), friction: ti.template()):
+def energy_terms(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: ContactGroup,
+                 step: StepGroup, couple_count: ti.i32, out: ti.types.ndarray(), friction: ti.template()):
     """out = [kinetic, strain, contact (penalty + friction spring), gravity, damping dissipated], J/m."""
     for i in range(5):
         out[i] = 0.0
-    for i in range(node_x.shape[0]):
-        m = node_mass[i]
-        out[0] += 0.5 * m * node_v[i].norm_sqr()
-        out[3] -= m * (gx * node_x[i][0] + gy * node_x[i][1])
-    for e in range(tri_nodes.shape[0]):
-        out[1] += tri_strain_energy(e, node_x, tri_nodes, tri_rest_inv, tri_area0, tri_mat, mat_mu, mat_lam)
-        out[4] += tri_diss[e]
+    g = step.step_gravity[None]
+    for i in range(nodes.node_x.shape[0]):
+        m = nodes.node_mass[i]
+        out[0] += 0.5 * m * nodes.node_v[i].norm_sqr()
+        out[3] -= m * g.dot(nodes.node_x[i])
+    damp_on = step.step_switches[None] & SWITCH_DAMPING
+    for e in range(tris.tri_nodes.shape[0]):
+        out[1] += tri_strain_energy(e, nodes, tris, mats)
+        if damp_on != 0:
+            out[4] += tris.tri_diss[e]
     for c in range(couple_count):
-        A = couple_a[c]
-        B = couple_b[c]
-        na = tri_nodes[A]
-        nb = tri_nodes[B]
-        a0, a1, a2 = node_x[na[0]], node_x[na[1]], node_x[na[2]]
-        b0, b1, b2 = node_x[nb[0]], node_x[nb[1]], node_x[nb[2]]
-        prop = pair_prop[tri_mat[A], tri_mat[B]]
+        A = con.couple_a[c]
+        B = con.couple_b[c]
+        na = tris.tri_nodes[A]
+        nb = tris.tri_nodes[B]
+        a0, a1, a2 = nodes.node_x[na[0]], nodes.node_x[na[1]], nodes.node_x[na[2]]
+        b0, b1, b2 = nodes.node_x[nb[0]], nodes.node_x[nb[1]], nodes.node_x[nb[2]]
+        prop = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]]
         if boxes_overlap(a0, a1, a2, b0, b1, b2):
             out[2] += prop[0] * (pass_potential(b0, b1, b2, a0, a1, a2) + pass_potential(a0, a1, a2, b0, b1, b2))
         if ti.static(friction):
             for q in ti.static(range(6)):
-                out[2] += 0.5 * prop[1] * couple_hist[6 * c + q] ** 2
+                out[2] += 0.5 * prop[1] * con.couple_hist[6 * c + q] ** 2
 
 
 @ti.kernel
@@ -119,3 +119,28 @@ def overlap_areas(node_x: ti.types.ndarray(), tri_nodes: ti.types.ndarray(), cou
         area, mom = clip_moments(node_x[na[0]], node_x[na[1]], node_x[na[2]],
                                  node_x[nb[0]], node_x[nb[1]], node_x[nb[2]])
         out[c] = area
+
+
+@ti.kernel
+def couple_penetrations(node_x: ti.types.ndarray(), tri_nodes: ti.types.ndarray(), couple_a: ti.types.ndarray(),
+                        couple_b: ti.types.ndarray(), couple_count: ti.i32, depth: ti.types.ndarray(),
+                        fraction: ti.types.ndarray()):
+    """depth[c] = overlap area / mean edge length [m], fraction[c] = depth / mean edge length, per couple.
+
+    Penetration measure: for a couple of triangles A, B with overlap area A_ov and mean edge
+    length L̄ of the two, d = A_ov / L̄ [m] (exact for a flat face pushed d deep along a whole
+    edge) and the fraction is d / L̄; 0.5 means the overlap covers about half a triangle.
+    """
+    for c in range(couple_count):
+        na = tri_nodes[couple_a[c]]
+        nb = tri_nodes[couple_b[c]]
+        a0, a1, a2 = node_x[na[0]], node_x[na[1]], node_x[na[2]]
+        b0, b1, b2 = node_x[nb[0]], node_x[nb[1]], node_x[nb[2]]
+        # relative to one vertex: absolute coordinates far from the origin would cost digits
+        o = a0
+        area, mom = clip_moments(a0 - o, a1 - o, a2 - o, b0 - o, b1 - o, b2 - o)
+        L = ((a1 - a0).norm() + (a2 - a1).norm() + (a0 - a2).norm()
+             + (b1 - b0).norm() + (b2 - b1).norm() + (b0 - b2).norm()) / 6.0
+        d = ti.max(area, 0.0) / L
+        depth[c] = d
+        fraction[c] = d / L

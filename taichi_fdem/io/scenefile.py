@@ -97,7 +97,7 @@ frame_dt       s       simulated time between frames [duration / (5 s × fps)]
 color_by       —       "body", "material", "speed", "displacement", "von_mises",
                        "max_principal" or "min_principal" ["body"]
 width, height  px      video frame size [960, 540]
-vtu            —       folder of a VTU series with a .pvd index (needs taichi_fdem.export)
+vtu            —       folder of a VTU series with a .pvd index (needs taichi_fdem.io.vtu)
 vtu_every      —       write one VTU file every this many frames [1]
 checkpoint     —       file written at the end of the run (needs Simulation.save)
 =============  ======  ===================================================================
@@ -435,13 +435,13 @@ class RunSettings:
         duration = self.duration if duration is None else float(duration)
         renderer = None
         if self.video:
-            from .render import RendererImage
+            from ..render import RendererImage
             renderer = RendererImage(self.width, self.height, color_by=self.color_by)
             folder = os.path.dirname(os.path.abspath(self.video))
             os.makedirs(folder, exist_ok=True)
         exporter = None
         if self.vtu:
-            from .export import ExporterVtu           # checked to exist by load()
+            from .vtu import ExporterVtu           # checked to exist by load()
             exporter = ExporterVtu(self.vtu, every=self.vtu_every)
             exporter.write(sim)                       # the initial state
         try:
@@ -492,7 +492,7 @@ class SceneSpec:
 
     def build_mesh(self, i: int):
         """The :class:`~taichi_fdem.mesh.TriMesh` of body ``i`` (generated, or read from its file)."""
-        from . import mesh
+        from .. import mesh
         b = self.bodies[i]
         shape = b["shape"]
         try:
@@ -512,7 +512,7 @@ class SceneSpec:
     def build_scene(self):
         """(:class:`~taichi_fdem.scene.Scene`, {body name: Body}) with bodies and constraints added."""
         import numpy as np
-        from .scene import Scene
+        from ..scene import Scene
         scene = Scene(gravity=self.scene["gravity"], plane=self.scene["plane"], thickness=self.scene["thickness"])
         bodies = {}
         for i, b in enumerate(self.bodies):
@@ -656,7 +656,7 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
     scene = ck.values(scene_t, SCENE_KEYS, ("scene",))
 
     # materials
-    from .material import Material
+    from ..material import Material
     mats_t = ck.table(data.get("materials", {}), ("materials",), "one [materials.NAME] table per material")
     if not mats_t:
         raise SceneFileError(f"{path}: no materials: add a [materials.NAME] table (density, young, poisson, ...)")
@@ -751,10 +751,10 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
     output = ck.values(output_t, OUTPUT_KEYS, ("output",))
     if output["vtu"] is not None:
         import importlib.util
-        if importlib.util.find_spec("taichi_fdem.export") is None:
-            raise ck.error(("output", "vtu"), "VTU output needs taichi_fdem.export, which this version does not have")
+        if importlib.util.find_spec("taichi_fdem.io.vtu") is None:
+            raise ck.error(("output", "vtu"), "VTU output needs taichi_fdem.io.vtu, which this version does not have")
     if output["checkpoint"] is not None:
-        from .simulation import Simulation
+        from ..simulation import Simulation
         if not hasattr(Simulation, "save"):
             raise ck.error(("output", "checkpoint"), "checkpoints need Simulation.save, which this version does not have")
     if "vtu_every" in output_t and output["vtu"] is None:

@@ -10,7 +10,8 @@ the contactor nodes, so that force and moment are conserved to round-off.
 """
 import taichi as ti
 
-from ._tiutil import mat32_rows, vec2, vec3
+from .groups import SWITCH_CDAMPING, WORK_CDAMPING, WORK_FRICTION
+from .tiutil import mat32_rows, vec2, vec3
 
 
 # Tolerance in barycentric space (values are O(1)), FDEM_SPEC §9.2.  Chosen per precision at
@@ -19,7 +20,7 @@ EPS = {"f64": 1e-10, "f32": 1e-6}
 
 
 def _eps():
-    from . import backend
+    from .. import backend
     return EPS[backend.precision()]
 
 
@@ -107,15 +108,15 @@ def edge_integrals(a, b, ci, cj, t0, t1, t2, inv2Ac):
 
 
 @ti.func
-def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, acc: ti.template(),
+def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, step: ti.template(),
                  friction: ti.template(), cdamping):
     """One pass: contactor triangle C against target triangle T (§2.3.2 CONTACT_PASS).
 
     C, T: 3×2 matrices of node positions (row r = node r) [m]; U, W: their node velocities
     [m/s] (used with friction or contact damping only).  Returns (gC, gT), the 3×2 nodal
     forces per unit thickness [N/m] on contactor and target.  ``hist[hslot + i]`` holds the
-    elastic slip [m] of contactor edge e; dissipated work goes to acc[0] (friction) and
-    acc[1] (contact damping) [J/m].
+    elastic slip [m] of contactor edge e; dissipated work goes to step.step_work (friction and
+    contact damping components) [J/m].
     """
     t0 = vec2(T[0, 0], T[0, 1])
     t1 = vec2(T[1, 0], T[1, 1])
@@ -172,7 +173,7 @@ def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, acc:
                     Fcap = mu * p * Phi0 * L
                     if ti.abs(Ft) > Fcap:
                         Fs = ti.math.sign(Ft) * Fcap
-                        ti.atomic_add(acc[0], Fcap * ti.abs(slip - Fs / kt))
+                        ti.atomic_add(step.step_work[None][WORK_FRICTION], Fcap * ti.abs(slip - Fs / kt))
                         Ft = Fs
                         slip = Fs / kt
                     hist[hslot + i] = slip
@@ -188,7 +189,7 @@ def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, acc:
                     wd = 1.0 - 0.5 * (smin + smax)
                     gi += -(Fd * wd) * nhat
                     gj += -(Fd * (1.0 - wd)) * nhat
-                    ti.atomic_add(acc[1], cn * rate * rate * span * dt)
+                    ti.atomic_add(step.step_work[None][WORK_CDAMPING], cn * rate * rate * span * dt)
             gC[i, 0] += gi[0]
             gC[i, 1] += gi[1]
             gC[j, 0] += gj[0]
@@ -217,17 +218,19 @@ def boxes_overlap(a0, a1, a2, b0, b1, b2):
 
 
 @ti.func
-def eval_couple(c, couple_a: ti.template(), couple_b: ti.template(), node_x: ti.template(), node_v: ti.template(), node_f: ti.template(), tri_nodes: ti.template(), tri_mat: ti.template(), pair_prop: ti.template(),
-                couple_hist: ti.template(), acc: ti.template(), dt, friction: ti.template(), cdamping):
-    """Contact forces of couple c (both passes) added to node_f (§2.3.2 COUPLE)."""
-    A = couple_a[c]
-    B = couple_b[c]
-    na = tri_nodes[A]
-    nb = tri_nodes[B]
-    a0, a1, a2 = node_x[na[0]], node_x[na[1]], node_x[na[2]]
-    b0, b1, b2 = node_x[nb[0]], node_x[nb[1]], node_x[nb[2]]
+def eval_couple(c, nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
+                step: ti.template(), friction: ti.template()):
+    """Contact forces of couple c (both passes) added to nodes.node_f (§2.3.2 COUPLE)."""
+    A = con.couple_a[c]
+    B = con.couple_b[c]
+    na = tris.tri_nodes[A]
+    nb = tris.tri_nodes[B]
+    a0, a1, a2 = nodes.node_x[na[0]], nodes.node_x[na[1]], nodes.node_x[na[2]]
+    b0, b1, b2 = nodes.node_x[nb[0]], nodes.node_x[nb[1]], nodes.node_x[nb[2]]
     if boxes_overlap(a0, a1, a2, b0, b1, b2):
-        prop = pair_prop[tri_mat[A], tri_mat[B]]      # (p, k_t, μ_f, c_n)
+        prop = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]]      # (p, k_t, μ_f, c_n)
+        cdamping = step.step_switches[None] & SWITCH_CDAMPING
+        dt = step.step_dt[None]
         XA = mat32_rows(a0, a1, a2)
         XB = mat32_rows(b0, b1, b2)
         VA = ti.Matrix.zero(float, 3, 2)
@@ -237,8 +240,8 @@ def eval_couple(c, couple_a: ti.template(), couple_b: ti.template(), node_x: ti.
             use_v = 1
         if use_v != 0:
             for r in ti.static(range(3)):
-                va = node_v[na[r]]
-                vb = node_v[nb[r]]
+                va = nodes.node_v[na[r]]
+                vb = nodes.node_v[nb[r]]
                 VA[r, 0], VA[r, 1] = va[0], va[1]
                 VB[r, 0], VB[r, 1] = vb[0], vb[1]
         # pass 0: contactor B, target A; pass 1: contactor A, target B (a runtime loop: one
@@ -250,7 +253,7 @@ def eval_couple(c, couple_a: ti.template(), couple_b: ti.template(), node_x: ti.
             if ps == 1:
                 C, U, T, W = XA, VA, XB, VB
             gC, gT = contact_pass(C, U, T, W, prop[0], prop[1], prop[2], prop[3], dt,
-                                  couple_hist, c * 6 + 3 * ps, acc, friction, cdamping)
+                                  con.couple_hist, c * 6 + 3 * ps, step, friction, cdamping)
             if ps == 0:
                 gB += gC
                 gA += gT
@@ -258,9 +261,9 @@ def eval_couple(c, couple_a: ti.template(), couple_b: ti.template(), node_x: ti.
                 gA += gC
                 gB += gT
         for r in ti.static(range(3)):
-            ti.atomic_add(node_f[na[r]], vec2(gA[r, 0], gA[r, 1]))
-            ti.atomic_add(node_f[nb[r]], vec2(gB[r, 0], gB[r, 1]))
+            ti.atomic_add(nodes.node_f[na[r]], vec2(gA[r, 0], gA[r, 1]))
+            ti.atomic_add(nodes.node_f[nb[r]], vec2(gB[r, 0], gB[r, 1]))
     else:
         if ti.static(friction):
             for s in ti.static(range(6)):
-                couple_hist[c * 6 + s] = 0.0
+                con.couple_hist[c * 6 + s] = 0.0

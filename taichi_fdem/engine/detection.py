@@ -18,7 +18,7 @@ caller grows the buffer and fills; no couple is ever dropped.
 """
 import taichi as ti
 
-from .slots import R_BUFFER, R_CELL, R_RMAX
+from .tiutil import vec2
 
 
 
@@ -33,28 +33,34 @@ def hash_cell(ix, iy, H):
 
 
 @ti.func
-def prepare_circle(k, ctri: ti.template(), tri_nodes: ti.template(), node_x: ti.template(), cen: ti.template(), rad: ti.template(), det_real: ti.template()):
-    """Bounding circle of participating triangle k; r_max into det_real[R_RMAX]."""
-    n = tri_nodes[ctri[k]]
-    x0, x1, x2 = node_x[n[0]], node_x[n[1]], node_x[n[2]]
+def prepare_circle(k, con: ti.template(), tris: ti.template(), nodes: ti.template(), step: ti.template()):
+    """Bounding circle of contact triangle k; the largest radius into step.step_rmax."""
+    n = tris.tri_nodes[con.contact_tri[k]]
+    x0, x1, x2 = nodes.node_x[n[0]], nodes.node_x[n[1]], nodes.node_x[n[2]]
     c = (x0 + x1 + x2) / 3.0
     r = ti.sqrt(ti.max((x0 - c).norm_sqr(), ti.max((x1 - c).norm_sqr(), (x2 - c).norm_sqr())))
-    cen[k] = c
-    rad[k] = r
-    ti.atomic_max(det_real[R_RMAX], r)
+    con.det_circle[k] = ti.Vector([c[0], c[1], r], dt=float)
+    ti.atomic_max(step.step_rmax[None], r)
 
 
 @ti.func
-def bin_circle(k, cen: ti.template(), det_real: ti.template(), bucket_of: ti.template(), slot: ti.template(), bucket_count: ti.template()):
-    H = bucket_count.shape[0]
-    ix, iy = cell_of(cen[k], det_real[R_CELL])
+def cell_size(step: ti.template()):
+    """d = 2 r_max + b: a pair within reach lies in the same or an adjacent cell."""
+    return 2.0 * step.step_rmax[None] + step.step_buffer[None]
+
+
+@ti.func
+def bin_circle(k, con: ti.template(), step: ti.template()):
+    """Hashed cell of contact triangle k and its slot in the cell (counting sort, pass 1)."""
+    H = con.det_bucket.shape[0]
+    ck = con.det_circle[k]
+    ix, iy = cell_of(vec2(ck[0], ck[1]), cell_size(step))
     h = hash_cell(ix, iy, H)
-    bucket_of[k] = h
-    slot[k] = ti.atomic_add(bucket_count[h], 1)
+    con.det_bin[k] = ti.Vector([h, ti.atomic_add(con.det_bucket[h][1], 1)])
 
 
 @ti.func
-def is_excluded(ta, tb, tri_nodes: ti.template(), tri_body: ti.template(), body_flags: ti.template()):
+def is_excluded(ta, tb, tris: ti.template(), con: ti.template()):
     """Couples only between triangles that may touch (§2.3.3).
 
     body_flags[b] bit 0: self-contact allowed; bit 1: every node of the body is fixed.
@@ -64,16 +70,16 @@ def is_excluded(ta, tb, tri_nodes: ti.template(), tri_body: ti.template(), body_
     compressed joint's overlap turn into contact energy from nothing at breakage: +33 % of the
     projectile's energy in a measured plate impact.
     """
-    ba = tri_body[ta]
-    bb = tri_body[tb]
+    ba = tris.tri_body[ta]
+    bb = tris.tri_body[tb]
     excluded = False
-    if ba == bb and (body_flags[ba] & 1) == 0:
+    if ba == bb and (con.body_flags[ba] & 1) == 0:
         excluded = True
-    elif (body_flags[ba] & 2) != 0 and (body_flags[bb] & 2) != 0:
+    elif (con.body_flags[ba] & 2) != 0 and (con.body_flags[bb] & 2) != 0:
         excluded = True
     else:
-        na = tri_nodes[ta]
-        nb = tri_nodes[tb]
+        na = tris.tri_nodes[ta]
+        nb = tris.tri_nodes[tb]
         for i in ti.static(range(3)):
             for j in ti.static(range(3)):
                 if na[i] == nb[j]:
@@ -82,20 +88,20 @@ def is_excluded(ta, tb, tri_nodes: ti.template(), tri_body: ti.template(), body_
 
 
 @ti.func
-def scan_partners(k, count_only: ti.template(), ctri: ti.template(), cen: ti.template(), rad: ti.template(), det_real: ti.template(), bucket_count: ti.template(), bucket_start: ti.template(), sorted_k: ti.template(),
-                  tri_nodes: ti.template(), tri_body: ti.template(), body_flags: ti.template(), out_start, couple_a: ti.template(), couple_b: ti.template(),
-                  old_start: ti.template(), old_b: ti.template(), old_hist: ti.template(), couple_hist: ti.template(), friction: ti.template()):
-    """Find the couples (k, k2), k2 > k, of participating triangle k.
+def scan_partners(k, count_only: ti.template(), con: ti.template(), tris: ti.template(), step: ti.template(),
+                  out_start, friction: ti.template()):
+    """Find the couples (k, k2), k2 > k, of contact triangle k.
 
     With count_only, returns their number; otherwise writes them from out_start on (and, with
     friction, copies the slip history of couples that existed at the previous detection).
     """
-    H = bucket_count.shape[0]
-    d = det_real[R_CELL]
-    b = det_real[R_BUFFER]
-    ck = cen[k]
-    rk = rad[k]
-    ta = ctri[k]
+    H = con.det_bucket.shape[0]
+    d = cell_size(step)
+    b = step.step_buffer[None]
+    cc = con.det_circle[k]
+    ck = vec2(cc[0], cc[1])
+    rk = cc[2]
+    ta = con.contact_tri[k]
     ix, iy = cell_of(ck, d)
     found = 0
     seen = ti.Vector([-1, -1, -1, -1, -1, -1, -1, -1, -1])
@@ -107,24 +113,26 @@ def scan_partners(k, count_only: ti.template(), ctri: ti.template(), cen: ti.tem
                 dup = True
         seen[s] = h
         if not dup:
-            for m in range(bucket_start[h], bucket_start[h] + bucket_count[h]):
-                k2 = sorted_k[m]
+            bk = con.det_bucket[h]
+            for m in range(bk[0], bk[0] + bk[1]):
+                k2 = con.det_sorted_k[m]
                 if k2 > k:
-                    dc = cen[k2] - ck
-                    reach = rk + rad[k2] + b
+                    c2 = con.det_circle[k2]
+                    dc = vec2(c2[0], c2[1]) - ck
+                    reach = rk + c2[2] + b
                     if dc.norm_sqr() < reach * reach:
-                        tb = ctri[k2]
-                        if not is_excluded(ta, tb, tri_nodes, tri_body, body_flags):
+                        tb = con.contact_tri[k2]
+                        if not is_excluded(ta, tb, tris, con):
                             if ti.static(not count_only):
                                 c = out_start + found
-                                couple_a[c] = ta
-                                couple_b[c] = tb
+                                con.couple_a[c] = ta
+                                con.couple_b[c] = tb
                                 if ti.static(friction):
                                     for q in ti.static(range(6)):
-                                        couple_hist[6 * c + q] = 0.0
-                                    for co in range(old_start[k], old_start[k + 1]):
-                                        if old_b[co] == tb:
+                                        con.couple_hist[6 * c + q] = 0.0
+                                    for co in range(con.det_old_start[k], con.det_old_start[k + 1]):
+                                        if con.det_old_b[co] == tb:
                                             for q in ti.static(range(6)):
-                                                couple_hist[6 * c + q] = old_hist[6 * co + q]
+                                                con.couple_hist[6 * c + q] = con.det_old_hist[6 * co + q]
                             found += 1
     return found

@@ -4,23 +4,23 @@
     sim = fdem.Simulation.load("run.ckpt")        # or checkpoint.load(path)
 
 A restarted run continues exactly as the uninterrupted run would (bit for bit with the serial
-strategy): the file holds
+strategy).  The model (topology, rest shapes, masses, tables: what ``build()`` computes) is not
+stored but rebuilt from the scene; the file holds
 
-* every Taichi ndarray attribute of the simulation, by name, with its kind (scalar / vector /
-  matrix), element dtype and shape — nodes, couples and their friction history, detection
-  scratch arrays, dissipation accumulators, and any array a future feature adds (found
-  generically by walking ``vars(sim)``, nothing is listed by hand);
-* every NumPy array attribute (rest positions, connectivity, masses, ...);
-* every other plain attribute (step count, time step, strategy, feature flags, couple
-  capacity, counters ...), pickled, Taichi ndarrays inside tuples, lists and dicts (caches)
-  included as NumPy data;
+* the state — every Taichi ndarray of ``sim.state`` (:class:`taichi_fdem.model.State`), by
+  name, with its kind (scalar / vector / matrix), element dtype and shape: nodes, couples and
+  their friction history, joint state, dissipation, counters, and any array a future feature
+  adds to the state (found generically, nothing is listed here), plus its plain attributes
+  (the couple capacity);
+* the driver's counters (step count, strategy, launch counts, last good state) and the build
+  settings (time step, buffer, speed limit);
 * the :class:`~taichi_fdem.scene.Scene` (meshes, materials, bodies, settings), pickled, with
   each ``fix_nodes`` predicate replaced by the node mask it selected, so that lambdas need not
   be picklable.
 
-:func:`load` rebuilds the scene with the saved time step and strategy (``force_dt=True``,
-no overlap check), then overwrites every saved array — re-allocating those whose saved
-shape differs, e.g. a couple buffer that grew — and every saved attribute.
+:func:`load` rebuilds the scene with the saved time step, strategy, buffer and speed limit
+(``force_dt=True``, no overlap check), then overwrites every saved state array — re-allocating
+those whose saved shape differs, e.g. a couple buffer that grew.
 
 The file is a NumPy ``.npz`` archive (whatever its name), written to ``path + ".tmp"`` and
 moved over ``path`` with :func:`os.replace` only once complete, so a crash while saving never
@@ -40,19 +40,16 @@ import pickle
 import numpy as np
 import taichi as ti
 
-from . import backend
+from .. import backend
 
 __all__ = ["save", "load", "CheckpointError", "FORMAT", "FORMAT_VERSION"]
 
 FORMAT = "taichi_fdem.checkpoint"
 #: Incremented when the layout of the file changes incompatibly.
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 
-# attributes rebuilt from the scene rather than saved: the scene itself (saved separately), its
-# bodies and materials (the same objects, restored through the scene) and the Taichi / NumPy
-# dtypes of the active precision
-_REBUILT = frozenset({"scene", "bodies", "materials", "_real", "_rti"})
-_DATATYPE = type(ti.f64)
+# the driver's own attributes that a checkpoint keeps (the rest is rebuilt or is a cache)
+_DRIVER_ATTRS = ("step_count", "strategy", "launches", "_stats", "_last_good")
 
 
 class CheckpointError(ValueError):
@@ -131,12 +128,12 @@ def _unpack(value):
 
 def _scene_bundle(sim) -> dict:
     """The scene of ``sim`` in a picklable form (a shallow copy; the user's scene is untouched)."""
-    from .scene import _NodeConstraint
+    from ..scene import _NodeConstraint
 
     scene = copy.copy(sim.scene)
     scene.bodies = list(sim.bodies)
     scene._node_count, scene._tri_count = sim.node_count, sim.tri_count
-    X = np.asarray(sim._X, dtype=np.float64)
+    X = np.asarray(sim.model.node_rest, dtype=np.float64)
     constraints = []
     for k, con in enumerate(sim.scene._constraints):
         # the predicate is evaluated on the initial positions, exactly as at build
@@ -154,41 +151,36 @@ def _scene_bundle(sim) -> dict:
 
 
 def save(sim, path) -> None:
-    """Write the whole state of ``sim`` to ``path`` atomically (see the module docstring).
+    """Write the state of ``sim`` and its scene to ``path`` atomically (see the module docstring).
 
-    Raises TypeError naming the attribute when an attribute of the simulation cannot be
-    stored (not an array and not picklable).
+    Raises TypeError naming the attribute when a plain attribute of the state cannot be stored.
     """
     path = os.fspath(path)
     arrays: dict[str, np.ndarray] = {}
     nd_meta: dict[str, dict] = {}
-    plain: dict = {}
-    for name, value in vars(sim).items():
-        if name in _REBUILT:
-            continue
+    state_plain: dict = {}
+    for name, value in vars(sim.state).items():
         if isinstance(value, ti.Ndarray):
             nd_meta[name] = _ndarray_meta(value)
             arrays["nd." + name] = value.to_numpy()
         elif isinstance(value, np.ndarray):
             arrays["np." + name] = value
-        elif isinstance(value, _DATATYPE):
-            continue                     # a dtype of the active precision, rebuilt by build()
-        elif type(value).__module__.startswith("taichi"):
-            raise TypeError(f"Simulation.save: attribute {name!r} is a Taichi {type(value).__name__}; "
-                            f"only Taichi ndarrays can be checkpointed")
         else:
-            value = _pack(value)
             try:
                 pickle.dumps(value)
             except Exception as exc:
-                raise TypeError(f"Simulation.save: attribute {name!r} ({type(value).__name__}) cannot be "
+                raise TypeError(f"Simulation.save: state attribute {name!r} ({type(value).__name__}) cannot be "
                                 f"stored in a checkpoint: {exc}") from None
-            plain[name] = value
+            state_plain[name] = value
+    md = sim.model
+    plain = {"driver": {k: _pack(getattr(sim, k)) for k in _DRIVER_ATTRS if k in vars(sim)},
+             "state": state_plain,
+             "build": {"dt": md.dt, "buffer": md.buffer, "speed_limit": md.speed_limit}}
     try:
         scene_bytes = pickle.dumps(_scene_bundle(sim), protocol=pickle.HIGHEST_PROTOCOL)
     except Exception as exc:
         raise TypeError(f"Simulation.save: the scene cannot be stored in a checkpoint: {exc}") from None
-    from . import __version__
+    from .. import __version__
 
     meta = {"format": FORMAT, "version": FORMAT_VERSION, "package_version": __version__,
             "precision": backend.precision(), "ndarrays": nd_meta, "step_count": int(sim.step_count),
@@ -283,22 +275,25 @@ def load(path):
         scene._interactions = {}
         for a, b, props in bundle["interactions"]:
             scene._interactions[(id(a), id(b))] = props
-        dt, strategy, buffer = plain["dt"], plain["strategy"], plain["buffer"]
+        build, driver, state_plain = plain["build"], plain["driver"], plain["state"]
     except Exception as exc:
         raise CheckpointError(f"Simulation.load: {path!r}: the saved scene or settings cannot be read "
                               f"({type(exc).__name__}: {exc})") from None
 
-    sim = scene.build(dt=dt, force_dt=True, strategy=strategy, buffer=buffer, check_overlap=False)
-
+    sim = scene.build(dt=build["dt"], force_dt=True, strategy=driver.get("strategy", "auto"),
+                      buffer=build["buffer"], speed_limit=build["speed_limit"], check_overlap=False)
+    st = sim.state
+    for name, value in state_plain.items():
+        setattr(st, name, value)
     for name, m in meta["ndarrays"].items():
         key = "nd." + name
         if key not in data:
             raise CheckpointError(f"Simulation.load: {path!r} lacks the data of array {name!r}")
         values = data[key]
-        current = getattr(sim, name, None)
+        current = getattr(st, name, None)
         if not (isinstance(current, ti.Ndarray) and _ndarray_meta(current) == m):
             current = _alloc(m)              # e.g. a couple buffer that grew during the run
-            setattr(sim, name, current)
+            setattr(st, name, current)
         try:
             current.from_numpy(np.ascontiguousarray(values))
         except Exception as exc:
@@ -306,7 +301,8 @@ def load(path):
                                   f"from data of shape {values.shape} ({exc})") from None
     for key, values in data.items():
         if key.startswith("np."):
-            setattr(sim, key[3:], values)
-    for name, value in plain.items():
+            setattr(st, key[3:], values)
+    for name, value in driver.items():
         setattr(sim, name, _unpack(value))
+    sim._after_restore()
     return sim

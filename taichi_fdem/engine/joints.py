@@ -11,8 +11,8 @@ and the joint breaks for good when two of its three points have failed (§7.8).
 """
 import taichi as ti
 
-from ._tiutil import vec2
-from .slots import I_BROKEN, R_BIG, R_DACC, R_DT, R_TIME
+from .groups import DACC_FORCE
+from .tiutil import vec2
 
 # Evans & Marathe softening fit (§7.5)
 Z_A, Z_B, Z_C = 0.63, 1.8, 6.0
@@ -39,19 +39,15 @@ def parabola(r):
 
 
 @ti.func
-def eval_joint(j, joint_nodes: ti.template(), joint_mat: ti.template(), joint_state: ti.template(),
-               joint_dmax: ti.template(), joint_fs: ti.template(), joint_work: ti.template(),
-               joint_break: ti.template(), joint_mode: ti.template(), mat_joint: ti.template(),
-               joint_g: ti.template(), node_x: ti.template(), node_v: ti.template(), node_f: ti.template(),
-               sim_real: ti.template(), sim_int: ti.template()):
-    """Forces of intact joint j added to node_f; damage, shear strength and breakage updated.
+def eval_joint(j, joints: ti.template(), mats: ti.template(), nodes: ti.template(), step: ti.template()):
+    """Forces of intact joint j added to nodes.node_f; damage, shear strength and breakage updated.
 
-    The nodal forces g0 (on the pair j0/j3) and g1 (on j1/j2) are kept in joint_g[j] so that
+    The nodal forces g0 (on the pair j0/j3) and g1 (on j1/j2) are kept in joints.joint_g[j] so that
     :func:`add_joint_work` can book their work over the step with the new velocities.
     """
-    if joint_state[j] == 0:
-        nd = joint_nodes[j]
-        x0, x1, x2, x3 = node_x[nd[0]], node_x[nd[1]], node_x[nd[2]], node_x[nd[3]]
+    if joints.joint_state[j] == 0:
+        nd = joints.joint_nodes[j]
+        x0, x1, x2, x3 = nodes.node_x[nd[0]], nodes.node_x[nd[1]], nodes.node_x[nd[2]], nodes.node_x[nd[3]]
         e = 0.5 * (x1 + x2 - x0 - x3)
         L = e.norm()
         eh = e / L
@@ -59,13 +55,13 @@ def eval_joint(j, joint_nodes: ti.template(), joint_mat: ti.template(), joint_st
         d0 = x0 - x3
         d1 = x1 - x2
         dm = 0.5 * (d0 + d1)
-        prop = mat_joint[joint_mat[j]]                # (f_t, c, tan φ, G_I, G_II, p_f)
+        prop = mats.mat_joint[joints.joint_mat[j]]                # (f_t, c, tan φ, G_I, G_II, p_f)
         ft, coh, tanphi, gI, gII, pf = prop[0], prop[1], prop[2], prop[3], prop[4], prop[5]
         dp = 2.0 * L * ft / pf                        # opening at peak (§7.4)
         dn = 3.0 * gI / ft                            # mode I softening span (Y-Geo)
         failed = 0
-        dmax = joint_dmax[j]
-        fsv = joint_fs[j]
+        dmax = joints.joint_dmax[j]
+        fsv = joints.joint_fs[j]
         trac = ti.Matrix.zero(float, 3, 2)            # row p: traction σ n̂ + τ ê at point p [Pa]
         om = dm.dot(nh)
         sm = dm.dot(eh)
@@ -110,11 +106,10 @@ def eval_joint(j, joint_nodes: ti.template(), joint_mat: ti.template(), joint_st
             t = sigma * nh + tau * eh
             trac[p, 0] = t[0]
             trac[p, 1] = t[1]
-        joint_dmax[j] = dmax
-        joint_fs[j] = fsv
+        joints.joint_dmax[j] = dmax
+        joints.joint_fs[j] = fsv
         if failed >= 2:
             # broken for good: record when, where and how (§7.8); re-detect contacts at once (§7.10)
-            joint_state[j] = 1
             mode = MODE_MIXED
             gI_done = om >= dp + dn
             sp_m = 2.0 * L * fsv[1] / pf
@@ -125,12 +120,12 @@ def eval_joint(j, joint_nodes: ti.template(), joint_mat: ti.template(), joint_st
                 mode = MODE_I
             elif gII_done:
                 mode = MODE_II
-            joint_mode[j] = mode
+            joints.joint_state[j] = mode                   # non-zero: broken, and how
             c = 0.25 * (x0 + x1 + x2 + x3)
-            joint_break[j] = ti.Vector([sim_real[R_TIME], c[0], c[1]], dt=float)
-            ti.atomic_add(sim_int[I_BROKEN], 1)
-            sim_real[R_DACC] = sim_real[R_BIG]
-            joint_g[j] = ti.Vector([0.0, 0.0, 0.0, 0.0], dt=float)
+            joints.joint_break[j] = ti.Vector([step.step_time[None], c[0], c[1]], dt=float)
+            ti.atomic_add(step.step_broken[None], 1)
+            step.step_dacc[None] = DACC_FORCE
+            joints.joint_g[j] = ti.Vector([0.0, 0.0, 0.0, 0.0], dt=float)
         else:
             # Simpson with linear shape functions: g_k = ∫ N_k t ds ≈ (L/6)(N_k(0) t0 + 4 N_k(½) tm + N_k(1) t1),
             # i.e. end points L/6 and the mid-point weight 4L/6 split ½–½ (L/3 on each pair; total L)
@@ -139,25 +134,24 @@ def eval_joint(j, joint_nodes: ti.template(), joint_mat: ti.template(), joint_st
             t1 = vec2(trac[2, 0], trac[2, 1])
             g0 = (L / 6.0) * (t0 + 2.0 * tm)          # on the pair (j0, j3)
             g1 = (L / 6.0) * (2.0 * tm + t1)          # on the pair (j1, j2)
-            ti.atomic_add(node_f[nd[0]], -g0)
-            ti.atomic_add(node_f[nd[1]], -g1)
-            ti.atomic_add(node_f[nd[2]], g1)
-            ti.atomic_add(node_f[nd[3]], g0)
-            joint_g[j] = ti.Vector([g0[0], g0[1], g1[0], g1[1]], dt=float)
+            ti.atomic_add(nodes.node_f[nd[0]], -g0)
+            ti.atomic_add(nodes.node_f[nd[1]], -g1)
+            ti.atomic_add(nodes.node_f[nd[2]], g1)
+            ti.atomic_add(nodes.node_f[nd[3]], g0)
+            joints.joint_g[j] = ti.Vector([g0[0], g0[1], g1[0], g1[1]], dt=float)
             # work over the step, central estimate g·(x_{n+1} − x_{n−1})/2: the half with the old
             # velocities here, the half with the new ones in add_joint_work
-            dv0 = node_v[nd[0]] - node_v[nd[3]]
-            dv1 = node_v[nd[1]] - node_v[nd[2]]
-            joint_work[j] += 0.5 * (g0.dot(dv0) + g1.dot(dv1)) * sim_real[R_DT]
+            dv0 = nodes.node_v[nd[0]] - nodes.node_v[nd[3]]
+            dv1 = nodes.node_v[nd[1]] - nodes.node_v[nd[2]]
+            joints.joint_work[j] += 0.5 * (g0.dot(dv0) + g1.dot(dv1)) * step.step_dt[None]
 
 
 @ti.func
-def add_joint_work(j, joint_nodes: ti.template(), joint_g: ti.template(), joint_work: ti.template(),
-                   node_v: ti.template(), sim_real: ti.template()):
+def add_joint_work(j, joints: ti.template(), nodes: ti.template(), step: ti.template()):
     """Second half of the work done on joint j over the step (see :func:`eval_joint`) [J/m]."""
-    g = joint_g[j]
+    g = joints.joint_g[j]
     if g[0] != 0.0 or g[1] != 0.0 or g[2] != 0.0 or g[3] != 0.0:
-        nd = joint_nodes[j]
-        dv0 = node_v[nd[0]] - node_v[nd[3]]
-        dv1 = node_v[nd[1]] - node_v[nd[2]]
-        joint_work[j] += 0.5 * (g[0] * dv0[0] + g[1] * dv0[1] + g[2] * dv1[0] + g[3] * dv1[1]) * sim_real[R_DT]
+        nd = joints.joint_nodes[j]
+        dv0 = nodes.node_v[nd[0]] - nodes.node_v[nd[3]]
+        dv1 = nodes.node_v[nd[1]] - nodes.node_v[nd[2]]
+        joints.joint_work[j] += 0.5 * (g[0] * dv0[0] + g[1] * dv0[1] + g[2] * dv1[0] + g[3] * dv1[1]) * step.step_dt[None]

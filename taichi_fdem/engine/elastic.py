@@ -1,0 +1,82 @@
+"""Finite-strain constant-strain triangle (FDEM_SPEC §3), as Taichi functions.
+
+The functions work on one triangle and take the array groups they read
+(:mod:`taichi_fdem.engine.groups`), so that the same maths runs inside a parallel kernel (large
+scenes) and inside the serial many-step kernel (small scenes); see :mod:`taichi_fdem.engine.step`.
+"""
+import taichi as ti
+
+from .groups import SWITCH_DAMPING
+from .tiutil import mat2_cols, vec2
+
+
+
+@ti.func
+def deformation(x0, x1, x2, rest_inv):
+    """F = Fx · F0⁻¹ and J = det F for a triangle with current nodes x0, x1, x2 (§3.1)."""
+    Fx = mat2_cols(x1 - x0, x2 - x0)
+    F = Fx @ rest_inv
+    return Fx, F, F.determinant()
+
+
+@ti.func
+def cauchy_elastic(F, J, mu, lam):
+    """Elastic Cauchy stress T = (μ/J)(B − I) + λ_Y (J − 1/J) I  [Pa] (§3.2)."""
+    B = F @ F.transpose()
+    I = ti.Matrix.identity(float, 2)
+    return (mu / J) * (B - I) + lam * (J - 1.0 / J) * I
+
+
+@ti.func
+def strain_energy_density(F, J, mu, lam):
+    """W per unit initial area [J/m³ · m = Pa]; the potential of :func:`cauchy_elastic` (§3.2)."""
+    lnJ = ti.log(J)
+    trC = F[0, 0] ** 2 + F[0, 1] ** 2 + F[1, 0] ** 2 + F[1, 1] ** 2
+    return 0.5 * mu * (trC - 2.0) - mu * lnJ + lam * (0.5 * J * J - lnJ - 0.5)
+
+
+@ti.func
+def eval_tri_elastic(e, nodes: ti.template(), tris: ti.template(), mats: ti.template(), step: ti.template()):
+    """Add the internal nodal forces of triangle e to nodes.node_f (§3.5: f_i += ½ T n_i).
+
+    With the damping switch on, the viscous stress k_s D is added and its dissipated work
+    k_s (D:D) A Δt is accumulated in tris.tri_diss[e] [J/m].  A non-positive J flags
+    step.step_inverted (1 + triangle index) and contributes no force.
+    """
+    n = tris.tri_nodes[e]
+    x0, x1, x2 = nodes.node_x[n[0]], nodes.node_x[n[1]], nodes.node_x[n[2]]
+    Fx, F, J = deformation(x0, x1, x2, tris.tri_rest_inv[e])
+    if J <= 0.0:
+        ti.atomic_max(step.step_inverted[None], e + 1)
+    else:
+        m = tris.tri_mat[e]
+        T = cauchy_elastic(F, J, mats.mat_mu[m], mats.mat_lam[m])
+        if step.step_switches[None] & SWITCH_DAMPING:        # a runtime switch: one compiled variant
+            v0, v1, v2 = nodes.node_v[n[0]], nodes.node_v[n[1]], nodes.node_v[n[2]]
+            Lx = mat2_cols(v1 - v0, v2 - v0)
+            L = Lx @ Fx.inverse()
+            D = 0.5 * (L + L.transpose())
+            ks = tris.tri_visc[e]
+            T += ks * D
+            area = 0.5 * Fx.determinant()
+            tris.tri_diss[e] += ks * (D[0, 0] ** 2 + 2.0 * D[0, 1] ** 2 + D[1, 1] ** 2) * area * step.step_dt[None]
+        # n_i = (y_k − y_j, x_j − x_k), (i, j, k) cyclic: outward normal of the edge opposite i
+        n0 = vec2(x2[1] - x1[1], x1[0] - x2[0])
+        n1 = vec2(x0[1] - x2[1], x2[0] - x0[0])
+        n2 = vec2(x1[1] - x0[1], x0[0] - x1[0])
+        ti.atomic_add(nodes.node_f[n[0]], 0.5 * (T @ n0))
+        ti.atomic_add(nodes.node_f[n[1]], 0.5 * (T @ n1))
+        ti.atomic_add(nodes.node_f[n[2]], 0.5 * (T @ n2))
+
+
+@ti.func
+def tri_strain_energy(e, nodes: ti.template(), tris: ti.template(), mats: ti.template()):
+    """Strain energy A0·W of triangle e [J/m]."""
+    n = tris.tri_nodes[e]
+    Fx, F, J = deformation(nodes.node_x[n[0]], nodes.node_x[n[1]], nodes.node_x[n[2]], tris.tri_rest_inv[e])
+    W = 0.0
+    if J > 0.0:
+        m = tris.tri_mat[e]
+        area0 = 0.5 / tris.tri_rest_inv[e].determinant()      # det F0⁻¹ = 1 / (2 A0)
+        W = area0 * strain_energy_density(F, J, mats.mat_mu[m], mats.mat_lam[m])
+    return W

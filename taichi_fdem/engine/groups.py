@@ -1,0 +1,94 @@
+"""The arrays of a simulation, grouped by concern, as Taichi argpacks.
+
+A kernel takes a handful of groups instead of fifty arrays and reads ``nodes.node_x[i]``,
+``tris.tri_rest_inv[e]``, ``step.step_dt[None]``: a member has the name of its array in the model,
+the state or the scratch (prefix-first, as in the table below with the prefix left out).  Every member is a Taichi ndarray (no recompilation
+per scene size; the element type follows the precision chosen by ``fdem.init``); scalars are
+0-d ndarrays, read and written as ``step.time[None]``.
+
+=========  ====================================================================================
+group      members
+=========  ====================================================================================
+nodes      x [m], v [m/s], f [N/m] (vec2); mass [kg/m]; free (vec2: 1 free, 0 prescribed per
+           component); vbc (vec2, prescribed velocity [m/s])
+tris       nodes (vec3 i32); rest_inv (2×2, F0⁻¹ [1/m]; A0 = ½ / det F0⁻¹); mat, body (i32);
+           visc (viscous coefficient k_s [Pa·s]); diss (damping work [J/m])
+mats       mu, lam (Lamé μ, λ_Y [Pa]); pair ((M, M) vec4: penalty p [Pa], tangential penalty
+           k_t [Pa/m], friction μ, normal damping c_n); joint ((M,) vec6: f_t, c, tan φ, G_I,
+           G_II, p_f)
+contact    ctri (contact triangles), body_flags (bit 0 self-contact, bit 1 fully fixed);
+           couples a, b, hist (6 slip values per couple [m]), start (first couple of each ctri);
+           detection scratch circle (vec3: bounding-circle centre [m], radius [m]), bin (ivec2:
+           hashed cell, slot in it), bucket (ivec2: first, count), sorted_k, cnew (counts, then
+           their exclusive prefix), old_start, old_b, old_hist (the previous couples)
+joints     nodes (vec4 i32), mat; state (0 intact, else the failure mode at breakage), dmax
+           (vec3), fs (vec3 [Pa]), work [J/m], brk (vec3: time, x, y), g (vec4: nodal forces [N/m])
+step       parameters set by the host: dt [s], gravity (vec2 [m/s²]), buffer [m], vlimit [m/s],
+           switches (runtime feature bits, :data:`SWITCH_DAMPING` ...: one compiled variant);
+           counters kept by the kernels: time [s], dacc [m], rmax [m], vmax [m/s], couple_count,
+           found, nonfinite, inverted, detections, broken; work (vec3 [J/m]: friction, contact
+           damping, boundary; index with :data:`WORK_FRICTION` ...)
+=========  ====================================================================================
+
+Adding an array: declare it in the group below and allocate it in
+:func:`taichi_fdem.model.build_model` (model arrays) or :func:`taichi_fdem.model.allocate_state`
+(state arrays).  Nothing else lists it: the kernels receive the group, checkpoints and
+last-good-state snapshots walk the state.
+
+Budget.  Taichi 1.7 allows at most 64 argument leaves per kernel launch, and every ndarray in
+an argpack is one leaf (plus one per argpack).  The serial step kernel takes every group:
+:data:`LEAVES_SERIAL` counts its leaves.  Arrays of one entity and type that are always used
+together are therefore merged into a vector (circle = centre + radius, bucket = first + count),
+and a quantity that can be derived is not stored (A0 from F0⁻¹).
+"""
+import taichi as ti
+
+_nd = ti.types.ndarray()
+
+
+def _group(*names):
+    return ti.types.argpack(**{n: _nd for n in names})
+
+
+NODE_MEMBERS = ("node_x", "node_v", "node_f", "node_mass", "node_free", "node_vbc")
+TRI_MEMBERS = ("tri_nodes", "tri_rest_inv", "tri_mat", "tri_body", "tri_visc", "tri_diss")
+MAT_MEMBERS = ("mat_mu", "mat_lam", "mat_pair", "mat_joint")
+CONTACT_MEMBERS = ("contact_tri", "body_flags", "couple_a", "couple_b", "couple_hist", "couple_start", "det_circle",
+                   "det_bin", "det_bucket", "det_sorted_k", "det_cnew", "det_old_start", "det_old_b", "det_old_hist")
+JOINT_MEMBERS = ("joint_nodes", "joint_mat", "joint_state", "joint_dmax", "joint_fs", "joint_work", "joint_break",
+                 "joint_g")
+STEP_PARAMS = ("step_dt", "step_gravity", "step_buffer", "step_vlimit", "step_switches")
+STEP_COUNTERS = ("step_time", "step_dacc", "step_rmax", "step_vmax", "step_couple_count", "step_found", "step_nonfinite",
+                 "step_inverted", "step_detections", "step_broken", "step_work")
+STEP_MEMBERS = STEP_PARAMS + STEP_COUNTERS
+
+NodeGroup = _group(*NODE_MEMBERS)
+TriGroup = _group(*TRI_MEMBERS)
+MaterialGroup = _group(*MAT_MEMBERS)
+ContactGroup = _group(*CONTACT_MEMBERS)
+JointGroup = _group(*JOINT_MEMBERS)
+StepGroup = _group(*STEP_MEMBERS)
+
+# group -> (argpack type, member names).  Members carry the names of the arrays in the model,
+# the state or the scratch (prefix-first: node_x, tri_nodes, couple_a, step_dt): Taichi flattens
+# argpack members into one namespace per kernel, so they must be unique across groups.
+GROUPS = {"nodes": (NodeGroup, NODE_MEMBERS), "tris": (TriGroup, TRI_MEMBERS), "mats": (MaterialGroup, MAT_MEMBERS),
+          "contact": (ContactGroup, CONTACT_MEMBERS), "joints": (JointGroup, JOINT_MEMBERS),
+          "step": (StepGroup, STEP_MEMBERS)}
+
+# Stored in step.dacc to force a contact detection at the next step.
+DACC_FORCE = 1e30
+
+# bits of step.switches: runtime feature switches
+SWITCH_DAMPING = 1        # viscous damping of the triangles
+SWITCH_CDAMPING = 2       # normal contact damping
+SWITCH_BC = 4             # prescribed velocities
+SWITCH_BC_WORK = 8        # non-zero prescribed velocities (their work is booked)
+
+# components of step.work [J/m]
+WORK_FRICTION, WORK_CDAMPING, WORK_BOUNDARY = 0, 1, 2
+
+# argument leaves of the serial step kernel (nsteps + 6 argpacks + their members); at most 64
+LEAVES_SERIAL = 1 + sum(1 + len(m) for m in (NODE_MEMBERS, TRI_MEMBERS, MAT_MEMBERS, CONTACT_MEMBERS,
+                                             JOINT_MEMBERS, STEP_MEMBERS))
+assert LEAVES_SERIAL <= 64, LEAVES_SERIAL

@@ -1,0 +1,414 @@
+"""Scene → model and state: everything ``build()`` computes once, and the arrays a step changes.
+
+In the spirit of Warp/Newton's builder → model → state:
+
+* :class:`Model` — what is computed once from the scene: topology, rest shapes, masses,
+  material and pair tables, boundary-condition masks, feature flags, the time step and the
+  step parameters.  A model never changes while the simulation runs.
+* :class:`State` — what a step changes: positions, velocities, forces, the couple list and its
+  friction history, joint state, dissipation, counters.  Checkpoints and last-good-state
+  snapshots save the state generically (every ndarray in it), and rebuild the model.
+* :class:`Scratch` — work arrays of contact detection, rewritten at every detection.
+
+:func:`pack_groups` bundles model, state and scratch into the argpacks of
+:mod:`taichi_fdem.engine.groups` that the kernels take.
+
+The scene is read duck-typed (bodies, constraints, interactions, gravity, plane, thickness):
+this module does not import the scene builder that sits above it.
+"""
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import taichi as ti
+
+from . import backend, timestep
+from .engine.groups import (DACC_FORCE, GROUPS, SWITCH_BC, SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING)
+
+
+def _ndarray(data: np.ndarray, dtype, vec: int | None = None, mat: tuple | None = None):
+    """A Taichi ndarray holding ``data`` (shape (n,), (n, vec) or (n, *mat))."""
+    data = np.ascontiguousarray(data)
+    if vec is not None:
+        arr = ti.Vector.ndarray(vec, dtype, shape=data.shape[:-1])
+    elif mat is not None:
+        arr = ti.Matrix.ndarray(mat[0], mat[1], dtype, shape=data.shape[:-2])
+    else:
+        arr = ti.ndarray(dtype, shape=data.shape)
+    arr.from_numpy(data)
+    return arr
+
+
+def _scalar(value, dtype):
+    """A 0-d Taichi ndarray holding ``value``."""
+    arr = ti.ndarray(dtype, shape=())
+    arr[None] = value
+    return arr
+
+
+def _next_pow2(n: int) -> int:
+    return 1 << max(4, int(math.ceil(math.log2(max(n, 1)))))
+
+
+class _Arrays:
+    """A bag of named arrays; :meth:`ndarrays` lists the Taichi ones."""
+
+    def ndarrays(self) -> dict:
+        return {k: v for k, v in vars(self).items() if isinstance(v, ti.Ndarray)}
+
+
+class Model(_Arrays):
+    """What :meth:`Scene.build` computes once (see the module docstring).
+
+    Counts: ``node_count``, ``tri_count``, ``joint_count``, ``ctri_count`` (contact
+    triangles).  Flags: ``contact``, ``friction``, ``contact_damping``, ``damping``,
+    ``fracture``, ``has_bc``, ``has_bc_work``.  Time steps [s]: ``dt``, ``dt_estimate``,
+    ``dt_limit``, ``dt_elastic``, ``dt_contact``, ``dt_joint``.  ``buffer`` [m],
+    ``speed_limit`` [m/s].  NumPy copies: ``node_rest`` (X [m]), ``node_velocity0``,
+    ``node_mass_np``, ``tri_nodes_np``, ``tri_body_np``, ``tri_mat_np``, ``tri_area0_np``,
+    ``joint_tris_np``.
+    Taichi arrays: ``node_mass``, ``node_free``, ``tri_*``, ``mat_*``, ``body_flags``,
+    ``contact_tri``, ``joint_nodes``, ``joint_mat`` and the step parameters ``step_dt``,
+    ``step_gravity``, ``step_buffer``, ``step_vlimit``, ``step_switches``.
+    """
+
+
+class State(_Arrays):
+    """What a step changes (see the module docstring); every Taichi array here is saved by
+    checkpoints.  ``couple_max`` is the capacity of the couple buffer."""
+
+
+class Scratch(_Arrays):
+    """Contact-detection work arrays (rewritten at each detection; never saved)."""
+
+
+def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_limit=None) -> Model:
+    """Compute the :class:`Model` of ``scene`` (validating the time step against its limit)."""
+    if not scene.bodies:
+        raise ValueError("Scene.build: the scene has no bodies; add one with scene.add_body(...)")
+    if not (0.0 < float(safety) <= 1.0):
+        raise ValueError(f"Scene.build: safety must be in (0, 1], got {safety}")
+    md = Model()
+    real, rti = backend.real_np(), backend.real_ti()
+    bodies = list(scene.bodies)
+    md.bodies = bodies
+
+    # ---- nodes and triangles -----------------------------------------------------------------
+    X = np.concatenate([b.mesh.points for b in bodies]).astype(np.float64)
+    tris = np.concatenate([b.mesh.triangles + b.node_start for b in bodies]).astype(np.int32)
+    tri_body = np.concatenate([np.full(b.mesh.triangle_count, b.index, np.int32) for b in bodies])
+    materials, mat_index = [], {}
+    for b in bodies:
+        if id(b.material) not in mat_index:
+            mat_index[id(b.material)] = len(materials)
+            materials.append(b.material)
+    md.materials = materials
+    tri_mat = np.concatenate([np.full(b.mesh.triangle_count, mat_index[id(b.material)], np.int32) for b in bodies])
+    md.node_count, md.tri_count = len(X), len(tris)
+    md.node_rest, md.tri_nodes_np, md.tri_body_np, md.tri_mat_np = X, tris, tri_body, tri_mat
+
+    V = np.zeros_like(X)
+    for b in bodies:
+        r = X[b.nodes] - b.mesh.centroid
+        V[b.nodes] = b.velocity + b.angular_velocity * np.stack([-r[:, 1], r[:, 0]], axis=1)
+
+    x0, x1, x2 = X[tris[:, 0]], X[tris[:, 1]], X[tris[:, 2]]
+    F0 = np.stack([x1 - x0, x2 - x0], axis=2)          # columns: edges 0→1, 0→2
+    area0 = 0.5 * np.linalg.det(F0)
+    rest_inv = np.linalg.inv(F0)
+    rho = np.array([m.density for m in materials])[tri_mat]
+    mass = np.zeros(len(X))
+    np.add.at(mass, tris.ravel(), np.repeat(rho * area0 / 3.0, 3))
+    md.node_mass_np = mass
+    edge_len = np.stack([np.linalg.norm(x1 - x0, axis=1), np.linalg.norm(x2 - x1, axis=1),
+                         np.linalg.norm(x0 - x2, axis=1)], axis=1)
+    altitude = 2.0 * area0 / edge_len.max(axis=1)       # smallest altitude of each triangle
+
+    # ---- boundary conditions -----------------------------------------------------------------
+    free, vbc, body_flags = _boundary_conditions(scene, bodies, X)
+    V = np.where(free == 0.0, vbc, V)
+    md.node_velocity0, md.node_vbc0 = V, vbc
+    md.has_bc = bool(np.any(free == 0.0))
+    md.has_bc_work = bool(np.any((free == 0.0) & (vbc != 0.0)))
+
+    # ---- materials and pair table --------------------------------------------------------------
+    pair = _pair_table(scene, materials)
+    M = len(materials)
+
+    # ---- joints of fracturing bodies (FDEM_SPEC §7) ---------------------------------------------
+    jn, jt, jm = [], [], []
+    for b in bodies:
+        if b.fracture and len(b.joint_nodes):
+            jn.append(b.joint_nodes + b.node_start)
+            jt.append(b.joint_tris + b.tri_start)
+            jm.append(np.full(len(b.joint_nodes), mat_index[id(b.material)], np.int32))
+    md.fracture = bool(jn)
+    joint_nodes = np.concatenate(jn).astype(np.int32) if jn else np.zeros((1, 4), np.int32)
+    joint_tris = np.concatenate(jt).astype(np.int32) if jt else np.zeros((1, 2), np.int32)
+    joint_mat = np.concatenate(jm) if jm else np.zeros(1, np.int32)
+    md.joint_count = len(joint_nodes) if md.fracture else 0
+    md.joint_tris_np = joint_tris[: md.joint_count]
+    mat_joint = np.zeros((M, 6))
+    for i, mat in enumerate(materials):
+        if mat.can_fracture:
+            mat_joint[i] = mat.joint_properties()
+    joint_len = np.linalg.norm(X[joint_nodes[:, 1]] - X[joint_nodes[:, 0]], axis=1)
+    if md.fracture:
+        _warn_joint_parameters(materials, mat_joint, joint_mat, joint_len)
+
+    # ---- contact participation ---------------------------------------------------------------
+    contact = len(bodies) >= 2 or any(b.self_contact for b in bodies)
+    ctri = []
+    if contact:
+        for b in bodies:
+            t = np.arange(b.tri_start, b.tri_start + b.mesh.triangle_count, dtype=np.int32)
+            if not b.self_contact:
+                # only triangles that touch the surface can meet another body
+                on_surface = np.zeros(b.mesh.point_count, bool)
+                on_surface[b.mesh.boundary_nodes()] = True
+                t = t[on_surface[b.mesh.triangles].any(axis=1)]
+            ctri.append(t)
+    ctri = np.concatenate(ctri) if ctri else np.zeros(0, np.int32)
+    md.contact = contact and len(ctri) > 1
+    used_pairs = pair[np.ix_(np.unique(tri_mat), np.unique(tri_mat))] if md.contact else pair[:0, :0]
+    md.friction = bool(md.contact and np.any(used_pairs[..., 2] > 0))
+    md.contact_damping = bool(md.contact and np.any(used_pairs[..., 3] > 0))
+    betas = np.array([m.damping for m in materials])
+    md.damping = bool(np.any(betas > 0))
+    beta_t = betas[tri_mat]
+
+    # ---- stable time step (FDEM_SPEC §6.2) ------------------------------------------------------
+    moving = ~np.all(free[tris].reshape(len(tris), 6) == 0.0, axis=1)
+    rho_all = np.array([m.density for m in materials])
+    cp = np.array([m.p_wave_speed(scene.plane) for m in materials])[tri_mat]
+    pmax = float(used_pairs[..., 0:2].max()) if md.contact else 0.0
+    rho_min = min(m.density for m in materials)
+    xi_max = used_pairs[..., 3].max() / (4.0 * math.sqrt(pmax * rho_min)) if md.contact_damping else 0.0
+    if md.fracture:
+        # the node mass a joint moves is set by its triangles' size: use their smallest
+        # altitude, not the joint length (the length alone was optimistic on slender meshes)
+        h_j = np.minimum(np.minimum(altitude[joint_tris[:, 0]], altitude[joint_tris[:, 1]]), joint_len)
+        j_rho, j_pf = rho_all[joint_mat], mat_joint[joint_mat, 5]
+    else:
+        h_j = j_rho = j_pf = np.zeros(0)
+    steps = timestep.estimate_time_steps(
+        altitude=altitude, area0=area0, cp=cp, beta=beta_t, moving=moving,
+        contact_altitude=altitude[ctri] if md.contact else np.zeros(0), contact_penalty=pmax, rho_min=rho_min,
+        xi_max=xi_max, joint_h=h_j, joint_rho=j_rho, joint_penalty=j_pf)
+    md.dt_elastic, md.dt_contact, md.dt_joint = steps["elastic"], steps["contact"], steps["joint"]
+    md.dt_estimate, md.dt_limit = steps["estimate"], steps["limit"]
+    md.dt = timestep.choose_time_step(steps, dt, safety, force_dt)
+
+    if buffer is None:
+        buffer = 0.25 * float(edge_len[ctri].mean()) if len(ctri) else 0.0
+    buffer = float(buffer)
+    if not (math.isfinite(buffer) and buffer >= 0):
+        raise ValueError(f"Scene.build: buffer must be a finite length >= 0 m, got {buffer}")
+    md.buffer = buffer
+    if speed_limit is None:
+        speed_limit = 2.0 * max(m.p_wave_speed(scene.plane) for m in materials)
+        speed_limit = max(speed_limit, 10.0 * float(np.abs(V).max(initial=0.0)))
+    md.speed_limit = float(speed_limit)
+    if not (md.speed_limit > 0):
+        raise ValueError(f"Scene.build: speed_limit must be > 0 m/s, got {speed_limit}")
+
+    # ---- Taichi arrays of the model (dummies of size 1 for unused features) --------------------
+    v2 = lambda a: _ndarray(np.asarray(a, real), rti, vec=2)
+    sc = lambda a: _ndarray(np.asarray(a, real), rti)
+    i32 = lambda a: _ndarray(np.asarray(a, np.int32), ti.i32)
+    md.node_mass = sc(mass)
+    md.node_free = v2(free if md.has_bc else np.ones((1, 2)))
+    md.tri_nodes = _ndarray(tris, ti.i32, vec=3)
+    md.tri_rest_inv = _ndarray(rest_inv.astype(real), rti, mat=(2, 2))
+    md.tri_area0_np = area0
+    md.tri_mat = i32(tri_mat)
+    md.tri_body = i32(tri_body)
+    if md.damping:
+        E = np.array([m.young for m in materials])[tri_mat]
+        h = np.sqrt(4.0 * area0 / math.sqrt(3.0))       # edge of the equilateral of equal area
+        md.tri_visc = sc(2.0 * h * beta_t * np.sqrt(E * rho))
+    else:
+        md.tri_visc = sc(np.zeros(1))
+    md.mat_mu = sc([m.shear_modulus for m in materials])
+    md.mat_lam = sc([m.lambda_y(scene.plane) for m in materials])
+    md.mat_pair = _ndarray(pair.astype(real), rti, vec=4)
+    md.mat_joint = _ndarray(mat_joint.astype(real), rti, vec=6)
+    md.body_flags = i32(body_flags)
+    md.ctri_count = len(ctri) if md.contact else 0
+    md.contact_tri = i32(ctri if md.contact else np.zeros(1, np.int32))
+    md.joint_nodes = _ndarray(joint_nodes, ti.i32, vec=4)
+    md.joint_mat = i32(joint_mat)
+    md.joint_fs0 = np.repeat(mat_joint[joint_mat, 1:2], 3, axis=1)     # initial shear strength c [Pa]
+    md.step_dt = _scalar(md.dt, rti)
+    md.step_gravity = ti.Vector.ndarray(2, rti, shape=())
+    md.step_gravity[None] = [float(g) for g in scene.gravity]
+    md.step_buffer = _scalar(buffer, rti)
+    md.step_vlimit = _scalar(md.speed_limit, rti)
+    md.step_switches = _scalar(SWITCH_DAMPING * md.damping + SWITCH_CDAMPING * md.contact_damping
+                               + SWITCH_BC * md.has_bc + SWITCH_BC_WORK * md.has_bc_work, ti.i32)
+    return md
+
+
+def _boundary_conditions(scene, bodies, X):
+    """(free (n, 2), prescribed velocity (n, 2), body_flags (bodies,)) from the scene."""
+    free = np.ones_like(X)
+    vbc = np.zeros_like(X)
+    body_flags = np.zeros(len(bodies), np.int32)
+    for b in bodies:
+        if b.fixed or b.prescribed_velocity is not None:
+            free[b.nodes] = 0.0
+            vbc[b.nodes] = 0.0 if b.fixed else b.prescribed_velocity
+        if b.self_contact:
+            body_flags[b.index] |= 1
+    for k, con in enumerate(scene._constraints):
+        sel = np.asarray(con.where(X[:, 0].copy(), X[:, 1].copy()), dtype=bool)
+        if sel.shape != (len(X),):
+            raise ValueError(f"Scene.fix_nodes #{k}: where(x, y) must return a boolean array of shape ({len(X)},)")
+        if con.body is not None:
+            mask = np.zeros(len(X), bool)
+            mask[con.body.nodes] = True
+            sel &= mask
+        if not sel.any():
+            raise ValueError(f"Scene.fix_nodes #{k}: the predicate selects no node")
+        for comp, v in enumerate(con.velocity):
+            if v is not None:
+                free[sel, comp] = 0.0
+                vbc[sel, comp] = v
+    for b in bodies:
+        if np.all(free[b.nodes] == 0.0) and np.all(vbc[b.nodes] == 0.0):
+            body_flags[b.index] |= 2
+    return free, vbc, body_flags
+
+
+def _pair_table(scene, materials) -> np.ndarray:
+    """(M, M, 4) contact properties of each material pair: penalty p [Pa], tangential penalty
+    k_t [Pa/m], friction μ, normal damping c_n = 4 ξ √(p ρ) (smaller of the two materials'
+    values unless ``scene.set_interaction`` overrides them)."""
+    M = len(materials)
+    pair = np.zeros((M, M, 4))
+    for i, a in enumerate(materials):
+        for j, b in enumerate(materials):
+            ov = scene._interactions.get((id(a), id(b)), {})
+            p = ov.get("penalty", min(a.contact_penalty, b.contact_penalty))
+            kt = ov.get("tangential_penalty", min(a.contact_tangential_penalty, b.contact_tangential_penalty))
+            mu = ov.get("friction", min(a.friction, b.friction))
+            xi = ov.get("contact_damping", min(a.contact_damping, b.contact_damping))
+            pair[i, j] = (p, kt, mu, 4.0 * xi * math.sqrt(p * min(a.density, b.density)))
+    return pair
+
+
+def _warn_joint_parameters(materials, mat_joint, joint_mat, joint_len) -> None:
+    for i in np.unique(joint_mat):
+        mat = materials[i]
+        ft, c, tanphi, gI, gII, pf = mat_joint[i]
+        Lj = joint_len[joint_mat == i]
+        if pf < 10.0 * mat.young:
+            warnings.warn(f"material {mat.name or i}: joint_penalty = {pf / mat.young:.3g}·E; intact joints "
+                          f"make a jointed body about {100 * mat.young / pf:.0f} % softer than E "
+                          "(FDEM_SPEC §7.9: use ≥ 10·E)", RuntimeWarning, stacklevel=5)
+        dp_max = 2.0 * Lj.max() * ft / pf
+        if dp_max > 0.2 * 3.0 * gI / ft:
+            warnings.warn(f"material {mat.name or i}: the opening at peak δ_p = 2 L f_t/p_f = {dp_max:.3g} m "
+                          f"is not small against the softening span 3 G_I/f_t = {3 * gI / ft:.3g} m; "
+                          "the pre-peak branch will dominate the fracture energy (raise joint_penalty or "
+                          "G_I, FDEM_SPEC §7.9)", RuntimeWarning, stacklevel=5)
+
+
+# -------------------------------------------------------------------------------------------------
+# state and scratch
+# -------------------------------------------------------------------------------------------------
+def allocate_state(md: Model) -> State:
+    """The initial :class:`State` of a model: rest positions, initial velocities, no couples."""
+    real, rti = backend.real_np(), backend.real_ti()
+    st = State()
+    v2 = lambda a: _ndarray(np.asarray(a, real), rti, vec=2)
+    sc = lambda a: _ndarray(np.asarray(a, real), rti)
+    i32 = lambda a: _ndarray(np.asarray(a, np.int32), ti.i32)
+    st.node_x = v2(md.node_rest)
+    st.node_v = v2(md.node_velocity0)
+    st.node_f = v2(np.zeros_like(md.node_rest))
+    st.node_vbc = v2(md.node_vbc0 if md.has_bc else np.zeros((1, 2)))
+    st.tri_diss = sc(np.zeros(md.tri_count if md.damping else 1))
+    nj = md.joint_nodes.shape[0]
+    st.joint_state = i32(np.zeros(nj))
+    st.joint_dmax = _ndarray(np.zeros((nj, 3), real), rti, vec=3)
+    st.joint_fs = _ndarray(md.joint_fs0.astype(real), rti, vec=3)
+    st.joint_work = sc(np.zeros(nj))
+    st.joint_break = _ndarray(np.zeros((nj, 3), real), rti, vec=3)
+    st.joint_g = _ndarray(np.zeros((nj, 4), real), rti, vec=4)
+    K = md.ctri_count if md.contact else 1
+    st.couple_start = i32(np.zeros(K + 1 if md.friction else 1))
+    st.couple_max = 0
+    grow_couples(md, st, 2 * K + 64 if md.contact else 1)
+    for name in ("time", "dacc", "rmax", "vmax"):
+        setattr(st, "step_" + name, _scalar(0.0, rti))
+    for name in ("couple_count", "found", "nonfinite", "inverted", "detections", "broken"):
+        setattr(st, "step_" + name, _scalar(0, ti.i32))
+    st.step_work = ti.Vector.ndarray(3, rti, shape=())          # friction, contact damping, boundary
+    st.step_work.fill(0)
+    st.step_dacc[None] = DACC_FORCE if md.contact else 0.0      # detect at the first step
+    return st
+
+
+def grow_couples(md: Model, st: State, capacity: int) -> None:
+    """(Re)allocate the couple buffer of ``st`` with room for ``capacity`` couples, keeping its
+    content (couples and their friction history)."""
+    rti = backend.real_ti()
+    keep = int(st.step_couple_count[None]) if st.couple_max else 0
+    old = None
+    if keep:
+        old = (st.couple_a.to_numpy()[:keep], st.couple_b.to_numpy()[:keep],
+               st.couple_hist.to_numpy()[:6 * keep] if md.friction else None)
+    st.couple_a = ti.ndarray(ti.i32, shape=capacity)
+    st.couple_b = ti.ndarray(ti.i32, shape=capacity)
+    hcap = 6 * capacity if md.friction else 1
+    st.couple_hist = ti.ndarray(rti, shape=hcap)
+    if old is not None:
+        a = np.zeros(capacity, np.int32); a[:keep] = old[0]; st.couple_a.from_numpy(a)
+        b = np.zeros(capacity, np.int32); b[:keep] = old[1]; st.couple_b.from_numpy(b)
+        if md.friction:
+            h = np.zeros(hcap, backend.real_np()); h[:6 * keep] = old[2]; st.couple_hist.from_numpy(h)
+    st.couple_max = capacity
+
+
+def allocate_scratch(md: Model, st: State) -> Scratch:
+    """Detection work arrays sized for the model's contact triangles and the state's couple buffer."""
+    rti = backend.real_ti()
+    sw = Scratch()
+    K = md.ctri_count if md.contact else 1
+    H = _next_pow2(2 * K) if md.contact else 1
+    sw.det_circle = ti.Vector.ndarray(3, rti, shape=K)
+    sw.det_bin = ti.Vector.ndarray(2, ti.i32, shape=K)
+    sw.det_bucket = ti.Vector.ndarray(2, ti.i32, shape=H)
+    for name, n in (("sorted_k", K), ("cnew", K + 1), ("old_start", K + 1 if md.friction else 1)):
+        setattr(sw, "det_" + name, ti.ndarray(ti.i32, shape=n))
+    size_old_couples(md, st, sw)
+    return sw
+
+
+def size_old_couples(md: Model, st: State, sw: Scratch) -> None:
+    """The previous-couple copies used to carry friction history over match the couple buffer."""
+    cap = st.couple_max
+    sw.det_old_b = ti.ndarray(ti.i32, shape=cap if md.friction else 1)
+    sw.det_old_hist = ti.ndarray(backend.real_ti(), shape=6 * cap if md.friction else 1)
+
+
+def pack_groups(md: Model, st: State, sw: Scratch) -> dict:
+    """The argpacks the kernels take, {group name: ArgPack}, drawn from model, state and scratch.
+
+    Build again after any array of the state is reallocated (the couple buffer grows).
+    """
+    packs = {}
+    for group, (ptype, names) in GROUPS.items():
+        arrays = {}
+        for name in names:
+            arr = getattr(st, name, None)
+            if arr is None:
+                arr = getattr(md, name, None)
+            if arr is None:
+                arr = getattr(sw, name)
+            arrays[name] = arr
+        packs[group] = ptype(**arrays)
+    return packs
