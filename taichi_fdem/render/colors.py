@@ -17,15 +17,17 @@ from ._util import _to_np
 __all__ = ["COLOR_MODES", "COLORMAPS", "colormap", "body_colors"]
 
 # color_by modes of RendererImage.render_sim: name -> (kernel mode id or None for categorical,
-# colour-bar title with units)
+# colour-bar title with units).  The stress titles have two spaces before "stress": a space of
+# Pillow's default label font is 2 px wide at the default text size of small frames (10 px), so
+# that "von Mises stress" read "von Misesstress" and "principal stress" "principalstress".
 COLOR_MODES = {
     "body": (None, "body"),
     "material": (None, "material"),
     "speed": (0, "speed |v| [m/s]"),
     "displacement": (1, "displacement |x - X| [m]"),
-    "von_mises": (2, "von Mises stress [Pa]"),
-    "max_principal": (3, "max principal stress [Pa]"),
-    "min_principal": (4, "min principal stress [Pa]"),
+    "von_mises": (2, "von Mises  stress [Pa]"),
+    "max_principal": (3, "max principal  stress [Pa]"),
+    "min_principal": (4, "min principal  stress [Pa]"),
     "damage": (-1, "damage"),       # Simulation.tri_damage() (joint model), range [0, 1]
 }
 
