@@ -1,0 +1,54 @@
+"""Two-dimensional triangle meshes: construction, loading and validation (pure NumPy).
+
+A :class:`TriMesh` is an immutable pair of arrays
+
+* ``points``    -- ``(n, 2)`` float64 node coordinates [m],
+* ``triangles`` -- ``(m, 3)`` int32 node indices, every triangle counter-clockwise,
+
+checked when it is created: finite coordinates, indices in range, no repeated node in a
+triangle, no zero-area triangle, no two triangles overlapping across an edge.  Clockwise
+triangles are silently reoriented.  Both arrays are read-only.
+
+Named constructors (also available as static methods of :class:`TriMesh`)::
+
+    rectangle(width, height, h, pattern="alternating", origin=None)
+    disk(radius, h, center=(0, 0))
+    annulus(r_inner, r_outer, h, center=(0, 0))
+    polygon(vertices, h=None)
+    load(path, cell_block=None)          # any file meshio reads (gmsh .msh, .vtu, ...)
+    load_groups(path, key=None)          # one mesh per physical group / cell tag
+    merge(meshes)                        # concatenate several meshes into one
+
+``h`` is always the target element edge length [m].  The package does not import Taichi
+and never loops in Python over the elements of an existing mesh; the generators
+(:func:`disk`, :func:`annulus`, :func:`polygon`) use Python loops that are linear (rings)
+or roughly ``O(n log n)`` (incremental Delaunay) in the number of nodes.
+
+Modules (imports run downwards only, and never into the simulation, scene or renderer):
+
+* :mod:`.trimesh` -- the :class:`TriMesh` class, :func:`merge`, shared argument checks;
+* :mod:`.triangulate` -- the constrained Delaunay triangulator used by :func:`polygon`;
+* :mod:`.generators` -- :func:`rectangle`, :func:`disk`, :func:`annulus`, :func:`polygon`;
+* :mod:`.loaders` -- :func:`load`, :func:`load_groups`, :func:`scene_from_groups` (meshio).
+"""
+from __future__ import annotations
+
+from .generators import annulus, disk, polygon, rectangle
+from .loaders import GROUP_KEYS, load, load_groups, scene_from_groups
+from .trimesh import DEGENERACY_TOL, MAX_GENERATED_TRIANGLES, TriMesh, merge
+
+__all__ = ["TriMesh", "rectangle", "disk", "annulus", "polygon", "load", "load_groups", "scene_from_groups",
+           "merge"]
+
+# Pickles (checkpoints hold the scene's meshes) name the class taichi_fdem.mesh.TriMesh, as before
+# the split into modules, so that checkpoints written before and after it load either way.
+TriMesh.__module__ = __name__
+
+# named constructors, scikit-fem style: TriMesh.disk(...), TriMesh.load(...), ...
+TriMesh.rectangle = staticmethod(rectangle)
+TriMesh.disk = staticmethod(disk)
+TriMesh.annulus = staticmethod(annulus)
+TriMesh.polygon = staticmethod(polygon)
+TriMesh.load = staticmethod(load)
+TriMesh.load_groups = staticmethod(load_groups)
+TriMesh.merge = staticmethod(merge)

@@ -1,0 +1,387 @@
+"""Mesh generators: :func:`rectangle`, :func:`disk`, :func:`annulus` and :func:`polygon` (pure NumPy).
+
+``h`` is always the target element edge length [m].  The generators use Python loops that
+are linear (rings) or roughly ``O(n log n)`` (incremental Delaunay, in
+:mod:`~taichi_fdem.mesh.triangulate`) in the number of nodes; they never loop in Python
+over the elements of an existing mesh.
+"""
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+
+from .triangulate import _CDT
+from .trimesh import MAX_GENERATED_TRIANGLES, TriMesh, _guard_size, _nround, _positive, _vec2
+
+__all__ = ["rectangle", "disk", "annulus", "polygon"]
+
+
+# --------------------------------------------------------------------------- rectangle
+_PATTERNS = ("alternating", "crossed", "right")
+
+
+def rectangle(width: float, height: float, h: float, pattern: str = "alternating",
+              origin=None) -> TriMesh:
+    """A structured triangle mesh of a ``width`` x ``height`` rectangle [m].
+
+    The rectangle is divided into ``nx = max(1, round(width / h))`` by
+    ``ny = max(1, round(height / h))`` cells (halves round down), so cells measure
+    ``width / nx`` by ``height / ny`` -- close to, not exactly, ``h``.
+
+    Parameters
+    ----------
+    width, height : float [m], > 0
+    h : float [m], > 0.  Target cell size.
+    pattern : how each cell is split.
+        ``"alternating"`` (default): one diagonal per cell, alternating in a
+        checkerboard (2 triangles/cell, no preferred crack direction on average);
+        ``"crossed"``: a node at each cell centre and 4 triangles per cell (unbiased);
+        ``"right"``: every cell split along the same (lower-left to upper-right)
+        diagonal (2 triangles/cell, biased).
+    origin : (x, y) [m] of the lower-left corner; default None centres the rectangle on
+        (0, 0).
+
+    Returns
+    -------
+    TriMesh with ``(nx+1)(ny+1)`` (+ ``nx*ny`` for "crossed") points and ``2 nx ny``
+    (``4 nx ny``) triangles.
+    """
+    where = "rectangle"
+    w = _positive("width", width, where)
+    hh = _positive("height", height, where)
+    h = _positive("h", h, where)
+    if pattern not in _PATTERNS:
+        raise ValueError(f"{where}: unknown pattern {pattern!r}; choose one of {list(_PATTERNS)}")
+    nx, ny = max(1, _nround(w / h)), max(1, _nround(hh / h))
+    per_cell = 4 if pattern == "crossed" else 2
+    if nx * ny * per_cell > 50 * MAX_GENERATED_TRIANGLES:
+        raise ValueError(f"{where}: h={h:g} would create {nx * ny * per_cell} triangles; use a larger h")
+    o = np.array([-0.5 * w, -0.5 * hh]) if origin is None else _vec2("origin", origin, where)
+
+    xs = o[0] + w * np.arange(nx + 1) / nx
+    ys = o[1] + hh * np.arange(ny + 1) / ny
+    xs[-1], ys[-1] = o[0] + w, o[1] + hh
+    gx, gy = np.meshgrid(xs, ys)  # (ny+1, nx+1), node (i, j) -> j * (nx+1) + i
+    pts = np.stack([gx.ravel(), gy.ravel()], axis=1)
+
+    i, j = np.meshgrid(np.arange(nx), np.arange(ny))
+    i, j = i.ravel(), j.ravel()
+    n00 = j * (nx + 1) + i
+    n10, n01, n11 = n00 + 1, n00 + nx + 1, n00 + nx + 2
+    if pattern == "crossed":
+        centre = (nx + 1) * (ny + 1) + np.arange(nx * ny)
+        pts = np.vstack([pts, np.stack([0.5 * (xs[i] + xs[i + 1]), 0.5 * (ys[j] + ys[j + 1])], axis=1)])
+        tri = np.stack([np.stack([n00, n10, centre], 1), np.stack([n10, n11, centre], 1),
+                        np.stack([n11, n01, centre], 1), np.stack([n01, n00, centre], 1)], axis=1).reshape(-1, 3)
+    else:
+        flip = ((i + j) % 2 == 1) if pattern == "alternating" else np.zeros(i.shape, dtype=bool)
+        # diagonal n00-n11 (not flipped) or n10-n01 (flipped)
+        t1 = np.where(flip[:, None], np.stack([n00, n10, n01], 1), np.stack([n00, n10, n11], 1))
+        t2 = np.where(flip[:, None], np.stack([n10, n11, n01], 1), np.stack([n00, n11, n01], 1))
+        tri = np.stack([t1, t2], axis=1).reshape(-1, 3)
+    return TriMesh(pts, tri)
+
+
+# --------------------------------------------------------------------------- disk / annulus
+_GOLDEN = 0.5 * (math.sqrt(5.0) - 1.0)
+
+
+def _ring(center: np.ndarray, r: float, count: int, phase: float) -> np.ndarray:
+    theta = 2.0 * math.pi * (np.arange(count) + phase) / count
+    return np.stack([center[0] + r * np.cos(theta), center[1] + r * np.sin(theta)], axis=1)
+
+
+def _zip_rings(pts: np.ndarray, center: np.ndarray, inner: range, outer: range, out: list) -> None:
+    """Triangulate the band between two counter-clockwise rings of nodes around ``center``.
+
+    ``inner``/``outer`` are index ranges into ``pts``.  Walks both rings once, each step
+    adding the triangle whose new diagonal is shorter.  Appends CCW triangles to ``out``.
+    """
+    a, b = list(inner), list(outer)
+    na, nb = len(a), len(b)
+    cx, cy = float(center[0]), float(center[1])
+
+    def ang(k):
+        return math.atan2(pts[k, 1] - cy, pts[k, 0] - cx)
+    # start the outer ring at the node closest in angle to inner node 0
+    a0 = ang(a[0])
+    j0 = min(range(nb), key=lambda j: abs(math.remainder(ang(b[j]) - a0, 2 * math.pi)))
+    b = b[j0:] + b[:j0]
+    if na == 1:  # fan around the centre node
+        c = a[0]
+        out.extend((b[j], b[(j + 1) % nb], c) for j in range(nb))
+        return
+    px, py = pts[:, 0], pts[:, 1]
+
+    def d2(p, q):
+        return (px[p] - px[q]) ** 2 + (py[p] - py[q]) ** 2
+
+    i = j = 0
+    while i < na or j < nb:
+        ai, ai1 = a[i % na], a[(i + 1) % na]
+        bj, bj1 = b[j % nb], b[(j + 1) % nb]
+        if j == nb or (i < na and d2(ai1, bj) <= d2(ai, bj1)):
+            out.append((ai1, ai, bj))
+            i += 1
+        else:
+            out.append((bj, bj1, ai))
+            j += 1
+
+
+def _rings_mesh(center: np.ndarray, radii: Sequence[float], h: float) -> TriMesh:
+    """Concentric rings (radius 0 = a single centre node) zipped into triangles."""
+    blocks, ranges, start = [], [], 0
+    for k, r in enumerate(radii):
+        if r == 0.0:
+            blocks.append(center[None, :].copy())
+            count = 1
+        else:
+            count = max(6, _nround(2.0 * math.pi * r / h))
+            blocks.append(_ring(center, r, count, (k * _GOLDEN) % 1.0))
+        ranges.append(range(start, start + count))
+        start += count
+    pts = np.vstack(blocks)
+    tris: list = []
+    for k in range(len(radii) - 1):
+        _zip_rings(pts, center, ranges[k], ranges[k + 1], tris)
+    return TriMesh(pts, np.array(tris, dtype=np.int32))
+
+
+def disk(radius: float, h: float, center=(0.0, 0.0)) -> TriMesh:
+    """A disk of ``radius`` [m] meshed with triangles of edge length about ``h`` [m].
+
+    Nodes lie on concentric rings: ring 0 is the centre, ring ``k`` has radius
+    ``k * radius / nr`` with ``nr = max(1, round(radius / h))`` and about
+    ``2 pi r_k / h`` (at least 6) nodes, rings rotated by golden-ratio phases so that no
+    radial line runs through the mesh.  The outer ring lies exactly on the circle, so the
+    mesh is the inscribed polygon.  Neighbouring rings are zipped together choosing the
+    shorter diagonal at each step; the smallest angle is above 35 degrees for every
+    ``radius / h`` from 0.5 to 100.
+
+    Example: ``disk(0.05, 0.02)`` has 25 nodes and 32 triangles.
+
+    Raises ValueError for a non-positive radius or h, or h > 2 radius (the diameter).
+    """
+    where = "disk"
+    r = _positive("radius", radius, where)
+    h = _positive("h", h, where)
+    c = _vec2("center", center, where)
+    if h > 2.0 * r * (1.0 + 1e-9):
+        raise ValueError(f"{where}: h={h:g} is larger than the diameter {2 * r:g}; use h <= {2 * r:g}")
+    _guard_size(2.4 * math.pi * r * r / (h * h), where, h)
+    nr = max(1, _nround(r / h))
+    radii = [r * k / nr for k in range(nr)] + [r]
+    return _rings_mesh(c, radii, h)
+
+
+def annulus(r_inner: float, r_outer: float, h: float, center=(0.0, 0.0)) -> TriMesh:
+    """A ring ``r_inner < |x - center| < r_outer`` [m] meshed with triangles of size ~``h`` [m].
+
+    Same construction as :func:`disk`: ``nr = max(1, round((r_outer - r_inner) / h))``
+    bands of equal width between rings of about ``2 pi r / h`` (at least 6) nodes; the
+    nodes of the inner and outer rings lie exactly on the two circles.  Triangles are
+    well shaped when ``r_inner`` is at least about ``h`` (smallest angle above 25
+    degrees); a hole much smaller than ``h`` gives slender triangles around it.
+
+    Raises ValueError unless ``0 < r_inner < r_outer``, for a non-positive h, or for
+    h > 2 (r_outer - r_inner).
+    """
+    where = "annulus"
+    ri = _positive("r_inner", r_inner, where)
+    ro = _positive("r_outer", r_outer, where)
+    h = _positive("h", h, where)
+    c = _vec2("center", center, where)
+    if ro <= ri:
+        raise ValueError(f"{where}: r_outer={ro:g} must be larger than r_inner={ri:g}")
+    if h > 2.0 * (ro - ri) * (1.0 + 1e-9):
+        raise ValueError(f"{where}: h={h:g} is more than twice the ring width {ro - ri:g}; "
+                         f"use h <= {2 * (ro - ri):g}")
+    _guard_size(2.4 * math.pi * (ro * ro - ri * ri) / (h * h), where, h)
+    nr = max(1, _nround((ro - ri) / h))
+    radii = [ri + (ro - ri) * k / nr for k in range(nr)] + [ro]
+    return _rings_mesh(c, radii, h)
+
+
+# --------------------------------------------------------------------------- polygon
+def _segments_intersect(p1, p2, q1, q2, tol):
+    """Vectorised closed-segment intersection test (broadcasting over leading axes)."""
+    def orient(a, b, c):
+        return (b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1]) - (b[..., 1] - a[..., 1]) * (c[..., 0] - a[..., 0])
+
+    def on_segment(a, b, c):  # c collinear with a-b: is it within the bounding box?
+        return ((np.minimum(a[..., 0], b[..., 0]) - tol <= c[..., 0]) & (c[..., 0] <= np.maximum(a[..., 0], b[..., 0]) + tol)
+                & (np.minimum(a[..., 1], b[..., 1]) - tol <= c[..., 1]) & (c[..., 1] <= np.maximum(a[..., 1], b[..., 1]) + tol))
+
+    eps = tol * tol
+    d1, d2 = orient(q1, q2, p1), orient(q1, q2, p2)
+    d3, d4 = orient(p1, p2, q1), orient(p1, p2, q2)
+    proper = (((d1 > eps) & (d2 < -eps)) | ((d1 < -eps) & (d2 > eps))) & \
+             (((d3 > eps) & (d4 < -eps)) | ((d3 < -eps) & (d4 > eps)))
+    touch = ((np.abs(d1) <= eps) & on_segment(q1, q2, p1)) | ((np.abs(d2) <= eps) & on_segment(q1, q2, p2)) | \
+            ((np.abs(d3) <= eps) & on_segment(p1, p2, q1)) | ((np.abs(d4) <= eps) & on_segment(p1, p2, q2))
+    return proper | touch
+
+
+def _check_simple(v: np.ndarray, where: str) -> None:
+    """Raise ValueError if the closed polygon ``v`` (k, 2) is not simple."""
+    k = len(v)
+    scale = float(np.ptp(v, axis=0).max())
+    tol = 1e-12 * scale
+    a, b = v, np.roll(v, -1, axis=0)
+    # adjacent edges folding back onto each other (a spike)
+    e_in, e_out = b - a, np.roll(b - a, -1, axis=0)
+    cross = e_in[:, 0] * e_out[:, 1] - e_in[:, 1] * e_out[:, 0]
+    dot = (e_in * e_out).sum(1)
+    norm = np.sqrt((e_in * e_in).sum(1) * (e_out * e_out).sum(1))
+    spike = np.flatnonzero((np.abs(cross) <= 1e-12 * norm) & (dot < 0))
+    if spike.size:
+        i = int(spike[0])
+        raise ValueError(f"{where}: polygon is not simple: edges {i} and {(i + 1) % k} fold back onto "
+                         f"each other at vertex {(i + 1) % k}")
+    if k < 4:
+        return
+    idx = np.arange(k)
+    for start in range(0, k, 256):
+        rows = idx[start:start + 256]
+        hit = _segments_intersect(a[rows, None], b[rows, None], a[None], b[None], tol)
+        ii, jj = np.meshgrid(rows, idx, indexing="ij")
+        adjacent = (jj == ii) | (jj == (ii + 1) % k) | (ii == (jj + 1) % k)
+        hit &= ~adjacent & (jj > ii)
+        if hit.any():
+            r, c = np.argwhere(hit)[0]
+            i, j = int(rows[r]), int(c)
+            raise ValueError(f"{where}: polygon is not simple (self-intersecting): edge {i} (vertices {i}-"
+                             f"{(i + 1) % k}) meets edge {j} (vertices {j}-{(j + 1) % k})")
+
+
+def _inside_polygon(p: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Even-odd point-in-polygon test for points ``p`` (N, 2) and polygon ``v`` (k, 2)."""
+    a, b = v, np.roll(v, -1, axis=0)
+    inside = np.zeros(len(p), dtype=bool)
+    for start in range(0, len(p), 2048):
+        q = p[start:start + 2048, None, :]
+        straddle = (a[None, :, 1] > q[..., 1]) != (b[None, :, 1] > q[..., 1])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xint = a[None, :, 0] + (q[..., 1] - a[None, :, 1]) * (b[None, :, 0] - a[None, :, 0]) / (b[None, :, 1] - a[None, :, 1])
+        inside[start:start + 2048] = (np.count_nonzero(straddle & (q[..., 0] < xint), axis=1) % 2) == 1
+    return inside
+
+
+def _distance_to_polygon(p: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Distance from points ``p`` (N, 2) to the closed polyline ``v`` (k, 2)."""
+    a, b = v, np.roll(v, -1, axis=0)
+    ab = b - a
+    ll = np.maximum((ab * ab).sum(1), 1e-300)
+    dist = np.empty(len(p))
+    for start in range(0, len(p), 2048):
+        q = p[start:start + 2048, None, :]
+        t = np.clip(((q - a[None]) * ab[None]).sum(-1) / ll[None], 0.0, 1.0)
+        d = q - (a[None] + t[..., None] * ab[None])
+        dist[start:start + 2048] = np.sqrt((d * d).sum(-1).min(axis=1))
+    return dist
+
+
+def polygon(vertices, h: float | None = None) -> TriMesh:
+    """A triangle mesh of the simple polygon ``vertices`` [(x, y), ...] [m].
+
+    The vertices may be given in either orientation, optionally with the first vertex
+    repeated at the end.
+
+    * ``h=None``: the vertices alone are triangulated (a constrained Delaunay
+      triangulation: ``k - 2`` triangles for ``k`` vertices, the best-shaped
+      triangulation with no extra nodes).
+    * ``h`` given: every edge is divided into ``ceil(length / h)`` equal pieces, interior
+      nodes are put on a hexagonal lattice of spacing ``h`` keeping those inside the
+      polygon and farther than ``0.55 h`` from its boundary, and all nodes are
+      triangulated by a constrained Delaunay triangulation (incremental Bowyer-Watson,
+      boundary edges restored by edge flips).  Works for any simple polygon, convex or
+      not.  Limitations: angles of the polygon sharper than ~30 degrees, and parts
+      narrower than ``h``, get correspondingly slender triangles (no extra refinement is
+      done there), and so do polygon edges much shorter than ``h`` (the vertices are
+      kept); otherwise the smallest angle is typically above 25 degrees.
+
+    Raises ValueError for fewer than 3 distinct vertices, non-finite coordinates, repeated
+    consecutive vertices, zero area, a self-intersecting (non-simple) polygon, or a
+    non-positive h.
+    """
+    where = "polygon"
+    try:
+        v = np.array(vertices, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{where}: vertices must be a sequence of (x, y) pairs") from None
+    if v.ndim != 2 or v.shape[1] != 2:
+        raise ValueError(f"{where}: vertices must have shape (k, 2), got {v.shape}")
+    bad = np.flatnonzero(~np.isfinite(v).all(axis=1))
+    if bad.size:
+        raise ValueError(f"{where}: vertex {int(bad[0])} is not finite: {tuple(v[bad[0]].tolist())}")
+    if len(v) > 3 and np.array_equal(v[0], v[-1]):
+        v = v[:-1]
+    if len(v) < 3:
+        raise ValueError(f"{where}: a polygon needs at least 3 vertices, got {len(v)}")
+    scale = float(np.ptp(v, axis=0).max())
+    step = np.roll(v, -1, axis=0) - v
+    same = np.flatnonzero(np.sqrt((step * step).sum(1)) <= 1e-12 * scale)
+    if same.size:
+        i = int(same[0])
+        raise ValueError(f"{where}: vertices {i} and {(i + 1) % len(v)} coincide at {tuple(v[i].tolist())}")
+    signed = 0.5 * float(np.sum(v[:, 0] * np.roll(v[:, 1], -1) - np.roll(v[:, 0], -1) * v[:, 1]))
+    if abs(signed) <= 1e-12 * scale * scale:
+        sv = np.linalg.svd(v - v.mean(axis=0), compute_uv=False)
+        if sv[1] > 1e-12 * sv[0]:  # not all collinear: e.g. a bow-tie
+            _check_simple(v, where)
+        raise ValueError(f"{where}: polygon has zero area")
+    _check_simple(v, where)
+    if signed < 0:
+        v = v[::-1].copy()
+
+    if h is None:
+        boundary = v
+        interior = np.empty((0, 2))
+    else:
+        h = _positive("h", h, where)
+        _guard_size(2.4 * abs(signed) / (h * h), where, h)
+        pieces = []
+        for i in range(len(v)):
+            a, b = v[i], v[(i + 1) % len(v)]
+            count = max(1, math.ceil(float(np.hypot(*(b - a))) / h - 1e-9))
+            t = np.arange(count)[:, None] / count
+            pieces.append(a + t * (b - a))
+        boundary = np.vstack(pieces)
+        interior = _hex_lattice(v, h)
+        if len(interior):
+            interior = interior[_inside_polygon(interior, v)]
+            interior = interior[_distance_to_polygon(interior, v) > 0.55 * h]
+    pts = np.vstack([boundary, interior])
+    nb = len(boundary)
+    segments = [(i, (i + 1) % nb) for i in range(nb)]
+    cdt = _CDT(pts)
+    cdt.insert_all()
+    cdt.recover(segments)
+    tri = cdt.triangles()
+    cent = pts[tri].mean(axis=1)
+    tri = tri[_inside_polygon(cent, boundary)]
+    mesh = TriMesh(pts, tri)
+    if not math.isclose(mesh.area, abs(signed), rel_tol=1e-9) or len(mesh.boundary_edges()) != nb:
+        raise RuntimeError(f"{where}: internal error: triangulation does not cover the polygon "
+                           f"(area {mesh.area:.12g} vs {abs(signed):.12g})")
+    return mesh.compact()
+
+
+def _hex_lattice(v: np.ndarray, h: float) -> np.ndarray:
+    """Hexagonal lattice points of spacing ``h`` covering the bounding box of ``v``."""
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    dy = h * math.sqrt(3.0) / 2.0
+    nx = int(math.floor((hi[0] - lo[0]) / h)) + 2
+    ny = int(math.floor((hi[1] - lo[1]) / dy)) + 2
+    cx, cy = 0.5 * (lo + hi)
+    # centre the lattice on the bounding box so that symmetric shapes stay symmetric
+    x0 = cx - h * (nx // 2)
+    y0 = cy - dy * (ny // 2)
+    i, j = np.meshgrid(np.arange(nx + 1), np.arange(ny + 1))
+    x = x0 + h * (i + 0.5 * (j % 2))
+    y = y0 + dy * j
+    p = np.stack([x.ravel(), y.ravel()], axis=1)
+    keep = (p[:, 0] > lo[0]) & (p[:, 0] < hi[0]) & (p[:, 1] > lo[1]) & (p[:, 1] < hi[1])
+    return p[keep]

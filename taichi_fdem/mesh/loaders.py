@@ -1,0 +1,253 @@
+"""Reading meshes from files with meshio: :func:`load` (one mesh), :func:`load_groups` (one mesh
+per physical group / cell tag) and :func:`scene_from_groups` (one body per group).
+
+meshio is imported on first use only; the module does not import Taichi.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .trimesh import TriMesh
+
+__all__ = ["load", "load_groups", "scene_from_groups", "GROUP_KEYS"]
+
+# --------------------------------------------------------------------------- load / merge
+_IGNORED_CELLS = {"vertex", "line", "line3", "line4", "line5", "line6"}
+_VOLUME_CELLS = ("tetra", "hexahedron", "wedge", "pyramid")
+
+
+def _topological_dimension(cell_type: str) -> int | None:
+    if cell_type in _IGNORED_CELLS or cell_type.startswith("line"):
+        return 1
+    if cell_type.startswith(_VOLUME_CELLS):
+        return 3
+    if cell_type.startswith(("triangle", "quad", "polygon")):
+        return 2
+    try:
+        from meshio._mesh import topological_dimension  # private, best effort
+        return topological_dimension.get(cell_type)
+    except Exception:  # pragma: no cover
+        return None
+
+
+def _read_planar(path, where: str):
+    """``(name, meshio.Mesh, points (n, 2) float64)`` of a file meshio can read, the z
+    coordinate dropped when constant; ValueError naming the file otherwise."""
+    import meshio
+
+    name = str(path)
+    try:
+        m = meshio.read(path)
+    except OSError:
+        raise
+    except (meshio.ReadError, SystemExit, ValueError, IndexError, KeyError, UnicodeDecodeError) as exc:
+        # meshio calls sys.exit(1) when no candidate reader accepts the file
+        detail = f": {exc}" if str(exc) and not isinstance(exc, SystemExit) else ""
+        raise ValueError(f"{where}: cannot read {name!r} as a mesh{detail}") from None
+    pts = np.asarray(m.points, dtype=np.float64)
+    if pts.ndim != 2 or pts.shape[1] not in (2, 3) or len(pts) == 0:
+        raise ValueError(f"{where}: {name!r} has no usable points (shape {pts.shape})")
+    if pts.shape[1] == 3:
+        z = pts[:, 2]
+        extent = float(np.ptp(pts[:, :2], axis=0).max()) if len(pts) > 1 else 0.0
+        if np.ptp(z) > 1e-10 * max(extent, 1e-300):
+            raise ValueError(f"{where}: {name!r} is a 3D mesh (z varies from {z.min():g} to {z.max():g}); "
+                             f"only planar meshes in the xy plane are supported")
+        pts = pts[:, :2]
+    return name, m, pts
+
+
+def _triangle_block_indices(m, name: str, where: str) -> list[int]:
+    """Indices of the linear "triangle" blocks of ``m``; points and lines are ignored, every
+    other cell type (quadratic triangles, quads, polygons, volume cells) refused."""
+    selected = []
+    for k, block in enumerate(m.cells):
+        dim = _topological_dimension(block.type)
+        if block.type == "triangle":
+            selected.append(k)
+        elif block.type.startswith("triangle"):
+            raise ValueError(f"{where}: {name!r} contains higher-order {block.type!r} cells (block {k}); "
+                             f"only linear 3-node 'triangle' cells are supported (re-mesh with order 1)")
+        elif dim == 3:
+            raise ValueError(f"{where}: {name!r} is a 3D mesh (contains {block.type!r} cells)")
+        elif dim == 2:
+            raise ValueError(f"{where}: {name!r} contains {block.type!r} cells (block {k}); only 'triangle' "
+                             f"cells are supported (mixed meshes are refused)")
+    if not selected:
+        raise ValueError(f"{where}: {name!r} contains no triangle cells "
+                         f"(found: {sorted({b.type for b in m.cells}) or 'no cells'})")
+    return selected
+
+
+def _mesh_of(pts: np.ndarray, tri: np.ndarray, name: str, where: str) -> TriMesh:
+    try:
+        mesh = TriMesh(pts, tri)
+    except ValueError as exc:
+        raise ValueError(f"{where}: {name!r}: {exc}") from None
+    return mesh.compact()
+
+
+def load(path, cell_block: int | None = None) -> TriMesh:
+    """Read a triangle mesh from any file meshio can read (gmsh ``.msh`` 2.2/4.1, ``.vtu``,
+    ``.vtk``, ``.xdmf``, ...).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    cell_block : index into meshio's ``mesh.cells`` of the one block to use (it must be a
+        "triangle" block).  Default None concatenates every "triangle" block.
+
+    The z coordinate is dropped when it is constant (a mesh drawn in a plane z = const);
+    a genuinely 3D mesh is refused.  Point and line cells (gmsh boundary elements) are
+    ignored; quadratic triangles ("triangle6"), quads, polygons or volume cells are
+    refused, as is a file without triangles.  Clockwise triangles are reoriented,
+    degenerate ones refused (see :class:`TriMesh`), and points no triangle uses (e.g.
+    gmsh geometry points) dropped with :meth:`TriMesh.compact`.  Coordinates are taken
+    as metres.  To split a file into one mesh per physical group, use :func:`load_groups`.
+    """
+    name, m, pts = _read_planar(path, "load")
+    blocks = list(m.cells)
+    if cell_block is not None:
+        if not isinstance(cell_block, (int, np.integer)) or not -len(blocks) <= cell_block < len(blocks):
+            raise ValueError(f"load: cell_block={cell_block!r} is not a valid block index for {name!r} "
+                             f"({len(blocks)} blocks: {[b.type for b in blocks]})")
+        chosen = blocks[cell_block]
+        if chosen.type != "triangle":
+            raise ValueError(f"load: block {cell_block} of {name!r} holds {chosen.type!r} cells, not 'triangle'")
+        selected = [chosen]
+    else:
+        selected = [blocks[k] for k in _triangle_block_indices(m, name, "load")]
+    tri = np.concatenate([np.asarray(b.data, dtype=np.int64).reshape(-1, 3) for b in selected])
+    return _mesh_of(pts, tri, name, "load")
+
+
+#: cell-data keys tried, in order, by :func:`load_groups` when no ``key`` is given.
+GROUP_KEYS = ("gmsh:physical", "cell_tags", "medit:ref", "tag", "tags", "region", "regions")
+
+
+def load_groups(path, key: str | None = None) -> dict:
+    """Read a triangle mesh and split it into one :class:`TriMesh` per physical group / cell tag.
+
+    Parameters
+    ----------
+    path : str or os.PathLike, any file meshio reads (gmsh ``.msh`` 2.2 and 4.1, ``.vtu``, ...).
+    key : name of the integer cell-data array holding the group tag of every cell.  Default:
+        the first of :data:`GROUP_KEYS` present in the file (``"gmsh:physical"`` for gmsh
+        files, i.e. the physical groups).
+
+    Returns
+    -------
+    dict mapping each group to its mesh, in increasing tag order.  A group is keyed by its
+    name when the file names it (gmsh ``$PhysicalNames`` of dimension 2, meshio
+    ``field_data``), otherwise by its integer tag.
+
+    Each group becomes a separate mesh with its own nodes: nodes on the interface of two
+    groups are duplicated (each group compacted with :meth:`TriMesh.compact`), so groups
+    added as bodies touch along the interface and interact by contact.  The checks of
+    :func:`load` apply (planar mesh, linear triangles only, clockwise triangles
+    reoriented, degenerate ones refused); point and line cells (boundary groups) are
+    ignored.  ValueError names the file and the key when the tags are missing or invalid.
+    """
+    where = "load_groups"
+    name, m, pts = _read_planar(path, where)
+    selected = _triangle_block_indices(m, name, where)
+    cell_data = dict(m.cell_data)
+    if key is None:
+        key = next((k for k in GROUP_KEYS if k in cell_data), None)
+        if key is None:
+            raise ValueError(f"{where}: {name!r} has no cell tags (none of the cell-data arrays "
+                             f"{list(GROUP_KEYS)}; found {sorted(cell_data) or 'no cell data'}); "
+                             f"give key=... or use load() for a single mesh")
+    elif not isinstance(key, str):
+        raise ValueError(f"{where}: key must be a cell-data name (str), got {key!r}")
+    elif key not in cell_data:
+        raise ValueError(f"{where}: {name!r} has no cell-data array {key!r} "
+                         f"(found {sorted(cell_data) or 'no cell data'})")
+    data = cell_data[key]
+    if len(data) != len(m.cells):
+        # meshio's gmsh 4.1 reader lists tags only for the entities that have a physical group
+        raise ValueError(f"{where}: {name!r}: cell data {key!r} covers {len(data)} of {len(m.cells)} cell "
+                         f"blocks; in gmsh, put every surface in a physical group (or none of them)")
+    tris, tags = [], []
+    for k in selected:
+        t = np.asarray(m.cells[k].data, dtype=np.int64).reshape(-1, 3)
+        g = np.asarray(data[k])
+        if g.ndim == 2 and g.shape[1] == 1:
+            g = g[:, 0]
+        if g.shape != (len(t),):
+            raise ValueError(f"{where}: {name!r}: cell data {key!r} of block {k} has shape {g.shape}, "
+                             f"expected one tag per triangle ({len(t)},)")
+        if g.dtype.kind == "f":
+            if not (np.all(np.isfinite(g)) and np.all(g == np.round(g))):
+                raise ValueError(f"{where}: {name!r}: cell data {key!r} of block {k} is not integer-valued")
+        elif g.dtype.kind not in "iu":
+            raise ValueError(f"{where}: {name!r}: cell data {key!r} of block {k} has dtype {g.dtype}, "
+                             f"expected integer tags")
+        tris.append(t)
+        tags.append(g.astype(np.int64))
+    tri = np.concatenate(tris)
+    tag = np.concatenate(tags)
+    # names of the 2D physical groups: field_data[name] = [tag, dim] (gmsh) or [tag]
+    names = {}
+    for group_name, fd in (m.field_data or {}).items():
+        fd = np.asarray(fd).ravel()
+        if fd.size == 0 or (fd.size >= 2 and int(fd[1]) != 2):
+            continue
+        names.setdefault(int(fd[0]), str(group_name))
+    out = {}
+    for value in np.unique(tag).tolist():
+        label = names.get(int(value), int(value))
+        try:
+            out[label] = _mesh_of(pts, tri[tag == value], name, where)
+        except ValueError as exc:
+            raise ValueError(f"{exc} (group {label!r}, {key} = {value})") from None
+    return out
+
+
+def scene_from_groups(scene, path, materials, key: str | None = None, **add_body_kwargs) -> dict:
+    """Add one body per physical group of a mesh file to ``scene``.
+
+    Parameters
+    ----------
+    scene : :class:`~taichi_fdem.scene.Scene`.
+    path : mesh file, read with :func:`load_groups`.
+    materials : a :class:`~taichi_fdem.material.Material` for every group, or a dict
+        mapping each group (its name, or integer tag when unnamed) to a Material.  Every
+        group of the file must have a material, and every key must be a group of the file.
+    key : cell-data tag array (see :func:`load_groups`).
+    **add_body_kwargs : passed to :meth:`Scene.add_body` for every body (e.g. ``velocity``,
+        ``fixed``).  ``position`` and ``name`` are not allowed: bodies keep the file's
+        coordinates [m] and are named after their group.
+
+    Returns
+    -------
+    dict group -> :class:`~taichi_fdem.scene.Body`, in increasing tag order.
+    """
+    from ..material import Material
+
+    where = "scene_from_groups"
+    for bad in ("position", "name"):
+        if bad in add_body_kwargs:
+            raise ValueError(f"{where}: {bad}= is not allowed (bodies keep the file's coordinates and are "
+                             f"named after their group)")
+    groups = load_groups(path, key=key)
+    if isinstance(materials, Material):
+        mats = {g: materials for g in groups}
+    elif isinstance(materials, dict):
+        missing = [g for g in groups if g not in materials]
+        extra = [g for g in materials if g not in groups]
+        if missing or extra:
+            parts = []
+            if missing:
+                parts.append(f"no material for group(s) {missing}")
+            if extra:
+                parts.append(f"material key(s) {extra} are not groups of the file")
+            raise ValueError(f"{where}: {str(path)!r}: {'; '.join(parts)} (groups: {list(groups)})")
+        for g, mat in materials.items():
+            if not isinstance(mat, Material):
+                raise ValueError(f"{where}: materials[{g!r}] must be a Material, got {type(mat).__name__}")
+        mats = materials
+    else:
+        raise ValueError(f"{where}: materials must be a Material or a dict group -> Material, "
+                         f"got {type(materials).__name__}")
+    return {g: scene.add_body(mesh, mats[g], name=str(g), **add_body_kwargs) for g, mesh in groups.items()}

@@ -1,0 +1,356 @@
+"""The Taichi kernels of the off-screen renderer (module level; ndarray arguments only).
+
+* :func:`_raster_u8_kernel` -- the supersample-1 frame in one launch: world -> pixel, colour
+  (per-triangle RGB or a scalar through the colour map table) and the fill / edge test,
+  written straight into a uint8 image;
+* :func:`_to_pixels_kernel`, :func:`_clear_kernel`, :func:`_raster_kernel`,
+  :func:`_resolve_kernel` -- the supersampled path through a float image, box-filtered down;
+* :func:`_tri_scalar_kernel` / :func:`_sim_scalar_kernel` -- per-triangle colouring scalars
+  (speed, displacement, von Mises and principal stresses), the latter with their finite range;
+* :func:`_bbox_kernel`, :func:`_centroid_kernel`, :func:`_clear_u8_kernel` -- small helpers.
+
+All kernels take ``ti.types.ndarray()`` arguments, so a new scene or image size never causes
+a recompilation (kernels are compiled once per dtype / dimensionality).
+"""
+import taichi as ti
+
+from ..engine.elastic import cauchy_elastic, deformation
+
+# Pixel coordinates are clamped to +-_PIX_LIMIT (also maps NaN to -_PIX_LIMIT) so that runaway
+# nodes can never produce absurd loop bounds.
+_PIX_LIMIT = 1.0e7
+
+_vec3f = ti.types.vector(3, ti.f32)
+
+
+# ----------------------------------------------------------------------------------------------
+# Kernels (module level; ndarray arguments only)
+# ----------------------------------------------------------------------------------------------
+@ti.kernel
+def _bbox_kernel(x: ti.types.ndarray(), out: ti.types.ndarray()):
+    """out[0..3] = xmin, xmax, ymin, ymax of the vector ndarray x (n >= 1); out[4] = 1 when a
+    coordinate is NaN (the box is then not usable).  A serial loop: cheaper than contended
+    atomics for the node counts of a frame, and deterministic."""
+    xmin = x[0][0]
+    xmax = x[0][0]
+    ymin = x[0][1]
+    ymax = x[0][1]
+    bad = 0
+    ti.loop_config(serialize=True)
+    for i in range(x.shape[0]):
+        px = x[i][0]
+        py = x[i][1]
+        if px != px or py != py:
+            bad = 1
+        xmin = ti.min(xmin, px)
+        xmax = ti.max(xmax, px)
+        ymin = ti.min(ymin, py)
+        ymax = ti.max(ymax, py)
+    out[0] = xmin
+    out[1] = xmax
+    out[2] = ymin
+    out[3] = ymax
+    out[4] = bad
+
+
+@ti.kernel
+def _to_pixels_kernel(x: ti.types.ndarray(), params: ti.types.ndarray(), p: ti.types.ndarray()):
+    """World -> (supersampled) pixel coordinates.  params = [x_left, y_top, pixels_per_metre].
+
+    Pixel x grows to the right, pixel y grows downwards (row 0 is the top of the image).
+    """
+    for i in range(x.shape[0]):
+        px = (x[i][0] - params[0]) * params[2]
+        py = (params[1] - x[i][1]) * params[2]
+        if not px > -_PIX_LIMIT:  # also catches NaN
+            px = -_PIX_LIMIT
+        if px > _PIX_LIMIT:
+            px = _PIX_LIMIT
+        if not py > -_PIX_LIMIT:
+            py = -_PIX_LIMIT
+        if py > _PIX_LIMIT:
+            py = _PIX_LIMIT
+        p[i] = ti.Vector([ti.cast(px, ti.f32), ti.cast(py, ti.f32)])
+
+
+@ti.kernel
+def _clear_kernel(img: ti.types.ndarray(), bg: _vec3f):
+    for i, j in ti.ndrange(img.shape[0], img.shape[1]):
+        img[i, j] = bg
+
+
+@ti.kernel
+def _raster_kernel(p: ti.types.ndarray(), tri: ti.types.ndarray(), col: ti.types.ndarray(),
+                   img: ti.types.ndarray(), edge_col: _vec3f, half_w: ti.f32, draw_edges: ti.i32):
+    """Fill every triangle; one thread per triangle, serial loops over its pixel box."""
+    H = img.shape[0]
+    W = img.shape[1]
+    n = p.shape[0]
+    for t in range(tri.shape[0]):
+        ia = tri[t][0]
+        ib = tri[t][1]
+        ic = tri[t][2]
+        if 0 <= ia < n and 0 <= ib < n and 0 <= ic < n:
+            a = p[ia]
+            b = p[ib]
+            c = p[ic]
+            area2 = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+            if area2 != 0.0:
+                sgn = 1.0 if area2 > 0.0 else -1.0
+                # pixel (row r, column q) has its centre at (q + 0.5, r + 0.5)
+                xlo = ti.min(a[0], b[0], c[0])
+                xhi = ti.max(a[0], b[0], c[0])
+                ylo = ti.min(a[1], b[1], c[1])
+                yhi = ti.max(a[1], b[1], c[1])
+                q0 = ti.cast(ti.max(ti.ceil(xlo - 0.5), 0.0), ti.i32)
+                q1 = ti.cast(ti.min(ti.floor(xhi - 0.5), W - 1.0), ti.i32)
+                r0 = ti.cast(ti.max(ti.ceil(ylo - 0.5), 0.0), ti.i32)
+                r1 = ti.cast(ti.min(ti.floor(yhi - 0.5), H - 1.0), ti.i32)
+                # inverse edge lengths: edge function / length = distance to the edge line
+                inv_a = 1.0 / ti.max((c - b).norm(), 1e-12)
+                inv_b = 1.0 / ti.max((a - c).norm(), 1e-12)
+                inv_c = 1.0 / ti.max((b - a).norm(), 1e-12)
+                fill = ti.Vector([col[t][0], col[t][1], col[t][2]], dt=ti.f32)
+                for r in range(r0, r1 + 1):
+                    yc = ti.cast(r, ti.f32) + 0.5
+                    for q in range(q0, q1 + 1):
+                        xc = ti.cast(q, ti.f32) + 0.5
+                        wa = sgn * ((c[0] - b[0]) * (yc - b[1]) - (c[1] - b[1]) * (xc - b[0]))
+                        wb = sgn * ((a[0] - c[0]) * (yc - c[1]) - (a[1] - c[1]) * (xc - c[0]))
+                        wc = sgn * ((b[0] - a[0]) * (yc - a[1]) - (b[1] - a[1]) * (xc - a[0]))
+                        if wa >= 0.0 and wb >= 0.0 and wc >= 0.0:
+                            colour = fill
+                            if draw_edges != 0:
+                                d = ti.min(wa * inv_a, wb * inv_b, wc * inv_c)
+                                if d < half_w:
+                                    colour = edge_col
+                            img[r, q] = colour
+
+
+@ti.kernel
+def _resolve_kernel(img: ti.types.ndarray(), out: ti.types.ndarray(), s: ti.i32):
+    """Box-filter the (s*H, s*W) float image down to the (H, W, 3) uint8 image."""
+    inv = ti.cast(1.0, ti.f32) / ti.cast(s * s, ti.f32)
+    for i, j in ti.ndrange(out.shape[0], out.shape[1]):
+        acc = ti.Vector([0.0, 0.0, 0.0], dt=ti.f32)
+        for di, dj in ti.ndrange(s, s):
+            acc += img[i * s + di, j * s + dj]
+        acc *= inv
+        for k in ti.static(range(3)):
+            v = ti.min(ti.max(acc[k], 0.0), 1.0)
+            out[i, j, k] = ti.cast(v * 255.0 + 0.5, ti.u8)
+
+
+@ti.kernel
+def _tri_scalar_kernel(x: ti.types.ndarray(), v: ti.types.ndarray(), x0: ti.types.ndarray(),
+                       tri: ti.types.ndarray(), rest_inv: ti.types.ndarray(), tri_mat: ti.types.ndarray(),
+                       mat_mu: ti.types.ndarray(), mat_lam: ti.types.ndarray(), mode: ti.i32,
+                       out: ti.types.ndarray()):
+    """Per-triangle scalar for colouring, ``out[e]``:
+
+    mode 0: speed, mean of |v| over the 3 nodes [m/s];  1: displacement, mean |x - X| [m];
+    2: von Mises stress of the in-plane elastic Cauchy stress (plane-stress form
+    sqrt(sxx^2 - sxx syy + syy^2 + 3 sxy^2)) [Pa];  3 / 4: max / min principal stress [Pa].
+    Stresses follow elastic.cauchy_elastic; an inverted triangle (J <= 0) gives NaN.
+    """
+    for e in range(tri.shape[0]):
+        out[e] = _tri_scalar(x, v, x0, tri, rest_inv, tri_mat, mat_mu, mat_lam, mode, e)
+
+
+@ti.func
+def _tri_scalar(x: ti.template(), v: ti.template(), x0: ti.template(), tri: ti.template(),
+                rest_inv: ti.template(), tri_mat: ti.template(), mat_mu: ti.template(),
+                mat_lam: ti.template(), mode, e):
+    """The colouring scalar of triangle e (see _tri_scalar_kernel)."""
+    n = tri[e]
+    val = 0.0
+    if True:
+        if mode == 0:
+            val = (v[n[0]].norm() + v[n[1]].norm() + v[n[2]].norm()) / 3.0
+        elif mode == 1:
+            val = ((x[n[0]] - x0[n[0]]).norm() + (x[n[1]] - x0[n[1]]).norm()
+                   + (x[n[2]] - x0[n[2]]).norm()) / 3.0
+        else:
+            Fx, F, J = deformation(x[n[0]], x[n[1]], x[n[2]], rest_inv[e])
+            if J > 0.0:
+                m = tri_mat[e]
+                T = cauchy_elastic(F, J, mat_mu[m], mat_lam[m])
+                sxx, syy, sxy = T[0, 0], T[1, 1], 0.5 * (T[0, 1] + T[1, 0])
+                if mode == 2:
+                    val = ti.sqrt(ti.max(sxx * sxx - sxx * syy + syy * syy + 3.0 * sxy * sxy, 0.0))
+                else:
+                    c = 0.5 * (sxx + syy)
+                    r = ti.sqrt(0.25 * (sxx - syy) ** 2 + sxy * sxy)
+                    val = c + r if mode == 3 else c - r
+            else:
+                val = ti.math.nan
+    return val
+
+
+@ti.kernel
+def _centroid_kernel(x: ti.types.ndarray(), start: ti.i32, end: ti.i32, out: ti.types.ndarray()):
+    """out[0], out[1] = mean position [m] of nodes start..end-1; out[2] = count of finite nodes."""
+    out[0] = 0.0
+    out[1] = 0.0
+    out[2] = 0.0
+    for i in range(start, end):
+        p = x[i]
+        if p[0] == p[0] and p[1] == p[1]:
+            out[0] += p[0]
+            out[1] += p[1]
+            out[2] += 1.0
+    if out[2] > 0.0:
+        out[0] /= out[2]
+        out[1] /= out[2]
+
+
+@ti.func
+def _to_u8(c):
+    """f32 RGB -> u8 exactly as _resolve_kernel does for supersample 1."""
+    acc = ti.Vector([c[0], c[1], c[2]], dt=ti.f32)
+    out = ti.Vector([0, 0, 0], dt=ti.u8)
+    for k in ti.static(range(3)):
+        v = ti.min(ti.max(acc[k], 0.0), 1.0)
+        out[k] = ti.cast(v * 255.0 + 0.5, ti.u8)
+    return out
+
+
+@ti.kernel
+def _clear_u8_kernel(img: ti.types.ndarray(), bg: _vec3f):
+    """Fill an (H, W, 3) u8 image with the background (same conversion as the raster)."""
+    for i, j in ti.ndrange(img.shape[0], img.shape[1]):
+        c = _to_u8(bg)
+        for k in ti.static(range(3)):
+            img[i, j, k] = c[k]
+
+
+@ti.kernel
+def _sim_scalar_kernel(x: ti.types.ndarray(), v: ti.types.ndarray(), x0: ti.types.ndarray(),
+                       tri: ti.types.ndarray(), rest_inv: ti.types.ndarray(), tri_mat: ti.types.ndarray(),
+                       mat_mu: ti.types.ndarray(), mat_lam: ti.types.ndarray(), mode: ti.i32,
+                       scal: ti.types.ndarray(), info: ti.types.ndarray()):
+    """Per-triangle scalars into scal (see _tri_scalar_kernel) and, in one launch, their finite
+    range: info[0] = min, info[1] = max, info[2] = number of finite values."""
+    for e in range(tri.shape[0]):
+        scal[e] = _tri_scalar(x, v, x0, tri, rest_inv, tri_mat, mat_mu, mat_lam, mode, e)
+    lo = 0.0
+    hi = 0.0
+    cnt = 0
+    ti.loop_config(serialize=True)
+    for e in range(tri.shape[0]):
+        s = scal[e]
+        if s == s and ti.abs(s) < ti.math.inf:
+            if cnt == 0:
+                lo = s
+                hi = s
+            lo = ti.min(lo, s)
+            hi = ti.max(hi, s)
+            cnt += 1
+    info[0] = lo
+    info[1] = hi
+    info[2] = cnt
+
+
+@ti.kernel
+def _raster_u8_kernel(x: ti.types.ndarray(), tri: ti.types.ndarray(), col: ti.types.ndarray(),
+                      scal: ti.types.ndarray(), use_scal: ti.i32, cpos: ti.types.ndarray(),
+                      ctab: ti.types.ndarray(), params: ti.types.ndarray(), img: ti.types.ndarray(),
+                      edge_col: _vec3f, half_w: ti.f32, draw_edges: ti.i32):
+    """The supersample-1 frame in one launch: world -> pixel transform of each triangle's nodes
+    (as _to_pixels_kernel), its colour (col[t], or scal[t] through the colour map table
+    cpos/ctab exactly as :func:`colormap` does), and the fill / edge test of _raster_kernel,
+    written straight into the (H, W, 3) u8 image (already holding the background).
+
+    params = [x_left, y_top, pixels_per_metre, vmin, vmax] (in the dtype of x).
+    """
+    H = img.shape[0]
+    W = img.shape[1]
+    n = x.shape[0]
+    K = cpos.shape[0]
+    for t in range(tri.shape[0]):
+        ia = tri[t][0]
+        ib = tri[t][1]
+        ic = tri[t][2]
+        if 0 <= ia < n and 0 <= ib < n and 0 <= ic < n:
+            pa = _pix(x[ia], params)
+            pb = _pix(x[ib], params)
+            pc = _pix(x[ic], params)
+            fill = ti.Vector([0.0, 0.0, 0.0], dt=ti.f32)
+            if use_scal != 0:
+                fill = _cmap(scal[t], params[3], params[4], cpos, ctab, K)
+            else:
+                fill = ti.Vector([col[t][0], col[t][1], col[t][2]], dt=ti.f32)
+            _fill_tri(pa, pb, pc, _to_u8(fill), _to_u8(edge_col), half_w, draw_edges, img, H, W)
+
+
+@ti.func
+def _pix(xi, params: ti.template()):
+    px = (xi[0] - params[0]) * params[2]
+    py = (params[1] - xi[1]) * params[2]
+    if not px > -_PIX_LIMIT:  # also catches NaN
+        px = -_PIX_LIMIT
+    if px > _PIX_LIMIT:
+        px = _PIX_LIMIT
+    if not py > -_PIX_LIMIT:
+        py = -_PIX_LIMIT
+    if py > _PIX_LIMIT:
+        py = _PIX_LIMIT
+    return ti.Vector([ti.cast(px, ti.f32), ti.cast(py, ti.f32)])
+
+
+@ti.func
+def _cmap(val, vmin, vmax, cpos: ti.template(), ctab: ti.template(), K):
+    """np.interp of the colour map table at clip((val - vmin) / (vmax - vmin), 0, 1) in the
+    precision of val (f64 by default, as :func:`colormap`); NaN / inf -> grey."""
+    out = ti.Vector([0.5, 0.5, 0.5], dt=ti.f32)   # _NAN_COLOR
+    if val == val and ti.abs(val) < ti.math.inf:
+        span = vmax - vmin
+        t = val * 0.0
+        if span > 0:
+            t = ti.min(ti.max((val - vmin) / span, 0.0), 1.0)
+        res = ti.Vector([val * 0.0, val * 0.0, val * 0.0])
+        if t >= cpos[K - 1]:
+            res = ti.Vector([ctab[K - 1, 0], ctab[K - 1, 1], ctab[K - 1, 2]])
+        else:
+            j = 0
+            for k in range(1, K - 1):
+                if cpos[k] <= t:
+                    j = k
+            for c in ti.static(range(3)):
+                slope = (ctab[j + 1, c] - ctab[j, c]) / (cpos[j + 1] - cpos[j])
+                res[c] = slope * (t - cpos[j]) + ctab[j, c]
+        out = ti.Vector([ti.cast(res[0], ti.f32), ti.cast(res[1], ti.f32), ti.cast(res[2], ti.f32)])
+    return out
+
+
+@ti.func
+def _fill_tri(a, b, c, fill8, edge8, half_w, draw_edges, img: ti.template(), H, W):
+    area2 = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+    if area2 != 0.0:
+        sgn = 1.0 if area2 > 0.0 else -1.0
+        xlo = ti.min(a[0], b[0], c[0])
+        xhi = ti.max(a[0], b[0], c[0])
+        ylo = ti.min(a[1], b[1], c[1])
+        yhi = ti.max(a[1], b[1], c[1])
+        q0 = ti.cast(ti.max(ti.ceil(xlo - 0.5), 0.0), ti.i32)
+        q1 = ti.cast(ti.min(ti.floor(xhi - 0.5), W - 1.0), ti.i32)
+        r0 = ti.cast(ti.max(ti.ceil(ylo - 0.5), 0.0), ti.i32)
+        r1 = ti.cast(ti.min(ti.floor(yhi - 0.5), H - 1.0), ti.i32)
+        inv_a = 1.0 / ti.max((c - b).norm(), 1e-12)
+        inv_b = 1.0 / ti.max((a - c).norm(), 1e-12)
+        inv_c = 1.0 / ti.max((b - a).norm(), 1e-12)
+        for r in range(r0, r1 + 1):
+            yc = ti.cast(r, ti.f32) + 0.5
+            for q in range(q0, q1 + 1):
+                xc = ti.cast(q, ti.f32) + 0.5
+                wa = sgn * ((c[0] - b[0]) * (yc - b[1]) - (c[1] - b[1]) * (xc - b[0]))
+                wb = sgn * ((a[0] - c[0]) * (yc - c[1]) - (a[1] - c[1]) * (xc - c[0]))
+                wc = sgn * ((b[0] - a[0]) * (yc - a[1]) - (b[1] - a[1]) * (xc - a[0]))
+                if wa >= 0.0 and wb >= 0.0 and wc >= 0.0:
+                    colour = fill8
+                    if draw_edges != 0:
+                        d = ti.min(wa * inv_a, wb * inv_b, wc * inv_c)
+                        if d < half_w:
+                            colour = edge8
+                    for k in ti.static(range(3)):
+                        img[r, q, k] = colour[k]

@@ -1,0 +1,472 @@
+"""The off-screen rasteriser :class:`RendererImage`: draws the triangles of a 2D mesh, or a
+simulation coloured by body, material, stress, speed, displacement or damage, into an RGB
+image with the Taichi kernels of :mod:`~taichi_fdem.render.kernels` (no window, no OpenGL).
+
+The simulation is only read, duck-typed (``node_x``, ``node_v``, ``tri_nodes``, ``tri_rest_inv``,
+``tri_mat``, ``mat_mu``, ``mat_lam``, ``bodies``, ``time``, ``step_count``, ...): this module does
+not import :mod:`taichi_fdem.simulation`.
+"""
+import math
+import numbers
+import weakref
+
+import numpy as np
+import taichi as ti
+
+from taichi_fdem import backend
+
+from ._util import (_check_color, _check_pos_int, _check_range, _check_real, _check_view, _is_ndarray,
+                    _np_dtype, _to_np)
+from .colors import COLOR_MODES, COLORMAPS, _check_color_by, body_colors, colormap
+from .kernels import (_bbox_kernel, _centroid_kernel, _clear_kernel, _clear_u8_kernel, _raster_kernel,
+                      _raster_u8_kernel, _resolve_kernel, _sim_scalar_kernel, _to_pixels_kernel,
+                      _tri_scalar_kernel, _vec3f)
+from .labels import _Overlays
+
+__all__ = ["RendererImage"]
+
+
+class RendererImage(_Overlays):
+    """Off-screen triangle rasteriser producing ``(height, width, 3)`` uint8 images.
+
+    Parameters
+    ----------
+    width, height : image size in pixels.
+    view : ``"fit"`` (fit the bounding box of the nodes every frame, aspect preserved, with
+        ``margin``) or a fixed world box ``(xmin, xmax, ymin, ymax)`` [m], which is expanded in
+        one direction (letter-boxed) to match the image aspect ratio.
+    background, edge_color : RGB in [0, 1].
+    edge_width : edge line width in output pixels (0 disables edges).
+    draw_edges : draw triangle edges.
+    supersample : 1..4; rasterise at ``supersample`` times the resolution and box-filter down.
+    margin : fraction of the larger bounding-box extent added on every side in ``"fit"`` mode.
+
+
+    Options of :meth:`render_sim` (drawing a Simulation):
+
+    color_by : ``"body"`` (default; a palette colour per body), ``"material"``, or a scalar
+        per triangle drawn with ``cmap`` (viridis): ``"speed"`` (mean |v| of the 3 nodes,
+        m/s), ``"displacement"`` (mean |x - X| of the 3 nodes, m), ``"von_mises"`` (von Mises
+        of the in-plane elastic Cauchy stress, plane-stress form
+        sqrt(sxx^2 - sxx syy + syy^2 + 3 sxy^2), Pa), ``"max_principal"`` / ``"min_principal"``
+        (principal stresses, Pa).  Scalars are computed by a Taichi kernel from the
+        simulation's arrays; inverted triangles are grey.
+    vmin, vmax : colour range of the scalar modes, in the quantity's unit.  ``None`` (default)
+        = automatic, the finite min / max of the current frame (so colours are not comparable
+        between frames); give both for videos so that a colour means the same value in every
+        frame.  Values outside are clipped to the ends of the colour map.
+    cmap : colour map name (see :data:`COLORMAPS`), default ``"viridis"``.
+    colorbar : draw a vertical colour bar at the right of the image (scalar modes only) with
+        its max / min labels and a title naming the quantity and its unit.  The view is
+        shifted left so that the bar does not hide the mesh.
+    stamp : write ``t = 0.0123 s  step 4567`` at the top-left.
+    follow : a :class:`~taichi_fdem.scene.Body`; the camera is centred on the body's node
+        centroid every frame and shows ``follow_width`` metres horizontally (overrides
+        ``view``).
+    follow_width : width of the followed view [m] (default: 4 x the body's initial extent).
+    text_size : font height of the labels in pixels (default ~ height / 30, at least 10).
+
+    ``render(node_x, tri_nodes, tri_color)`` accepts Taichi vector ndarrays (as held by the
+    simulation) or NumPy arrays of shape (n, 2), (m, 3) and (m, 3) (``tri_color`` may also be
+    a single RGB triple, ``None`` for grey, or uint8 0..255).  The world y axis points up: row 0
+    of the image is the top of the view.
+    """
+
+    def __init__(self, width=960, height=540, view="fit", background=(1.0, 1.0, 1.0),
+                 edge_color=(0.1, 0.1, 0.1), edge_width=1.0, draw_edges=True, supersample=1,
+                 margin=0.05, color_by="body", vmin=None, vmax=None, cmap="viridis",
+                 colorbar=True, stamp=True, follow=None, follow_width=None, text_size=None):
+        self.width = _check_pos_int("width", width)
+        self.height = _check_pos_int("height", height)
+        self.supersample = _check_pos_int("supersample", supersample, 1, 4)
+        self.background = _check_color("background", background)
+        self.edge_color = _check_color("edge_color", edge_color)
+        self.edge_width = _check_real("edge_width", edge_width, 0.0, 1.0e4)
+        self.draw_edges = bool(draw_edges)
+        self.margin = _check_real("margin", margin, 0.0, 10.0)
+        self.view = _check_view(view)
+        self.last_view = None  # (xmin, xmax, ymin, ymax) of the last rendered, letter-boxed view
+        self._img = None      # (s*H, s*W) vec3 f32 working image
+        self._out = None      # (H, W, 3) u8 image
+        self._img_key = None
+        self._cache = {}      # name -> ndarray converted from NumPy input (reused when shape fits)
+        self._small = {}      # (purpose, dtype) -> tiny ndarray (bbox, view params)
+        self.color_by = _check_color_by(color_by)
+        self.vmin, self.vmax = _check_range(vmin, vmax)
+        if cmap not in COLORMAPS:
+            raise ValueError(f"cmap must be one of {sorted(COLORMAPS)}, got {cmap!r}")
+        self.cmap = cmap
+        self.colorbar = bool(colorbar)
+        self.stamp = bool(stamp)
+        self.follow = follow
+        self.follow_width = None if follow_width is None else _check_real("follow_width", follow_width, 0.0)
+        if self.follow_width is not None and self.follow_width <= 0.0:
+            raise ValueError(f"follow_width must be > 0 m, got {follow_width}")
+        self.text_size = None if text_size is None else _check_pos_int("text_size", text_size, 4, 1000)
+        self._last_scalars = None  # (m,) float64 per-triangle values of the last scalar frame
+        self._last_scal_nd = None  # ... or the ndarray holding them (converted on access)
+        self._sprites = {}         # (text, anchor, font px) -> label sprite (see _label_sprite)
+        self._grad = {}            # (rows, cmap) -> colour-bar gradient (rows, 3) u8
+        self._bg_frame = None      # ((H, W, background), (H, W, 3) u8 background image)
+        self._np_small = {}        # purpose -> small NumPy array handed to kernels (no copies)
+        self.last_range = None    # (vmin, vmax) used by the last scalar frame
+        self._sim_ref = None      # weakref to the simulation whose constant arrays are cached
+        self._sim_data = {}       # per-simulation constants: initial positions, category colours
+        self._font = None
+
+    @property
+    def last_scalars(self):
+        """(m,) float64 per-triangle values of the last scalar frame (None otherwise)."""
+        if self._last_scalars is None and self._last_scal_nd is not None:
+            self._last_scalars = self._last_scal_nd.to_numpy().astype(np.float64)
+        return self._last_scalars
+
+    @last_scalars.setter
+    def last_scalars(self, value):
+        self._last_scalars = value
+        self._last_scal_nd = None
+
+    # -- configuration ---------------------------------------------------------------------
+    def set_view(self, view="fit", margin=None):
+        """Switch to ``"fit"`` or to a fixed world box ``(xmin, xmax, ymin, ymax)``."""
+        self.view = _check_view(view)
+        if margin is not None:
+            self.margin = _check_real("margin", margin, 0.0, 10.0)
+
+    def set_range(self, vmin=None, vmax=None):
+        """Colour range of the scalar modes (``None`` = automatic per frame)."""
+        self.vmin, self.vmax = _check_range(vmin, vmax)
+
+    def resize(self, width, height):
+        self.width = _check_pos_int("width", width)
+        self.height = _check_pos_int("height", height)
+
+    # -- buffers -----------------------------------------------------------------------------
+    def _buffers(self):
+        s = self.supersample
+        key = (self.width, self.height, s)
+        if self._img_key != key:
+            self._img = ti.ndarray(dtype=_vec3f, shape=(self.height * s, self.width * s))
+            self._out = ti.ndarray(dtype=ti.u8, shape=(self.height, self.width, 3))
+            self._img_key = key
+        return self._img, self._out
+
+    def _small_nd(self, purpose, dtype, size):
+        key = (purpose, str(dtype))
+        arr = self._small.get(key)
+        if arr is None:
+            arr = ti.ndarray(dtype=dtype, shape=(size,))
+            self._small[key] = arr
+        return arr
+
+    def _from_numpy(self, name, a, ncomp, np_dtype, ti_dtype):
+        arr = np.asarray(a)
+        if arr.ndim == 1 and arr.size == 0:
+            arr = arr.reshape(0, ncomp)
+        if arr.ndim != 2 or arr.shape[1] != ncomp:
+            raise ValueError(f"{name} must have shape (k, {ncomp}), got {arr.shape}")
+        arr = np.ascontiguousarray(arr, dtype=np_dtype)
+        k = arr.shape[0]
+        if k == 0:
+            return None  # Taichi has no empty ndarrays: callers treat None as "nothing"
+        nd = self._cache.get(name)
+        if nd is None or nd.shape != (k,) or nd.dtype != ti_dtype:
+            nd = ti.ndarray(dtype=ti.types.vector(ncomp, ti_dtype), shape=(k,))
+            self._cache[name] = nd
+        nd.from_numpy(arr)
+        return nd
+
+    def _prepare(self, node_x, tri_nodes, tri_color):
+        real_ti, real_np = backend.real_ti(), backend.real_np()
+        # nodes
+        if _is_ndarray(node_x) and getattr(node_x, "n", None) == 2 and len(node_x.shape) == 1:
+            x_nd = node_x
+        else:
+            x_nd = self._from_numpy("node_x", _to_np(node_x), 2, real_np, real_ti)
+        # triangles
+        if _is_ndarray(tri_nodes) and getattr(tri_nodes, "n", None) == 3 and len(tri_nodes.shape) == 1:
+            t_nd = tri_nodes
+        else:
+            t_np = np.asarray(_to_np(tri_nodes))
+            if t_np.size and not np.issubdtype(t_np.dtype, np.integer):
+                raise ValueError(f"tri_nodes must hold integers, got dtype {t_np.dtype}")
+            t_nd = self._from_numpy("tri_nodes", t_np, 3, np.int32, ti.i32)
+        m = 0 if t_nd is None else t_nd.shape[0]
+        if m == 0:
+            return x_nd, None, None
+        # colours
+        if _is_ndarray(tri_color) and getattr(tri_color, "n", None) == 3 and len(tri_color.shape) == 1:
+            c_nd = tri_color
+        else:
+            if tri_color is None:
+                c_np = np.full((m, 3), 0.7, np.float32)
+            else:
+                c_np = np.asarray(_to_np(tri_color))
+                if c_np.dtype == np.uint8:
+                    c_np = c_np.astype(np.float32) / 255.0
+                if c_np.shape == (3,):
+                    c_np = np.broadcast_to(c_np.astype(np.float32), (m, 3))
+            c_nd = self._from_numpy("tri_color", c_np, 3, np.float32, ti.f32)
+        if c_nd is None or c_nd.shape[0] != m:
+            raise ValueError(f"tri_color has {0 if c_nd is None else c_nd.shape[0]} entries but there are {m} triangles")
+        return x_nd, t_nd, c_nd
+
+    # -- view ------------------------------------------------------------------------------
+    def _world_box(self, x_nd):
+        """World box to show (before letter-boxing)."""
+        if self.view != "fit":
+            return self.view
+        if x_nd is None:
+            return self.last_view if self.last_view is not None else (-1.0, 1.0, -1.0, 1.0)
+        bb = self._np_small.get("bbox")
+        if bb is None:
+            bb = self._np_small["bbox"] = np.zeros(5, dtype=np.float64)
+        _bbox_kernel(x_nd, bb)
+        xmin, xmax, ymin, ymax = (float(v) for v in bb[:4])
+        if bb[4] != 0.0 or not all(math.isfinite(v) for v in (xmin, xmax, ymin, ymax)):
+            return self.last_view if self.last_view is not None else (-1.0, 1.0, -1.0, 1.0)
+        ext = max(xmax - xmin, ymax - ymin)
+        if ext <= 0.0:
+            ext = max(abs(xmin), abs(ymin), 1.0) * 1e-3  # a single point: show a small box
+        pad = self.margin * ext
+        cx, cy = 0.5 * (xmin + xmax), 0.5 * (ymin + ymax)
+        hw = 0.5 * (xmax - xmin) + pad
+        hh = 0.5 * (ymax - ymin) + pad
+        if hw <= 0.0:  # nodes on a vertical line and no margin
+            hw = 0.5 * ext
+        if hh <= 0.0:
+            hh = 0.5 * ext
+        return (cx - hw, cx + hw, cy - hh, cy + hh)
+
+    def _letterbox(self, box, reserve_right=0):
+        """Fit ``box`` into the image minus ``reserve_right`` pixel columns at the right (kept
+        for the colour bar); returns the full-image world box and the pixels per metre."""
+        xmin, xmax, ymin, ymax = box
+        bw, bh = xmax - xmin, ymax - ymin
+        w_eff = max(1, self.width - int(reserve_right))
+        scale = min(w_eff / bw, self.height / bh)  # output pixels per metre
+        cx, cy = 0.5 * (xmin + xmax), 0.5 * (ymin + ymax)
+        left = cx - 0.5 * w_eff / scale
+        hh = 0.5 * self.height / scale
+        return (left, left + self.width / scale, cy - hh, cy + hh), scale
+
+    def world_to_pixel(self, xy):
+        """Map world points (k, 2) to continuous output-pixel coordinates (col, row) using the
+        view of the last :meth:`render` call."""
+        if self.last_view is None:
+            raise RuntimeError("world_to_pixel: nothing rendered yet")
+        xmin, xmax, ymin, ymax = self.last_view
+        scale = self.width / (xmax - xmin)
+        xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+        return np.stack([(xy[:, 0] - xmin) * scale, (ymax - xy[:, 1]) * scale], axis=1)
+
+    # -- drawing ---------------------------------------------------------------------------
+    def render(self, node_x, tri_nodes, tri_color=None) -> np.ndarray:
+        """Rasterise the mesh and return a new ``(height, width, 3)`` uint8 array."""
+        backend.ensure_init()
+        x_nd, t_nd, c_nd = self._prepare(node_x, tri_nodes, tri_color)
+        return self._draw(x_nd, t_nd, c_nd, self._world_box(x_nd))
+
+    def _background(self):
+        key = (self.height, self.width, self.background)
+        if self._bg_frame is None or self._bg_frame[0] != key:
+            bg = np.empty((self.height, self.width, 3), dtype=np.uint8)
+            _clear_u8_kernel(bg, ti.Vector(self.background, dt=ti.f32))
+            self._bg_frame = (key, bg)
+        return self._bg_frame[1]
+
+    def _cmap_nd(self, name):
+        """The colour map table (positions, RGB) as ndarrays of the real dtype, uploaded once."""
+        real_ti, real_np = backend.real_ti(), backend.real_np()
+        key = ("cmap", name, str(real_ti))
+        tab = self._small.get(key)
+        if tab is None:
+            pos, rgb = COLORMAPS[name]
+            cpos = ti.ndarray(dtype=real_ti, shape=(len(pos),))
+            cpos.from_numpy(np.ascontiguousarray(pos, dtype=real_np))
+            ctab = ti.ndarray(dtype=real_ti, shape=(len(pos), 3))
+            ctab.from_numpy(np.ascontiguousarray(rgb, dtype=real_np))
+            tab = self._small[key] = (cpos, ctab)
+        return tab
+
+    def _draw(self, x_nd, t_nd, c_nd, box, reserve_right=0, scal=None, rng=None) -> np.ndarray:
+        """Rasterise; colours are c_nd, or (supersample 1 only) the scalars scal mapped through
+        the colour map over rng = (vmin, vmax) inside the raster kernel."""
+        s = self.supersample
+        view, scale = self._letterbox(box, reserve_right)
+        self.last_view = view
+        if s == 1:  # one launch straight into a u8 NumPy image: no float image, no copies
+            img = self._background().copy()
+            if x_nd is not None and t_nd is not None:
+                vmin, vmax = rng if rng is not None else (0.0, 1.0)
+                params = np.array([view[0], view[3], scale, vmin, vmax], dtype=_np_dtype(x_nd.dtype))
+                cpos, ctab = self._cmap_nd(self.cmap)
+                use_scal = int(scal is not None and rng is not None)
+                if scal is None:
+                    scal = self._small_nd("dummy_scal", backend.real_ti(), 1)
+                if c_nd is None:
+                    c_nd = self._small_nd("dummy_col", ti.types.vector(3, ti.f32), 1)
+                draw = self.draw_edges and self.edge_width > 0.0
+                _raster_u8_kernel(x_nd, t_nd, c_nd, scal, use_scal,
+                                  cpos, ctab, params, img, ti.Vector(self.edge_color, dt=ti.f32),
+                                  float(0.5 * self.edge_width), int(draw))
+            return img
+        img, out = self._buffers()
+
+        _clear_kernel(img, ti.Vector(self.background, dt=ti.f32))
+        if x_nd is not None and t_nd is not None:
+            n = x_nd.shape[0]
+            params = self._small_nd("params", x_nd.dtype, 3)
+            params.from_numpy(np.array([view[0], view[3], scale * s], dtype=_np_dtype(x_nd.dtype)))
+            pkey = "pixels"
+            p_nd = self._cache.get(pkey)
+            if p_nd is None or p_nd.shape != (n,):
+                p_nd = ti.ndarray(dtype=ti.types.vector(2, ti.f32), shape=(n,))
+                self._cache[pkey] = p_nd
+            _to_pixels_kernel(x_nd, params, p_nd)
+            draw = self.draw_edges and self.edge_width > 0.0
+            _raster_kernel(p_nd, t_nd, c_nd, img, ti.Vector(self.edge_color, dt=ti.f32),
+                           float(0.5 * self.edge_width * s), int(draw))
+        _resolve_kernel(img, out, s)
+        return out.to_numpy()
+
+    __call__ = render
+
+    # -- simulations -----------------------------------------------------------------------
+    def _sim_consts(self, sim):
+        """Constant per-simulation data (converted once per simulation, not per frame)."""
+        ref = self._sim_ref() if self._sim_ref is not None else None
+        if ref is not sim:
+            self._sim_ref = weakref.ref(sim)
+            self._sim_data = {}
+        return self._sim_data
+
+    def tri_scalars(self, sim, color_by=None) -> np.ndarray:
+        """The per-triangle scalar of a scalar colour mode, (m,) float64 in the mode's unit
+        (m/s, m or Pa; NaN for inverted triangles), computed by a Taichi kernel."""
+        mode = _check_color_by(self.color_by if color_by is None else color_by)
+        kid = COLOR_MODES[mode][0]
+        if kid is None:
+            raise ValueError(f"tri_scalars: color_by={mode!r} is not a scalar mode")
+        if kid < 0:      # "damage"
+            return np.asarray(sim.tri_damage(), dtype=np.float64)
+        backend.ensure_init()
+        consts = self._sim_consts(sim)
+        x0 = consts.get("x0")
+        if x0 is None:
+            x0 = ti.Vector.ndarray(2, sim.node_x.dtype, shape=(sim.node_count,))
+            x0.from_numpy(np.ascontiguousarray(sim._X, dtype=_np_dtype(sim.node_x.dtype)))
+            consts["x0"] = x0
+        out = consts.get("scalars")
+        if out is None:
+            out = ti.ndarray(dtype=sim.node_x.dtype, shape=(sim.tri_count,))
+            consts["scalars"] = out
+        _tri_scalar_kernel(sim.node_x, sim.node_v, x0, sim.tri_nodes, sim.tri_rest_inv, sim.tri_mat,
+                           sim.mat_mu, sim.mat_lam, int(kid), out)
+        return out.to_numpy().astype(np.float64)
+
+    def _frame_scalars(self, sim, kid):
+        """Per-triangle scalars of mode id kid into a per-simulation ndarray (kept on the
+        device) and their finite [min, max, count] in a small NumPy array."""
+        consts = self._sim_consts(sim)
+        x0 = consts.get("x0")
+        if x0 is None:
+            x0 = ti.Vector.ndarray(2, sim.node_x.dtype, shape=(sim.node_count,))
+            x0.from_numpy(np.ascontiguousarray(sim._X, dtype=_np_dtype(sim.node_x.dtype)))
+            consts["x0"] = x0
+        scal = consts.get("frame_scalars")
+        if scal is None:
+            scal = consts["frame_scalars"] = ti.ndarray(dtype=sim.node_x.dtype, shape=(sim.tri_count,))
+        info = self._np_small.get("range")
+        if info is None:
+            info = self._np_small["range"] = np.zeros(3, dtype=np.float64)
+        if kid < 0:      # "damage": per-triangle joint damage from the simulation, fixed range [0, 1]
+            scal.from_numpy(np.ascontiguousarray(sim.tri_damage(), dtype=_np_dtype(sim.node_x.dtype)))
+            info[:] = (0.0, 1.0, sim.tri_count)
+            return scal, info
+        _sim_scalar_kernel(sim.node_x, sim.node_v, x0, sim.tri_nodes, sim.tri_rest_inv, sim.tri_mat,
+                           sim.mat_mu, sim.mat_lam, int(kid), scal, info)
+        return scal, info
+
+    def _follow_box(self, sim):
+        body = self.follow
+        if isinstance(body, numbers.Integral) and not isinstance(body, bool):
+            body = sim.bodies[int(body)]
+        if not any(b is body for b in sim.bodies):
+            raise ValueError(f"render_sim: follow={self.follow!r} is not a body of this simulation")
+        consts = self._sim_consts(sim)
+        width = self.follow_width
+        if width is None:
+            pts = body.mesh.points
+            width = 4.0 * max(float(np.ptp(pts[:, 0])), float(np.ptp(pts[:, 1])), 1e-12)
+        c = self._small_nd("centroid", sim.node_x.dtype, 3)
+        _centroid_kernel(sim.node_x, body.nodes.start, body.nodes.stop, c)
+        cx, cy, cnt = (float(v) for v in c.to_numpy())
+        if cnt <= 0 or not (math.isfinite(cx) and math.isfinite(cy)):
+            if self.last_view is not None:
+                return (self.last_view[0], self.last_view[1], self.last_view[2], self.last_view[3])
+            cx, cy = (float(v) for v in body.mesh.centroid)
+        consts["follow_centre"] = (cx, cy)
+        hh = 0.5 * width * self.height / self.width
+        return (cx - 0.5 * width, cx + 0.5 * width, cy - hh, cy + hh)
+
+    def render_sim(self, sim, color_by=None) -> np.ndarray:
+        """Draw a :class:`~taichi_fdem.simulation.Simulation`; returns ``(height, width, 3)`` uint8.
+
+        ``color_by`` overrides the renderer's mode for this frame (see the class docstring
+        for the modes, the colour range, colour bar, stamp and camera options).
+        """
+        backend.ensure_init()
+        mode = _check_color_by(self.color_by if color_by is None else color_by)
+        consts = self._sim_consts(sim)
+        kid, title = COLOR_MODES[mode]
+        bar = None
+        if kid is None:
+            key = "colors_" + mode
+            colors = consts.get(key)
+            if colors is None:
+                ids = sim._tri_body_np if mode == "body" else sim._tri_mat_np
+                colors = ti.Vector.ndarray(3, ti.f32, shape=(sim.tri_count,))
+                colors.from_numpy(np.ascontiguousarray(body_colors(ids), dtype=np.float32))
+                consts[key] = colors
+            c_nd = colors
+            self.last_scalars = None
+            self.last_range = None
+        else:
+            # scalars and their finite range in one launch; nothing per-triangle leaves the device
+            scal, info = self._frame_scalars(sim, kid)
+            finite_any = info[2] > 0
+            vmin, vmax = self.vmin, self.vmax
+            if vmin is None:
+                vmin = float(info[0]) if finite_any else 0.0
+                if vmax is not None and vmin > vmax:
+                    vmin = vmax
+            if vmax is None:
+                vmax = float(info[1]) if finite_any else 1.0
+                if vmax < vmin:
+                    vmax = vmin
+            if self.supersample == 1:
+                c_nd = None     # coloured inside the raster kernel
+            else:
+                cols = colormap(scal.to_numpy().astype(np.float64), vmin, vmax, self.cmap)
+                c_nd = consts.get("scalar_colors")
+                if c_nd is None:
+                    c_nd = ti.Vector.ndarray(3, ti.f32, shape=(sim.tri_count,))
+                    consts["scalar_colors"] = c_nd
+                c_nd.from_numpy(cols)
+            self._last_scalars = None
+            self._last_scal_nd = scal
+            self.last_range = (vmin, vmax)
+            if self.colorbar:
+                bar = (vmin, vmax, title)
+        if self.follow is not None:
+            box = self._follow_box(sim)
+        else:
+            box = self._world_box(sim.node_x)
+        layout = self._bar_layout() if bar is not None else None
+        img = self._draw(sim.node_x, sim.tri_nodes, c_nd, box, layout["reserve"] if layout else 0,
+                         scal=None if kid is None else scal, rng=None if kid is None else (vmin, vmax))
+        stamp = f"t = {sim.time:.4g} s  step {sim.step_count}" if self.stamp else None
+        if bar is not None or stamp is not None:
+            img = self._overlay(img, bar, layout, stamp)
+        return img
