@@ -10,8 +10,8 @@ import pytest
 import taichi as ti
 
 import taichi_fdem as fdem
-from taichi_fdem import checkpoint
-from taichi_fdem.checkpoint import CheckpointError
+from taichi_fdem.io import checkpoint
+from taichi_fdem.io.checkpoint import CheckpointError
 
 
 def block_on_floor(strategy="serial"):

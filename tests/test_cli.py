@@ -84,9 +84,9 @@ def test_run_no_video_and_outputs_of_the_file(capsys, tmp_path, monkeypatch):
 
 def test_run_vtu(capsys, tmp_path):
     import importlib.util
-    if importlib.util.find_spec("taichi_fdem.export") is None:
+    if importlib.util.find_spec("taichi_fdem.io.vtu") is None:
         code, out, err = run(capsys, "run", TWO_DISKS, "--vtu", str(tmp_path / "vtu"), "--no-video")
-        assert code == 2 and "needs taichi_fdem.export" in err
+        assert code == 2 and "needs taichi_fdem.io.vtu" in err
         return
     (tmp_path / "s.toml").write_text(SLIDE + f'\n[output]\nvtu = "{(tmp_path / "vtu").as_posix()}"\nframe_dt = 0.001\n')
     code, out, err = run(capsys, "run", str(tmp_path / "s.toml"), "--no-progress")

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import taichi_fdem as fdem
-from taichi_fdem.export import ExporterVtu, frame_fields
+from taichi_fdem.io.vtu import ExporterVtu, frame_fields
 
 
 def sliding_block(velocity=(1.0, -0.5)):

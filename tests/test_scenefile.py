@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import taichi_fdem as fdem
-from taichi_fdem import scenefile
-from taichi_fdem.scenefile import SceneFileError
+from taichi_fdem.io import scenefile
+from taichi_fdem.io.scenefile import SceneFileError
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 EXAMPLES = os.path.join(ROOT, "examples")
@@ -286,8 +286,8 @@ def test_dt_above_limit_refused_at_build(tmp_path):
 def test_output_features_that_need_other_modules(tmp_path):
     import importlib.util
     text = BASE + '\n[output]\nvtu = "vtu_out"\n'
-    if importlib.util.find_spec("taichi_fdem.export") is None:
-        refused(tmp_path, text, r"\[output\]", r"needs taichi_fdem.export")
+    if importlib.util.find_spec("taichi_fdem.io.vtu") is None:
+        refused(tmp_path, text, r"\[output\]", r"needs taichi_fdem.io.vtu")
     else:
         assert scenefile.load(write(tmp_path, text)).output["vtu"] == "vtu_out"
     text = BASE + '\n[output]\ncheckpoint = "state.ckpt"\n'
