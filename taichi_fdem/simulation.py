@@ -123,6 +123,8 @@ class Simulation(SimulationResults):
         size_old_couples(self.model, self.state, self.scratch)
         self._repack()
 
+    _alloc_couples = _grow_couples
+
     def _launch(self, name, kernel, *args):
         self.launches[name] = self.launches.get(name, 0) + 1
         return kernel(*args)

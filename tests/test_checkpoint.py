@@ -30,7 +30,11 @@ def block_on_floor(strategy="serial"):
 
 
 def ndarrays(sim) -> dict:
-    return {k: v.to_numpy() for k, v in vars(sim).items() if isinstance(v, ti.Ndarray)}
+    """Every Taichi array of the simulation: model, state and detection scratch."""
+    out = {}
+    for part in (sim.model, sim.state, sim.scratch):
+        out.update({k: v.to_numpy() for k, v in vars(part).items() if isinstance(v, ti.Ndarray)})
+    return out
 
 
 @pytest.mark.parametrize("strategy", ["serial", "parallel"])
