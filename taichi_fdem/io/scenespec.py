@@ -1,0 +1,178 @@
+"""A checked scene file (:class:`SceneSpec`) and how to build and run it (:class:`RunSettings`).
+
+:func:`taichi_fdem.io.scenefile.load` makes a :class:`SceneSpec`: plain data, cheap to pickle.
+:meth:`SceneSpec.build` turns it into a :class:`~taichi_fdem.simulation.Simulation` (meshes
+generated or read, bodies and box constraints added) and :meth:`RunSettings.run` runs it with
+the video, VTU series and checkpoint that the file's ``[output]`` asks for.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from typing import Any
+
+from .toml_check import SceneFileError
+
+__all__ = ["SceneSpec", "RunSettings"]
+
+
+@dataclass
+class RunSettings:
+    """How to run a built scene: the ``[solver] duration`` and the ``[output]`` table (SI units).
+
+    ``run(sim)`` advances the simulation by ``duration`` seconds writing the video, the VTU
+    series and the checkpoint that the file asks for.
+    """
+
+    duration: float
+    video: str | None = None
+    fps: int = 30
+    frame_dt: float | None = None
+    color_by: str = "body"
+    width: int = 960
+    height: int = 540
+    vtu: str | None = None
+    vtu_every: int = 1
+    checkpoint: str | None = None
+
+    def run(self, sim, progress: bool | None = None, duration: float | None = None) -> None:
+        """Run ``sim`` for ``duration`` [s] (default: the file's) with the configured outputs."""
+        duration = self.duration if duration is None else float(duration)
+        renderer = None
+        if self.video:
+            from ..render import RendererImage
+            renderer = RendererImage(self.width, self.height, color_by=self.color_by)
+            folder = os.path.dirname(os.path.abspath(self.video))
+            os.makedirs(folder, exist_ok=True)
+        exporter = None
+        if self.vtu:
+            from .vtu import ExporterVtu           # checked to exist by load()
+            exporter = ExporterVtu(self.vtu, every=self.vtu_every)
+            exporter.write(sim)                       # the initial state
+        try:
+            sim.run(duration, video=self.video or None, fps=self.fps, frame_dt=self.frame_dt, renderer=renderer,
+                    progress=progress, callback=exporter.callback if exporter is not None else None)
+        finally:
+            if exporter is not None:
+                exporter.close()
+        if self.checkpoint:
+            folder = os.path.dirname(os.path.abspath(self.checkpoint))
+            os.makedirs(folder, exist_ok=True)
+            sim.save(self.checkpoint)
+
+
+@dataclass
+class SceneSpec:
+    """A checked scene file.  Plain data (no meshes built, no Taichi): cheap to create and to pickle.
+
+    Attributes
+    ----------
+    path : the file it was read from.
+    scene : ``gravity`` [m/s²], ``plane``, ``thickness`` [m].
+    materials : {name: :class:`~taichi_fdem.material.Material`}.
+    bodies : one dict per ``[[bodies]]`` with every key resolved (defaults filled in).
+    constraints : one dict per ``[[constraints]]``.
+    solver : the ``[solver]`` table (``duration`` [s], ``dt`` [s] or None, ``safety``, ...).
+    output : the ``[output]`` table.
+    """
+
+    path: str
+    scene: dict
+    materials: dict
+    bodies: list
+    constraints: list
+    solver: dict
+    output: dict
+    description: str = ""
+    _checker: Any = field(default=None, repr=False)
+
+    @property
+    def body_names(self) -> list[str]:
+        return [b["name"] for b in self.bodies]
+
+    def _body_error(self, i: int, key: str, message: str) -> SceneFileError:
+        if self._checker is None:
+            return SceneFileError(f"{self.path}: [bodies[{i}]] {key}: {message}")
+        return self._checker.error(("bodies", i, key), message)
+
+    def build_mesh(self, i: int):
+        """The :class:`~taichi_fdem.mesh.TriMesh` of body ``i`` (generated, or read from its file)."""
+        from .. import mesh
+        b = self.bodies[i]
+        shape = b["shape"]
+        try:
+            if shape == "file":
+                return mesh.load(b["file"], cell_block=b["cell_block"])
+            if shape == "disk":
+                return mesh.disk(b["radius"], b["h"])
+            if shape == "rectangle":
+                return mesh.rectangle(b["width"], b["height"], b["h"], pattern=b["pattern"])
+            if shape == "annulus":
+                return mesh.annulus(b["r_inner"], b["r_outer"], b["h"])
+            return mesh.polygon(b["vertices"], h=b["h"])
+        except (ValueError, TypeError, OSError) as exc:
+            raise self._body_error(i, "file" if shape == "file" else "shape",
+                                   f"body {b['name']!r}: cannot make its {shape} mesh: {exc}") from None
+
+    def build_scene(self):
+        """(:class:`~taichi_fdem.scene.Scene`, {body name: Body}) with bodies and constraints added."""
+        import numpy as np
+        from ..scene import Scene
+        scene = Scene(gravity=self.scene["gravity"], plane=self.scene["plane"], thickness=self.scene["thickness"])
+        bodies = {}
+        for i, b in enumerate(self.bodies):
+            m = self.build_mesh(i)
+            try:
+                bodies[b["name"]] = scene.add_body(
+                    m, self.materials[b["material"]], position=b["position"], velocity=b["velocity"],
+                    angular_velocity=b["angular_velocity"], rotation=b["rotation"], fixed=b["fixed"],
+                    prescribed_velocity=b["prescribed_velocity"], self_contact=b["self_contact"], name=b["name"])
+            except (ValueError, TypeError) as exc:
+                raise self._body_error(i, "name", str(exc)) from None
+        for k, c in enumerate(self.constraints):
+            box = (c["xmin"], c["xmax"], c["ymin"], c["ymax"])
+            where = _BoxSelector(*box)
+            body = bodies[c["body"]] if c["body"] else None
+            pts = body.mesh.points if body is not None else np.concatenate([b.mesh.points for b in scene.bodies])
+            if not where(pts[:, 0], pts[:, 1]).any():
+                msg = "the box selects no node (bounds are in the initial, placed positions, metres)"
+                raise (self._checker.error(("constraints", k), msg, table=("constraints", k)) if self._checker
+                       else SceneFileError(f"{self.path}: [constraints[{k}]] {msg}"))
+            scene.fix_nodes(where, body=body, velocity=(c["vx"], c["vy"]))
+        return scene, bodies
+
+    def build(self):
+        """(:class:`~taichi_fdem.simulation.Simulation`, :class:`RunSettings`)."""
+        scene, _ = self.build_scene()
+        s = self.solver
+        try:
+            sim = scene.build(dt=s["dt"], safety=s["safety"], force_dt=s["force_dt"], buffer=s["buffer"],
+                              strategy=s["strategy"], check_overlap=s["check_overlap"])
+        except ValueError as exc:
+            key = "dt" if "dt" in str(exc) else "solver"
+            where = self._checker.where(("solver", key)) if self._checker else self.path
+            raise SceneFileError(f"{where}: [solver] {exc}") from None
+        return sim, self.run_settings()
+
+    def run_settings(self) -> RunSettings:
+        o = self.output
+        return RunSettings(duration=self.solver["duration"], video=o["video"], fps=o["fps"], frame_dt=o["frame_dt"],
+                           color_by=o["color_by"], width=o["width"], height=o["height"], vtu=o["vtu"],
+                           vtu_every=o["vtu_every"], checkpoint=o["checkpoint"])
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state["_checker"] = None
+        return state
+
+
+class _BoxSelector:
+    """Picklable predicate ``xmin <= x <= xmax and ymin <= y <= ymax`` (None = unbounded) [m]."""
+
+    def __init__(self, xmin, xmax, ymin, ymax):
+        self.box = (xmin, xmax, ymin, ymax)
+
+    def __call__(self, x, y):
+        import numpy as np
+        xmin, xmax, ymin, ymax = (v if v is not None else s * np.inf for v, s in zip(self.box, (-1, 1, -1, 1)))
+        return (x >= xmin) & (x <= xmax) & (y >= ymin) & (y <= ymax)
