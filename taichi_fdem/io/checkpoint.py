@@ -12,8 +12,9 @@ stored but rebuilt from the scene; the file holds
   their friction history, joint state, dissipation, counters, and any array a future feature
   adds to the state (found generically, nothing is listed here), plus its plain attributes
   (the couple capacity);
-* the driver's counters (step count, strategy, launch counts, last good state) and the build
-  settings (time step, buffer, speed limit);
+* every other attribute of the simulation (step count, strategy, launch counts, last good
+  state, and anything a user hung on it), pickled, Taichi ndarrays inside tuples, lists and
+  dicts included as NumPy data, and the build settings (time step, buffer, speed limit);
 * the :class:`~taichi_fdem.scene.Scene` (meshes, materials, bodies, settings), pickled, with
   each ``fix_nodes`` predicate replaced by the node mask it selected, so that lambdas need not
   be picklable.
@@ -48,8 +49,9 @@ FORMAT = "taichi_fdem.checkpoint"
 #: Incremented when the layout of the file changes incompatibly.
 FORMAT_VERSION = 2
 
-# the driver's own attributes that a checkpoint keeps (the rest is rebuilt or is a cache)
-_DRIVER_ATTRS = ("step_count", "strategy", "launches", "_stats", "_last_good")
+# attributes of the simulation rebuilt by load() rather than stored: the scene (stored on its
+# own), what build() derives from it, the state (stored array by array) and the argpacks
+_REBUILT = frozenset({"scene", "bodies", "thickness", "model", "state", "scratch", "_packs", "_groups"})
 
 
 class CheckpointError(ValueError):
@@ -100,7 +102,7 @@ class _PackedNdarray:
 
     def unpack(self):
         arr = _alloc(self.meta)
-        arr.from_numpy(np.ascontiguousarray(self.data))
+        arr.from_numpy(np.array(self.data, order="C"))
         return arr
 
 
@@ -172,9 +174,22 @@ def save(sim, path) -> None:
                 raise TypeError(f"Simulation.save: state attribute {name!r} ({type(value).__name__}) cannot be "
                                 f"stored in a checkpoint: {exc}") from None
             state_plain[name] = value
+    driver: dict = {}
+    for name, value in vars(sim).items():         # step count, strategy, counters, and anything a user added
+        if name in _REBUILT:
+            continue
+        if not isinstance(value, ti.Ndarray) and type(value).__module__.startswith("taichi"):
+            raise TypeError(f"Simulation.save: attribute {name!r} is a Taichi {type(value).__name__}; "
+                            f"only Taichi ndarrays can be checkpointed")
+        value = _pack(value)
+        try:
+            pickle.dumps(value)
+        except Exception as exc:
+            raise TypeError(f"Simulation.save: attribute {name!r} ({type(value).__name__}) cannot be "
+                            f"stored in a checkpoint: {exc}") from None
+        driver[name] = value
     md = sim.model
-    plain = {"driver": {k: _pack(getattr(sim, k)) for k in _DRIVER_ATTRS if k in vars(sim)},
-             "state": state_plain,
+    plain = {"driver": driver, "state": state_plain,
              "build": {"dt": md.dt, "buffer": md.buffer, "speed_limit": md.speed_limit}}
     try:
         scene_bytes = pickle.dumps(_scene_bundle(sim), protocol=pickle.HIGHEST_PROTOCOL)
@@ -295,7 +310,7 @@ def load(path):
             current = _alloc(m)              # e.g. a couple buffer that grew during the run
             setattr(st, name, current)
         try:
-            current.from_numpy(np.ascontiguousarray(values))
+            current.from_numpy(np.array(values, order="C"))
         except Exception as exc:
             raise CheckpointError(f"Simulation.load: {path!r}: array {name!r} ({m}) cannot be restored "
                                   f"from data of shape {values.shape} ({exc})") from None
