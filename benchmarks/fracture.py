@@ -205,7 +205,7 @@ def report(results, args) -> None:
     md = args.markdown
     print(f"\nFracture benchmark: plate impact (issue 10), {args.precision}, strategy {args.strategy}\n")
     head = ["triangles", "joints", "threads", "strategy", "steps", "1st contact", "M tri-steps/s (all)",
-            f"first {args.steps:,}", "after contact", "slowest chunk", "max couples", "broken", "|dE|/E0 end",
+            f"first {args.steps:,}", "after contact", "slowest chunk", "max couples", "broken", "ΔE/E0 end",
             "run s", "kernels s"]
     rows = [[f"{r['triangles']:,}", f"{r['joints']:,}", str(r["threads"]), r["strategy"], f"{r['steps']:,}",
              f"{r['contact_step']:,}", _f(r["rate_all"], "{:.2f}"), _f(r["rate_first_window"], "{:.2f}"),
@@ -214,8 +214,8 @@ def report(results, args) -> None:
              f"{r['compile_s']:.1f}"] for r in results]
     table(head, rows, md, left=(3,))
 
-    print("\nPer chunk (M triangle-steps/s; couples, broken joints and |dE|/E0 at the end of the chunk)\n")
-    head = ["triangles", "threads", "steps", "M tri-steps/s", "couples", "broken", "detections", "|dE|/E0"]
+    print("\nPer chunk (M triangle-steps/s; couples, broken joints and ΔE/E0 = |E - E0| / E0 at the end of the chunk)\n")
+    head = ["triangles", "threads", "steps", "M tri-steps/s", "couples", "broken", "detections", "ΔE/E0"]
     rows = []
     for r in results:
         for c in r["chunks"]:
