@@ -3,6 +3,7 @@
     python benchmarks/pile.py                          # default sizes 1k, 10k, 100k, 300k triangles
     python benchmarks/pile.py --sizes 1000 10000 --markdown
     python benchmarks/pile.py --strategy serial,parallel --csv out/bench.csv
+    python benchmarks/pile.py --threads 2 --sizes 100000 --no-startup
 
 Every scene is a hexagonal packing of equal disks (``fdem.mesh.disk(r, 0.4 r)``: 32 triangles
 each) at centre spacing exactly 2r, so each disk touches its six neighbours (the meshed disk is
@@ -16,6 +17,10 @@ strategy only: the serial strategy fuses the phases into one launch), build time
 and the cold / warm start (time to first step of a fresh process with an empty / filled
 offline kernel cache, measured in subprocesses running this script with ``--startup``).
 It also checks that a new scene size does not recompile the kernels.
+
+Every thread count of ``--threads`` (default 1 and 2) runs in its own subprocess of this script,
+since Taichi takes ``cpu_max_num_threads`` once, at ``ti.init``; the table has one row per
+strategy, size and thread count, followed by the 2-thread / 1-thread ratios.
 
 This is a benchmark, not a test: it asserts nothing except that the runs are stable.
 """
@@ -216,7 +221,8 @@ def bench_size(fdem, size: int, strategy: str, steps: int | None, seconds: float
 
 # ---- output ----------------------------------------------------------------------------------
 COLUMNS = [  # (header, key, format)
-    ("triangles", "triangles", "{:,}"), ("strategy", "strategy", "{}"), ("couples", "couples", "{:,}"),
+    ("triangles", "triangles", "{:,}"), ("strategy", "strategy", "{}"), ("threads", "threads", "{}"),
+    ("couples", "couples", "{:,}"),
     ("couples/tri", "couples_per_tri", "{:.2f}"), ("steps", "steps", "{:,}"),
     ("steps/s", "steps_per_s", "{:,.0f}"), ("Mtri-steps/s", "mtri_steps_per_s", "{:.1f}"),
     ("det/1k steps", "detections_per_1k_steps", "{:.1f}"),
@@ -250,6 +256,69 @@ def print_table(rows, markdown: bool) -> None:
             print("  ".join(c.rjust(w[i]) for i, c in enumerate(r)))
 
 
+def measure(args, strategies):
+    """The measurements of one process (one thread count): the recompile check and every size."""
+    import taichi as ti
+    import taichi_fdem as fdem
+    fdem.init(arch="cpu", precision=args.precision, cpu_max_num_threads=args.worker_threads)
+    threads = int(ti.lang.impl.current_cfg().cpu_max_num_threads)
+    print(f"taichi_fdem {fdem.__version__}, Taichi {'.'.join(map(str, ti.__version__))}, "
+          f"precision {args.precision}, {threads} of {os.cpu_count()} CPU threads (cpu_max_num_threads), "
+          f"python {sys.version.split()[0]}")
+    probe, _ = build_scene(fdem, 1000)
+    print(f"scene: hexagonal pile of disks r = {RADIUS} m, h = {H_FACTOR} r "
+          f"({probe.bodies[-1].mesh.triangle_count} triangles each), in a fixed box; "
+          f"E = {ROCK['young']:.0e} Pa, rho = {ROCK['density']:.0f} kg/m3, nu = {ROCK['poisson']}, "
+          f"friction {ROCK['friction']}; gravity; random initial velocity sd {args.velocity} m/s", flush=True)
+
+    rows, resolved = [], {}
+    for strategy in strategies:
+        rc = recompile_check(fdem, strategy)
+        resolved[strategy] = rc["strategy"]
+        print(f"[recompile check, {rc['strategy']}, {threads} thread(s)] {rc['first']['triangles']} triangles: "
+              f"first step {rc['first']['first_step']:.3f} s (compiles or loads the kernels); then a new scene of "
+              f"{rc['second']['triangles']} triangles in the same process: first step "
+              f"{1e3 * rc['second']['first_step']:.1f} ms, second {1e3 * rc['second']['second_step']:.2f} ms -> "
+              f"{'RECOMPILED (a new size should not recompile)' if rc['recompiled'] else 'no recompilation'}",
+              flush=True)
+        for size in args.sizes:
+            row = bench_size(fdem, size, strategy, args.steps, args.seconds, not args.no_profile, args.velocity)
+            row["threads"] = threads
+            rows.append(row)
+            print(f"  {row['triangles']:>8,} triangles ({row['strategy']}, {threads} thread(s)): {row['couples']:,} "
+                  f"couples ({row['couples_per_tri']:.2f}/triangle), {row['steps_per_s']:,.1f} steps/s = "
+                  f"{row['mtri_steps_per_s']:.1f} M triangle-steps/s over {row['steps']:,} steps; "
+                  f"build {row['scene_s'] + row['build_s']:.2f} s", flush=True)
+    return rows, resolved
+
+
+def argv_for_worker(args, threads: int) -> list:
+    a = ["--sizes", *map(str, args.sizes), "--seconds", str(args.seconds), "--precision", args.precision,
+         "--strategy", args.strategy, "--velocity", str(args.velocity), "--worker-threads", str(threads)]
+    if args.steps:
+        a += ["--steps", str(args.steps)]
+    if args.no_profile:
+        a.append("--no-profile")
+    return a
+
+
+def run_worker(argv: list):
+    """Run this script with ``argv`` in a subprocess, echo its output, return its (rows, resolved)."""
+    cmd = [sys.executable, os.path.abspath(__file__), *argv]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1)
+    out, tail = None, []
+    for line in proc.stdout:
+        if line.startswith("ROWS "):
+            out = json.loads(line[len("ROWS "):])
+        elif not line.startswith("[Taichi]"):
+            print(line, end="", flush=True)
+            tail = (tail + [line])[-40:]
+    rc = proc.wait()
+    if rc != 0 or out is None:
+        raise RuntimeError(f"benchmark subprocess failed (rc={rc}): {' '.join(cmd)}\n" + "".join(tail))
+    return out["rows"], out["resolved"]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -268,6 +337,10 @@ def main(argv=None) -> int:
     ap.add_argument("--markdown", action="store_true", help="print a Markdown table")
     ap.add_argument("--no-startup", action="store_true", help="skip the cold / warm start subprocesses")
     ap.add_argument("--no-profile", action="store_true", help="skip the per-phase profile")
+    ap.add_argument("--threads", type=int, nargs="+", default=[1, 2],
+                    help="CPU thread counts (Taichi cpu_max_num_threads), each measured in its own "
+                         "subprocess (default 1 2)")
+    ap.add_argument("--worker-threads", type=int, default=None, help=argparse.SUPPRESS)
     ap.add_argument("--startup", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--startup-size", type=int, default=STARTUP_SIZE, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -281,35 +354,18 @@ def main(argv=None) -> int:
         startup_main(args)
         return 0
 
-    import taichi as ti
-    import taichi_fdem as fdem
-    fdem.init(arch="cpu", precision=args.precision)
-    print(f"taichi_fdem {fdem.__version__}, Taichi {'.'.join(map(str, ti.__version__))}, "
-          f"precision {args.precision}, {os.cpu_count()} CPU threads, python {sys.version.split()[0]}")
-    probe, _ = build_scene(fdem, 1000)
-    print(f"scene: hexagonal pile of disks r = {RADIUS} m, h = {H_FACTOR} r "
-          f"({probe.bodies[-1].mesh.triangle_count} triangles each), in a fixed box; "
-          f"E = {ROCK['young']:.0e} Pa, rho = {ROCK['density']:.0f} kg/m3, nu = {ROCK['poisson']}, "
-          f"friction {ROCK['friction']}; gravity; random initial velocity sd {args.velocity} m/s", flush=True)
+    if args.worker_threads is not None:
+        rows, resolved = measure(args, strategies)
+        print("ROWS " + json.dumps({"rows": rows, "resolved": resolved}), flush=True)
+        return 0
 
+    # the driver: one subprocess per thread count (Taichi takes cpu_max_num_threads once, at ti.init)
     rows, resolved = [], {}
     t_all = time.perf_counter()
-    for strategy in strategies:
-        rc = recompile_check(fdem, strategy)
-        resolved[strategy] = rc["strategy"]
-        print(f"[recompile check, {rc['strategy']}] {rc['first']['triangles']} triangles: first step "
-              f"{rc['first']['first_step']:.3f} s (compiles or loads the kernels); then a new scene of "
-              f"{rc['second']['triangles']} triangles in the same process: first step "
-              f"{1e3 * rc['second']['first_step']:.1f} ms, second {1e3 * rc['second']['second_step']:.2f} ms -> "
-              f"{'RECOMPILED (a new size should not recompile)' if rc['recompiled'] else 'no recompilation'}",
-              flush=True)
-        for size in args.sizes:
-            row = bench_size(fdem, size, strategy, args.steps, args.seconds, not args.no_profile, args.velocity)
-            rows.append(row)
-            print(f"  {row['triangles']:>8,} triangles ({row['strategy']}): {row['couples']:,} couples "
-                  f"({row['couples_per_tri']:.2f}/triangle), {row['steps_per_s']:,.1f} steps/s = "
-                  f"{row['mtri_steps_per_s']:.1f} M triangle-steps/s over {row['steps']:,} steps; "
-                  f"build {row['scene_s'] + row['build_s']:.2f} s", flush=True)
+    for threads in args.threads:
+        r, res = run_worker(argv_for_worker(args, threads))
+        rows += r
+        resolved.update(res)
 
     startup = {}
     if not args.no_startup:
@@ -332,8 +388,16 @@ def main(argv=None) -> int:
                 row["cold_s"] = st["cold"]["to_first_step"]
                 row["warm_s"] = st["warm"]["to_first_step"]
 
+    order = {s: i for i, s in enumerate(resolved[k] for k in strategies)}
+    rows.sort(key=lambda r: (order.get(r["strategy"], 99), r["triangles"], r["threads"]))
     print()
     print_table(rows, args.markdown)
+    by = {(r["strategy"], r["triangles"], r["threads"]): r for r in rows}
+    gains = [f"{r['strategy']} {r['triangles']:,}: {r['threads']} threads / 1 = "
+             f"{r['steps_per_s'] / by[(r['strategy'], r['triangles'], 1)]['steps_per_s']:.2f}x"
+             for r in rows if r["threads"] != 1 and (r["strategy"], r["triangles"], 1) in by]
+    if gains:
+        print("\nthread scaling (steps/s): " + "; ".join(gains))
     print(f"\n(total benchmark time {time.perf_counter() - t_all:.0f} s; phase shares from Simulation.profile "
           "on the parallel strategy, n/a for the serial strategy whose phases run fused in one launch; "
           "cold/warm start: time to first step of a fresh process on the "
