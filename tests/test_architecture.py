@@ -1,0 +1,114 @@
+"""The package's layers (docs/architecture.md): imports run downwards only, modules stay small,
+kernels take a handful of parameters."""
+from __future__ import annotations
+
+import ast
+import pathlib
+
+import pytest
+
+PKG = pathlib.Path(__file__).resolve().parent.parent / "taichi_fdem"
+
+# lower number = lower layer; a module may import its own layer or any lower one
+LAYERS = [
+    ("backend", "material", "mesh"),
+    ("engine",),
+    ("timestep", "model"),
+    ("guards", "energies", "results", "simulation"),
+    ("scene",),
+    ("render", "io", "viewer", "cli", "sweep", "verification", "stability", "__init__"),
+]
+
+
+def _layer(module: str) -> int:
+    head = module.split(".")[0]
+    for k, names in enumerate(LAYERS):
+        if head in names:
+            return k
+    raise AssertionError(f"module {module!r} is in no layer of tests/test_architecture.py")
+
+
+def _modules():
+    for path in sorted(PKG.rglob("*.py")):
+        rel = path.relative_to(PKG).with_suffix("")
+        yield ".".join(rel.parts), path
+
+
+def _imports(name: str, path: pathlib.Path):
+    """taichi_fdem modules imported anywhere in the file (function-level imports included)."""
+    tree = ast.parse(path.read_text())
+    pkg_parts = name.split(".")[:-1] if not name.endswith("__init__") else name.split(".")[:-1]
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = pkg_parts[: len(pkg_parts) - (node.level - 1)]
+                target = ".".join(base + ([node.module] if node.module else []))
+                if not target:                      # "from . import x"
+                    for alias in node.names:
+                        yield alias.name, node.lineno
+                    continue
+                if node.module is None:
+                    for alias in node.names:
+                        yield target + "." + alias.name, node.lineno
+                    continue
+                yield target, node.lineno
+            elif node.module and node.module.startswith("taichi_fdem"):
+                rest = node.module[len("taichi_fdem"):].lstrip(".")
+                if rest:
+                    yield rest, node.lineno
+                else:
+                    for alias in node.names:
+                        yield alias.name, node.lineno
+        elif isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.name.startswith("taichi_fdem."):
+                    yield alias.name[len("taichi_fdem."):], node.lineno
+
+
+def test_imports_run_downwards():
+    bad = []
+    for name, path in _modules():
+        own = _layer(name)
+        for target, line in _imports(name, path):
+            if target.split(".")[0] in ("__version__",):
+                continue
+            if _layer(target) > own:
+                bad.append(f"{name}:{line} imports {target} (layer {_layer(target)} > {own})")
+    assert not bad, "upward imports:\n" + "\n".join(bad)
+
+
+def test_no_module_over_700_lines():
+    sizes = {name: len(path.read_text().splitlines()) for name, path in _modules()}
+    assert max(sizes.values()) <= 700, sorted(sizes.items(), key=lambda kv: -kv[1])[:3]
+
+
+def test_kernels_take_a_handful_of_parameters():
+    counts = {}
+    for name, path in _modules():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.FunctionDef) and any(
+                    ast.unparse(d).endswith("kernel") for d in node.decorator_list):
+                counts[f"{name}.{node.name}"] = len(node.args.args)
+    assert counts, "no kernels found"
+    worst = max(counts, key=counts.get)
+    assert counts[worst] <= 12, (worst, counts[worst])
+
+
+def test_serial_kernel_fits_taichi_argument_budget():
+    from taichi_fdem.engine import groups
+    # Taichi 1.7 refuses a launch with more than 64 argument leaves (argpack members included)
+    assert groups.LEAVES_SERIAL <= 64
+    names = [n for _, members in groups.GROUPS.values() for n in members]
+    assert len(names) == len(set(names)), "argpack members must be unique across groups"
+
+
+@pytest.mark.parametrize("module", ["taichi_fdem.simulation", "taichi_fdem.engine.step", "taichi_fdem.model"])
+def test_core_does_not_load_drivers(module):
+    """Importing the core loads no renderer, sweep, scene-file or checkpoint module."""
+    import subprocess
+    import sys
+    code = (f"import sys, importlib; importlib.import_module({module!r}); "
+            "loaded = [m for m in sys.modules if m.startswith(('taichi_fdem.render', 'taichi_fdem.sweep', "
+            "'taichi_fdem.io', 'taichi_fdem.viewer', 'taichi_fdem.cli'))]; print(loaded); assert not loaded")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.returncode == 0, r.stdout + r.stderr
