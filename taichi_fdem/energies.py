@@ -24,11 +24,10 @@ def compute_energies(sim) -> dict:
     if out is None:
         out = sim._energy_out = ti.ndarray(backend.real_ti(), shape=8)
     p = sim._packs
-    energy_terms(p["nodes"], p["tris"], p["mats"], p["contact"], p["step"],
-                 int(st.step_couple_count[None]) if md.contact else 0, out, md.friction)
+    energy_terms(p["nodes"], p["tris"], p["mats"], p["contact"], p["step"], sim.couple_count, out, md.friction)
     o = out.to_numpy().astype(np.float64)
     t = sim.thickness
-    w = st.step_work.to_numpy().astype(np.float64)
+    w = st.step_real.to_numpy().astype(np.float64)
     e = {"kinetic": o[0] * t, "strain": o[1] * t, "contact": o[2] * t, "gravity": o[3] * t,
          "damping": (o[4] if md.damping else 0.0) * t, "friction": w[WORK_FRICTION] * t,
          "contact_damping": w[WORK_CDAMPING] * t, "boundary_work": w[WORK_BOUNDARY] * t}

@@ -15,6 +15,7 @@ import taichi as ti
 
 from . import backend
 from .engine.diagnostics import couple_penetrations
+from .engine.groups import INVERTED, NONFINITE, VMAX
 
 
 class SimulationError(RuntimeError):
@@ -32,13 +33,13 @@ class SimulationError(RuntimeError):
 
 def raise_unstable(sim) -> None:
     """Raise :class:`SimulationError` naming what the kernels flagged (node, triangle or speed)."""
-    st = sim.state
-    nonfinite, inverted = int(st.step_nonfinite[None]), int(st.step_inverted[None])
-    speed = float(st.step_vmax[None]) > sim.model.speed_limit
+    ints, reals = sim.state.step_int.to_numpy(), sim.state.step_real.to_numpy()
+    nonfinite, inverted, vmax = int(ints[NONFINITE]), int(ints[INVERTED]), float(reals[VMAX])
+    speed = vmax > sim.model.speed_limit
     if nonfinite:
         cause = f"non-finite position or velocity at node {nonfinite - 1}"
     elif speed:
-        cause = (f"a node moved at {float(st.step_vmax[None]):.4g} m/s, above the bound "
+        cause = (f"a node moved at {vmax:.4g} m/s, above the bound "
                  f"{sim.model.speed_limit:.4g} m/s (speed_limit; default 2× the largest P-wave speed)")
     else:
         e = inverted - 1
@@ -49,8 +50,8 @@ def raise_unstable(sim) -> None:
 
 
 def is_unstable(sim) -> bool:
-    st = sim.state
-    return bool(st.step_nonfinite[None] or st.step_inverted[None] or float(st.step_vmax[None]) > sim.model.speed_limit)
+    ints, reals = sim.state.step_int.to_numpy(), sim.state.step_real.to_numpy()
+    return bool(ints[NONFINITE] or ints[INVERTED] or reals[VMAX] > sim.model.speed_limit)
 
 
 # ---- penetration --------------------------------------------------------------------------------

@@ -25,7 +25,8 @@ import numpy as np
 import taichi as ti
 
 from . import backend, timestep
-from .engine.groups import (DACC_FORCE, GROUPS, SWITCH_BC, SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING)
+from .engine.groups import (COUPLES, DACC, DACC_FORCE, GROUPS, INT_COUNTERS, REAL_COUNTERS, SWITCH_BC, SWITCH_BC_WORK,
+                            SWITCH_CDAMPING, SWITCH_DAMPING)
 
 
 def _ndarray(data: np.ndarray, dtype, vec: int | None = None, mat: tuple | None = None):
@@ -46,6 +47,17 @@ def _scalar(value, dtype):
     arr = ti.ndarray(dtype, shape=())
     arr[None] = value
     return arr
+
+
+def counter(arr, k: int):
+    """Counter k of State.step_real / step_int, as a Python number."""
+    v = arr[k]
+    return int(v) if arr.dtype in (ti.i32, ti.i64) else float(v)
+
+
+def set_counter(arr, k: int, value) -> None:
+    """Set counter k of State.step_real / step_int."""
+    arr[k] = value
 
 
 def _next_pow2(n: int) -> int:
@@ -342,13 +354,12 @@ def allocate_state(md: Model) -> State:
     st.couple_start = i32(np.zeros(K + 1 if md.friction else 1))
     st.couple_max = 0
     grow_couples(md, st, 2 * K + 64 if md.contact else 1)
-    for name in ("time", "dacc", "rmax", "vmax"):
-        setattr(st, "step_" + name, _scalar(0.0, rti))
-    for name in ("couple_count", "found", "nonfinite", "inverted", "detections", "broken"):
-        setattr(st, "step_" + name, _scalar(0, ti.i32))
-    st.step_work = ti.Vector.ndarray(3, rti, shape=())          # friction, contact damping, boundary
-    st.step_work.fill(0)
-    st.step_dacc[None] = DACC_FORCE if md.contact else 0.0      # detect at the first step
+    st.step_real = ti.ndarray(rti, shape=REAL_COUNTERS)          # slots: engine.groups.TIME, ...
+    st.step_real.fill(0)
+    st.step_int = ti.ndarray(ti.i32, shape=INT_COUNTERS)         # slots: engine.groups.COUPLES, ...
+    st.step_int.fill(0)
+    if md.contact:
+        set_counter(st.step_real, DACC, DACC_FORCE)                   # detect at the first step
     return st
 
 
@@ -356,7 +367,7 @@ def grow_couples(md: Model, st: State, capacity: int) -> None:
     """(Re)allocate the couple buffer of ``st`` with room for ``capacity`` couples, keeping its
     content (couples and their friction history)."""
     rti = backend.real_ti()
-    keep = int(st.step_couple_count[None]) if st.couple_max else 0
+    keep = counter(st.step_int, COUPLES) if st.couple_max else 0
     old = None
     if keep:
         old = (st.couple_a.to_numpy()[:keep], st.couple_b.to_numpy()[:keep],

@@ -9,7 +9,9 @@ from __future__ import annotations
 import numpy as np
 
 from .energies import compute_energies
+from .engine.groups import BROKEN
 from .engine.joints import MODE_NAMES
+from .model import counter
 
 
 class SimulationResults:
@@ -90,7 +92,7 @@ class SimulationResults:
     @property
     def broken_joint_count(self) -> int:
         """Number of joints broken so far."""
-        return int(self.state.step_broken[None]) if self.fracture else 0
+        return counter(self.state.step_int, BROKEN) if self.fracture else 0
 
     def broken_joints(self) -> dict:
         """The joints broken so far (FDEM_SPEC §7.8).

@@ -28,7 +28,9 @@ from . import backend, guards
 from .engine import step as kernels
 from .engine.diagnostics import overlap_areas
 from .guards import SimulationError
-from .model import allocate_scratch, allocate_state, build_model, grow_couples, pack_groups, size_old_couples
+from .engine.groups import COUPLES, DACC, DETECTIONS, FOUND
+from .model import (allocate_scratch, allocate_state, build_model, counter, grow_couples, pack_groups,
+                    size_old_couples)
 from .results import SimulationResults
 from .timestep import CONTACT_LIMIT_FACTOR  # noqa: F401  (re-exported)
 
@@ -137,12 +139,12 @@ class Simulation(SimulationResults):
     @property
     def couple_count(self) -> int:
         """Number of contact couples in the current list."""
-        return int(self.state.step_couple_count[None]) if self.state.couple_max else 0
+        return counter(self.state.step_int, COUPLES) if self.state.couple_max else 0
 
     @property
     def detection_count(self) -> int:
         """How many contact detections have run."""
-        return int(self.state.step_detections[None])
+        return counter(self.state.step_int, DETECTIONS)
 
     def _switches(self):
         # contact, friction and fracture are compile-time switches (their code is large: absent
@@ -204,7 +206,7 @@ class Simulation(SimulationResults):
 
     def _detect_due(self) -> bool:
         st = self.state
-        return bool(self.model.contact and st.step_dacc[None] >= self.model.buffer)
+        return bool(self.model.contact and counter(st.step_real, DACC) >= self.model.buffer)
 
     def _step_parallel(self, n: int) -> None:
         switches = self._switches()
@@ -231,7 +233,7 @@ class Simulation(SimulationResults):
             if unstable:
                 guards.raise_unstable(self)
             if done < chunk:
-                found = int(self.state.step_found[None])
+                found = counter(self.state.step_int, FOUND)
                 if found > self.state.couple_max:          # the kernel stopped for a bigger buffer
                     self._grow_couples(int(found * 1.5) + 64)
 

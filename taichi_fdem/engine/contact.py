@@ -115,7 +115,7 @@ def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, step
     C, T: 3×2 matrices of node positions (row r = node r) [m]; U, W: their node velocities
     [m/s] (used with friction or contact damping only).  Returns (gC, gT), the 3×2 nodal
     forces per unit thickness [N/m] on contactor and target.  ``hist[hslot + i]`` holds the
-    elastic slip [m] of contactor edge e; dissipated work goes to step.step_work (friction and
+    elastic slip [m] of contactor edge e; dissipated work goes to step_real (friction and
     contact damping components) [J/m].
     """
     t0 = vec2(T[0, 0], T[0, 1])
@@ -173,7 +173,7 @@ def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, step
                     Fcap = mu * p * Phi0 * L
                     if ti.abs(Ft) > Fcap:
                         Fs = ti.math.sign(Ft) * Fcap
-                        ti.atomic_add(step.step_work[None][WORK_FRICTION], Fcap * ti.abs(slip - Fs / kt))
+                        ti.atomic_add(step.step_real[WORK_FRICTION], Fcap * ti.abs(slip - Fs / kt))
                         Ft = Fs
                         slip = Fs / kt
                     hist[hslot + i] = slip
@@ -189,7 +189,7 @@ def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, step
                     wd = 1.0 - 0.5 * (smin + smax)
                     gi += -(Fd * wd) * nhat
                     gj += -(Fd * (1.0 - wd)) * nhat
-                    ti.atomic_add(step.step_work[None][WORK_CDAMPING], cn * rate * rate * span * dt)
+                    ti.atomic_add(step.step_real[WORK_CDAMPING], cn * rate * rate * span * dt)
             gC[i, 0] += gi[0]
             gC[i, 1] += gi[1]
             gC[j, 0] += gj[0]

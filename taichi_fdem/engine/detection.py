@@ -18,6 +18,8 @@ caller grows the buffer and fills; no couple is ever dropped.
 """
 import taichi as ti
 
+from .groups import RMAX
+
 from .tiutil import vec2
 
 
@@ -34,19 +36,19 @@ def hash_cell(ix, iy, H):
 
 @ti.func
 def prepare_circle(k, con: ti.template(), tris: ti.template(), nodes: ti.template(), step: ti.template()):
-    """Bounding circle of contact triangle k; the largest radius into step.step_rmax."""
+    """Bounding circle of contact triangle k; the largest radius into step_real[RMAX]."""
     n = tris.tri_nodes[con.contact_tri[k]]
     x0, x1, x2 = nodes.node_x[n[0]], nodes.node_x[n[1]], nodes.node_x[n[2]]
     c = (x0 + x1 + x2) / 3.0
     r = ti.sqrt(ti.max((x0 - c).norm_sqr(), ti.max((x1 - c).norm_sqr(), (x2 - c).norm_sqr())))
     con.det_circle[k] = ti.Vector([c[0], c[1], r], dt=float)
-    ti.atomic_max(step.step_rmax[None], r)
+    ti.atomic_max(step.step_real[RMAX], r)
 
 
 @ti.func
 def cell_size(step: ti.template()):
     """d = 2 r_max + b: a pair within reach lies in the same or an adjacent cell."""
-    return 2.0 * step.step_rmax[None] + step.step_buffer[None]
+    return 2.0 * step.step_real[RMAX] + step.step_buffer[None]
 
 
 @ti.func

@@ -6,7 +6,7 @@ scenes) and inside the serial many-step kernel (small scenes); see :mod:`taichi_
 """
 import taichi as ti
 
-from .groups import SWITCH_DAMPING
+from .groups import INVERTED, SWITCH_DAMPING
 from .tiutil import mat2_cols, vec2
 
 
@@ -41,13 +41,13 @@ def eval_tri_elastic(e, nodes: ti.template(), tris: ti.template(), mats: ti.temp
 
     With the damping switch on, the viscous stress k_s D is added and its dissipated work
     k_s (D:D) A Δt is accumulated in tris.tri_diss[e] [J/m].  A non-positive J flags
-    step.step_inverted (1 + triangle index) and contributes no force.
+    step_int[INVERTED] (1 + triangle index) and contributes no force.
     """
     n = tris.tri_nodes[e]
     x0, x1, x2 = nodes.node_x[n[0]], nodes.node_x[n[1]], nodes.node_x[n[2]]
     Fx, F, J = deformation(x0, x1, x2, tris.tri_rest_inv[e])
     if J <= 0.0:
-        ti.atomic_max(step.step_inverted[None], e + 1)
+        ti.atomic_max(step.step_int[INVERTED], e + 1)
     else:
         m = tris.tri_mat[e]
         T = cauchy_elastic(F, J, mats.mat_mu[m], mats.mat_lam[m])

@@ -25,9 +25,9 @@ joints     nodes (vec4 i32), mat; state (0 intact, else the failure mode at brea
            (vec3), fs (vec3 [Pa]), work [J/m], brk (vec3: time, x, y), g (vec4: nodal forces [N/m])
 step       parameters set by the host: dt [s], gravity (vec2 [m/s²]), buffer [m], vlimit [m/s],
            switches (runtime feature bits, :data:`SWITCH_DAMPING` ...: one compiled variant);
-           counters kept by the kernels: time [s], dacc [m], rmax [m], vmax [m/s], couple_count,
-           found, nonfinite, inverted, detections, broken; work (vec3 [J/m]: friction, contact
-           damping, boundary; index with :data:`WORK_FRICTION` ...)
+           counters kept by the kernels: real (time [s], dacc [m], rmax [m], vmax [m/s], work
+           terms [J/m]; slots :data:`TIME`, :data:`DACC`, ...) and int (couples, found, nonfinite,
+           inverted, detections, broken; slots :data:`COUPLES`, ...)
 =========  ====================================================================================
 
 Adding an array: declare it in the group below and allocate it in
@@ -39,7 +39,8 @@ Budget.  Taichi 1.7 allows at most 64 argument leaves per kernel launch, and eve
 an argpack is one leaf (plus one per argpack).  The serial step kernel takes every group:
 :data:`LEAVES_SERIAL` counts its leaves.  Arrays of one entity and type that are always used
 together are therefore merged into a vector (circle = centre + radius, bucket = first + count),
-and a quantity that can be derived is not stored (A0 from F0⁻¹).
+a quantity that can be derived is not stored (A0 from F0⁻¹), and the counters the kernels keep
+are two short arrays with named slots.
 """
 import taichi as ti
 
@@ -58,8 +59,7 @@ CONTACT_MEMBERS = ("contact_tri", "body_flags", "couple_a", "couple_b", "couple_
 JOINT_MEMBERS = ("joint_nodes", "joint_mat", "joint_state", "joint_dmax", "joint_fs", "joint_work", "joint_break",
                  "joint_g")
 STEP_PARAMS = ("step_dt", "step_gravity", "step_buffer", "step_vlimit", "step_switches")
-STEP_COUNTERS = ("step_time", "step_dacc", "step_rmax", "step_vmax", "step_couple_count", "step_found", "step_nonfinite",
-                 "step_inverted", "step_detections", "step_broken", "step_work")
+STEP_COUNTERS = ("step_real", "step_int")
 STEP_MEMBERS = STEP_PARAMS + STEP_COUNTERS
 
 NodeGroup = _group(*NODE_MEMBERS)
@@ -85,8 +85,27 @@ SWITCH_CDAMPING = 2       # normal contact damping
 SWITCH_BC = 4             # prescribed velocities
 SWITCH_BC_WORK = 8        # non-zero prescribed velocities (their work is booked)
 
-# components of step.work [J/m]
-WORK_FRICTION, WORK_CDAMPING, WORK_BOUNDARY = 0, 1, 2
+# Counters kept by the kernels: two short 1-d arrays, step_real and step_int, whose slots are
+# named here.  (Taichi has no struct ndarrays; one 0-d ndarray per counter would spend the
+# argument budget below; and 0-d vector ndarrays hit a Taichi 1.7.4 compiler assertion,
+# scalarize_store_stmt, when a kernel reads a component as a loop bound and later writes it.)
+# step_real [SI units]:
+TIME = 0            # simulated time [s]
+DACC = 1            # accumulated 2 Δt v_max since the last detection [m] (§4.1)
+RMAX = 2            # largest bounding-circle radius at the last detection [m]
+VMAX = 3            # largest node speed of the last step [m/s]
+WORK_FRICTION = 4   # work dissipated by friction slip [J/m]
+WORK_CDAMPING = 5   # work dissipated by normal contact damping [J/m]
+WORK_BOUNDARY = 6   # work done on the system by prescribed velocities [J/m]
+REAL_COUNTERS = 8   # length of step_real (spare components for new work terms)
+# step_int:
+COUPLES = 0         # couples in the list
+FOUND = 1           # couples found by the last count pass
+NONFINITE = 2       # 1 + a node whose position or velocity is not finite (0: none)
+INVERTED = 3        # 1 + a triangle with non-positive area (0: none)
+DETECTIONS = 4      # detections run
+BROKEN = 5          # joints broken so far
+INT_COUNTERS = 8    # length of step_int
 
 # argument leaves of the serial step kernel (nsteps + 6 argpacks + their members); at most 64
 LEAVES_SERIAL = 1 + sum(1 + len(m) for m in (NODE_MEMBERS, TRI_MEMBERS, MAT_MEMBERS, CONTACT_MEMBERS,

@@ -2,7 +2,7 @@
 velocities, the instability checks and the re-detection trigger D_acc (§4.1)."""
 import taichi as ti
 
-from .groups import SWITCH_BC, SWITCH_BC_WORK, WORK_BOUNDARY
+from .groups import DACC, NONFINITE, SWITCH_BC, SWITCH_BC_WORK, TIME, VMAX, WORK_BOUNDARY
 from .tiutil import vec2
 
 CHUNK = 256   # nodes per chunk in reductions (one atomic per chunk, not per node)
@@ -20,7 +20,7 @@ def integrate_nodes(nodes: ti.template(), step: ti.template()):
     bc = step.step_switches[None] & SWITCH_BC
     bc_work = step.step_switches[None] & SWITCH_BC_WORK
     for _ in range(1):
-        step.step_vmax[None] = 0.0
+        step.step_real[VMAX] = 0.0
     for chunk in range((N + CHUNK - 1) // CHUNK):
         vmax2 = 0.0
         bad = 0
@@ -43,12 +43,12 @@ def integrate_nodes(nodes: ti.template(), step: ti.template()):
             if not (s < 1e200) or not (ti.abs(x[0]) < 1e200 and ti.abs(x[1]) < 1e200):
                 bad = i + 1
             vmax2 = ti.max(vmax2, s)
-        ti.atomic_max(step.step_vmax[None], ti.sqrt(vmax2))
+        ti.atomic_max(step.step_real[VMAX], ti.sqrt(vmax2))
         if bad > 0:
-            ti.atomic_max(step.step_nonfinite[None], bad)
+            ti.atomic_max(step.step_int[NONFINITE], bad)
         if bc_work != 0:
-            ti.atomic_add(step.step_work[None][WORK_BOUNDARY], work)
+            ti.atomic_add(step.step_real[WORK_BOUNDARY], work)
     for _ in range(1):
         # re-detection trigger D_acc += 2 Δt v_max (§4.1)
-        step.step_dacc[None] += 2.0 * dt * step.step_vmax[None]
-        step.step_time[None] += dt
+        step.step_real[DACC] += 2.0 * dt * step.step_real[VMAX]
+        step.step_real[TIME] += dt

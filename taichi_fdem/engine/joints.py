@@ -11,7 +11,7 @@ and the joint breaks for good when two of its three points have failed (§7.8).
 """
 import taichi as ti
 
-from .groups import DACC_FORCE
+from .groups import BROKEN, DACC, DACC_FORCE, TIME
 from .tiutil import vec2
 
 # Evans & Marathe softening fit (§7.5)
@@ -122,9 +122,9 @@ def eval_joint(j, joints: ti.template(), mats: ti.template(), nodes: ti.template
                 mode = MODE_II
             joints.joint_state[j] = mode                   # non-zero: broken, and how
             c = 0.25 * (x0 + x1 + x2 + x3)
-            joints.joint_break[j] = ti.Vector([step.step_time[None], c[0], c[1]], dt=float)
-            ti.atomic_add(step.step_broken[None], 1)
-            step.step_dacc[None] = DACC_FORCE
+            joints.joint_break[j] = ti.Vector([step.step_real[TIME], c[0], c[1]], dt=float)
+            ti.atomic_add(step.step_int[BROKEN], 1)
+            step.step_real[DACC] = DACC_FORCE
             joints.joint_g[j] = ti.Vector([0.0, 0.0, 0.0, 0.0], dt=float)
         else:
             # Simpson with linear shape functions: g_k = ∫ N_k t ds ≈ (L/6)(N_k(0) t0 + 4 N_k(½) tm + N_k(1) t1),

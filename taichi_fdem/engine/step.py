@@ -28,13 +28,14 @@ import taichi as ti
 from .contact import eval_couple
 from .detection import bin_circle, prepare_circle, scan_partners
 from .elastic import eval_tri_elastic
-from .groups import DACC_FORCE, ContactGroup, JointGroup, MaterialGroup, NodeGroup, StepGroup, TriGroup
+from .groups import (COUPLES, DACC, DETECTIONS, FOUND, INVERTED, NONFINITE, RMAX, VMAX, ContactGroup, JointGroup,
+                     MaterialGroup, NodeGroup, StepGroup, TriGroup)
 from .integrate import integrate_nodes
 from .joints import add_joint_work, eval_joint
 
 UNSTABLE_BIT = 1 << 24   # added to run_steps_serial's return value (steps per launch < 2^24)
 
-__all__ = ["UNSTABLE_BIT", "DACC_FORCE", "detect_count", "detect_fill", "step_parallel", "run_steps_serial",
+__all__ = ["UNSTABLE_BIT", "detect_count", "detect_fill", "step_parallel", "run_steps_serial",
            "eval_elastic", "eval_joints", "eval_contact", "integrate", "book_joint_work"]
 
 
@@ -47,7 +48,7 @@ def phase_detect_count(nodes: ti.template(), tris: ti.template(), con: ti.templa
     K = con.contact_tri.shape[0]
     H = con.det_bucket.shape[0]
     for _ in range(1):
-        step.step_rmax[None] = 0.0
+        step.step_real[RMAX] = 0.0
     for k in range(K):
         prepare_circle(k, con, tris, nodes, step)
     for h in range(H):
@@ -71,7 +72,7 @@ def phase_detect_count(nodes: ti.template(), tris: ti.template(), con: ti.templa
             con.det_cnew[k] = s
             s += n
         con.det_cnew[K] = s
-        step.step_found[None] = s
+        step.step_int[FOUND] = s
 
 
 @ti.func
@@ -83,16 +84,16 @@ def phase_detect_fill(tris: ti.template(), con: ti.template(), step: ti.template
         for k in range(K + 1):
             con.det_old_start[k] = con.couple_start[k]
             con.couple_start[k] = con.det_cnew[k]
-        for c in range(step.step_couple_count[None]):
+        for c in range(step.step_int[COUPLES]):
             con.det_old_b[c] = con.couple_b[c]
             for q in ti.static(range(6)):
                 con.det_old_hist[6 * c + q] = con.couple_hist[6 * c + q]
     for k in range(K):
         scan_partners(k, False, con, tris, step, con.det_cnew[k], friction)
     for _ in range(1):
-        step.step_couple_count[None] = step.step_found[None]
-        step.step_detections[None] += 1
-        step.step_dacc[None] = 0.0
+        step.step_int[COUPLES] = step.step_int[FOUND]
+        step.step_int[DETECTIONS] += 1
+        step.step_real[DACC] = 0.0
 
 
 @ti.func
@@ -116,7 +117,7 @@ def phase_joint_work(nodes: ti.template(), joints: ti.template(), step: ti.templ
 @ti.func
 def phase_contact(nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
                   step: ti.template(), friction: ti.template()):
-    for c in range(step.step_couple_count[None]):
+    for c in range(step.step_int[COUPLES]):
         eval_couple(c, nodes, tris, mats, con, step, friction)
 
 
@@ -128,7 +129,7 @@ def phase_integrate(nodes: ti.template(), step: ti.template()):
 @ti.func
 def is_unstable(step: ti.template()):
     """A non-finite value, an inverted element, or a node faster than step.step_vlimit."""
-    return step.step_nonfinite[None] != 0 or step.step_inverted[None] != 0 or step.step_vmax[None] > step.step_vlimit[None]
+    return step.step_int[NONFINITE] != 0 or step.step_int[INVERTED] != 0 or step.step_real[VMAX] > step.step_vlimit[None]
 
 
 @ti.func
@@ -136,7 +137,7 @@ def status_code(step: ti.template()):
     """bit 0: contact detection is due; bit 1: the step produced a non-finite value, an inverted
     element or a speed above the limit."""
     code = 0
-    if step.step_dacc[None] >= step.step_buffer[None]:
+    if step.step_real[DACC] >= step.step_buffer[None]:
         code |= 1
     if is_unstable(step):
         code |= 2
@@ -165,7 +166,7 @@ def phases_forces_integrate(nodes: ti.template(), tris: ti.template(), mats: ti.
 def detect_count(nodes: NodeGroup, tris: TriGroup, con: ContactGroup, step: StepGroup) -> ti.i32:
     """Parallel broad phase, first half; returns the number of couples found."""
     phase_detect_count(nodes, tris, con, step)
-    return step.step_found[None]
+    return step.step_int[FOUND]
 
 
 @ti.kernel
@@ -190,7 +191,7 @@ def run_steps_serial(nsteps: ti.i32, nodes: NodeGroup, tris: TriGroup, mats: Mat
     """Up to ``nsteps`` whole steps, detection included, in one serial loop (small scenes).
 
     Stops early, before the step that needs it, when the couple buffer is too small (the
-    count needed is left in step.step_found; grow and call again), and after a step that produced a
+    count needed is left in step_int[FOUND]; grow and call again), and after a step that produced a
     non-finite value, an inverted element or a speed above the limit.  Returns the number of
     steps done, plus ``UNSTABLE_BIT`` when the state is unstable (so the host needs no extra read).
     """
@@ -199,10 +200,10 @@ def run_steps_serial(nsteps: ti.i32, nodes: NodeGroup, tris: TriGroup, mats: Mat
     for _ in range(nsteps):
         stop = 0
         if ti.static(contact):
-            if step.step_dacc[None] >= step.step_buffer[None]:
+            if step.step_real[DACC] >= step.step_buffer[None]:
                 phase_detect_count(nodes, tris, con, step)
-                if step.step_found[None] > con.couple_a.shape[0]:
-                    stop = 1                    # the host grows the buffer to step.step_found
+                if step.step_int[FOUND] > con.couple_a.shape[0]:
+                    stop = 1                    # the host grows the buffer to step_int[FOUND]
                 else:
                     phase_detect_fill(tris, con, step, friction)
         if stop == 0:
