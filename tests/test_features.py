@@ -35,9 +35,12 @@ def test_single_body_with_self_contact_does_detect():
     sim = scene.build()
     assert sim.contact is True
     assert sim.detection_count >= 1
-    # self-contact couples never join triangles that share a node
+    # self-contact couples exist (surface triangles of the same body near each other) and never
+    # join triangles that share a node
     t = np.asarray(sim.scene.bodies[0].mesh.triangles)
-    for a, b in sim.couples():
+    couples = sim.couples()
+    assert len(couples) > 0
+    for a, b in couples:
         assert not set(t[a]) & set(t[b])
 
 
@@ -84,7 +87,17 @@ def test_two_bodies_detect_and_collide():
     b0, b1 = sim.bodies
     _, v1 = mass_centroid(sim, b1)
     _, v0 = mass_centroid(sim, b0)
-    assert v0[0] < -0.5 and v1[0] > -0.5        # they hit: momentum went to the first block
+    # equal blocks, head on, elastic: apart again (no contact energy), momentum conserved to
+    # round-off (v0 + v1 = −1 m/s), total energy within 1 %, and the velocities nearly exchanged:
+    # restitution of the rigid motions e = v1 − v0 (−1 m/s before) between 0.8 and 1 (the rest
+    # of the energy rings in the blocks as vibration)
+    e = sim.energies()
+    assert e["contact"] == 0.0
+    assert v0[0] + v1[0] == pytest.approx(-1.0, abs=1e-12)
+    e0 = 0.5 * sim.node_masses(b1).sum() * 1.0 ** 2
+    assert e["kinetic"] + e["strain"] == pytest.approx(e0, rel=0.01)
+    assert 0.8 < v1[0] - v0[0] <= 1.0
+    assert v0[0] < -0.9                          # the first block took ≥ 90 % of the momentum
 
 
 def small_collision(strategy):
@@ -129,7 +142,7 @@ def test_switching_strategy_and_profile_keep_the_trajectory():
     mixed.strategy = "parallel"
     mixed.step(300)
     timings = mixed.profile(150)
-    assert timings["steps"] == 150 and timings["total"] >= 0.0
+    assert timings["steps"] == 150
     mixed.strategy = "serial"
     mixed.step(150)
     assert mixed.step_count == ref.step_count == 900
