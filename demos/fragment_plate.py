@@ -64,7 +64,6 @@ def main(argv=None) -> dict:
     assert result["broken_joints"] >= 5, "too few joints broke"
     assert result["fragments"] >= 2, "the plate did not fragment"
     assert result["energy_rel_error_max"] < 0.02, f"energy drift {result['energy_rel_error_max']:.2%}"
-    result["passed"] = True
     result["video"] = os.path.abspath(args.out)
     result["wall_s"] = clock()
     print(f"  {result['broken_joints']} joints broken, {result['fragments']} fragments; fracture work "

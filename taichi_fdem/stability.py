@@ -136,16 +136,15 @@ def _build(scene, **kw):
 
 
 def scenario_disks(speed: float = 2.0, penalty_factor: float = 10.0, dt_factor: float | None = None,
-                   offset: float = 0.02, friction: float = 0.0, resolution: int = 3):
-    """Two elastic disks (R = 5 cm) in an oblique impact at ±``speed`` [m/s]; ``dt_factor`` × the
-    estimated limit (None: the automatic step, safety 0.2; > 1 is forced)."""
+                   offset: float = 0.02, friction: float = 0.0, resolution: int = 3, gap: float = 0.002):
+    """Two elastic disks (R = 5 cm, 2·``gap`` apart) in an oblique impact at ±``speed`` [m/s];
+    ``dt_factor`` × the estimated limit (None: the automatic step, safety 0.2; > 1 is forced)."""
     from . import mesh
     from .scene import Scene
     mat = _material(penalty=penalty_factor * E_S, friction=friction)
     R = 0.05
     d = mesh.disk(R, R / resolution)
     scene = Scene(gravity=(0.0, 0.0))
-    gap = 0.002
     scene.add_body(d, mat, position=(-R - gap, -offset), velocity=(speed, 0.0))
     scene.add_body(d, mat, position=(R + gap, offset), velocity=(-speed, 0.0))
     probe = _build(scene)

@@ -316,10 +316,12 @@ def test_sweep_friction_demo_short(tmp_path):
     spec.loader.exec_module(mod)
     out = tmp_path / "sf.csv"
     r = mod.main(["--short", "--out", str(out)])
-    assert r["passed"] is True and r["points"] == 4 and r["max_rel_error"] < 0.03
+    assert r["points"] == 4
     assert len(read_csv(out)) == 4
     for row in r["results"]:
-        assert row["d_analytic"] == pytest.approx(1.0 / (2 * row["mu"] * 9.81))
+        # the stop distance of a block launched at 1 m/s: v0²/(2 μ g), written out here; and it stopped
+        assert row["d_sim"] == pytest.approx(1.0 / (2 * row["mu"] * 9.81), rel=0.03)
+        assert abs(row["v_end"]) < 0.01
     try:
         import matplotlib  # noqa: F401
         assert os.path.getsize(r["png"]) > 0
