@@ -5,26 +5,15 @@ A demo's ``main`` raises when its own ``check`` fails, so a returned result alre
 demo's checks passed; these tests add references the demos do not use (the analytic laws
 written out again here from the demo's constants, conservation laws on the returned vectors).
 """
-import importlib.util
 import math
 import os
-import sys
 
 import numpy as np
 import pytest
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-DEMOS = os.path.join(ROOT, "demos")
+from conftest import DEMOS, load_demo as _load
+
 G = 9.81
-
-
-def _load(name):
-    if DEMOS not in sys.path:
-        sys.path.insert(0, DEMOS)          # the demos import their helper module _common
-    spec = importlib.util.spec_from_file_location(f"demo_{name}", os.path.join(DEMOS, f"{name}.py"))
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
 
 
 def _run(name, tmp_path, still=False):

@@ -307,14 +307,8 @@ def test_dask_missing_scheduler_is_a_clear_error(tmp_path):
 
 def test_sweep_friction_demo_short(tmp_path):
     """demos/sweep_friction.py --short: every point stops within 3 % of v0²/(2 μ g)."""
-    import importlib.util
-    import sys
-    demos = os.path.join(ROOT, "demos")
-    if demos not in sys.path:
-        sys.path.insert(0, demos)
-    spec = importlib.util.spec_from_file_location("demo_sweep_friction", os.path.join(demos, "sweep_friction.py"))
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    from conftest import load_demo
+    mod = load_demo("sweep_friction")
     out = tmp_path / "sf.csv"
     r = mod.main(["--short", "--out", str(out)])
     assert r["points"] == 4
