@@ -194,17 +194,25 @@ def test_scene_size_changes_and_degenerate_input():
     two = r.render(many_x, np.array([[0, 1, 2], [3, 4, 5]]), None)   # None -> grey
     grey = (two[..., 0] == two[..., 1]) & (two[..., 1] == two[..., 2]) & (np.abs(two[..., 0].astype(int) - 178) <= 1)
     assert grey.sum() > 100
-    # a degenerate (zero-area) triangle and a triangle with a NaN node draw nothing (no crash, no
-    # hang, no stray pixels): the picture equals that of the valid triangle drawn alone
-    bad_x = np.array([[0, 0], [1, 1], [2, 2], [np.nan, 0.0], [1, 0], [0, 1]])
+    # a degenerate (zero-area) triangle draws nothing (no crash, no hang, no stray pixels): the
+    # picture equals that of the valid triangle drawn alone
+    _assert_draws_nothing(np.array([[0, 0], [1, 1], [2, 2]]))
+
+
+def _assert_draws_nothing(bad_x):
     rr = render.RendererImage(64, 48, view=(-1, 3, -1, 3), draw_edges=False)
     alone = rr.render(TRI_X, TRI_T, TRI_C).copy()
     assert _is(alone, (255, 0, 0)).sum() > 20
-    x_all = np.concatenate([TRI_X, bad_x])
-    t_all = np.array([[0, 1, 2], [3, 4, 5], [6, 7, 8]])
-    img = rr.render(x_all, t_all, TRI_C[[0, 0, 0]])
+    img = rr.render(np.concatenate([TRI_X, bad_x]), np.array([[0, 1, 2], [3, 4, 5]]), TRI_C[[0, 0]])
     assert img.shape == (48, 64, 3)
     np.testing.assert_array_equal(img, alone)
+
+
+@pytest.mark.xfail(strict=True, reason="engine bug for the lead: render.py rasteriser paints ~260 stray pixels "
+                   "(a band of rows) for a triangle with a NaN node instead of skipping it (issue 13)")
+def test_triangle_with_a_nan_node_draws_nothing():
+    """A triangle with a non-finite node (a blown-up simulation) must not paint anything."""
+    _assert_draws_nothing(np.array([[np.nan, 0.0], [1, 0], [0, 1]]))
 
 
 def test_argument_validation():
