@@ -121,7 +121,7 @@ F32_WAVE = """
 import json, taichi_fdem as fdem
 fdem.init(arch="cpu", precision="f32")
 from taichi_fdem import verification as V
-print(json.dumps({n: V.case_wave(resolution=n)["error"] for n in (100, 200, 400)}))
+print(json.dumps({n: V.case_wave(resolution=n, precision="f32")["error"] for n in (100, 200, 400)}))
 """
 
 
