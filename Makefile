@@ -3,7 +3,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo demos test bench clean
+.PHONY: demo demos test test-all bench clean
 
 $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PY) -m venv $(VENV)
@@ -19,9 +19,13 @@ demo: $(STAMP)
 demos: $(STAMP)
 	for d in demos/[!_]*.py; do echo "== $$d"; $(BIN)/python $$d || exit 1; done
 
-## make test: set everything up and run the test suite
+## make test: set everything up and run the fast test suite (what CI runs; slow tests deselected)
 test: $(STAMP)
-	$(BIN)/python -m pytest -q tests
+	$(BIN)/python -m pytest -q -m "not slow" tests
+
+## make test-all: every test, including the slow ones (full demos, README figures; ~1 h)
+test-all: $(STAMP)
+	$(BIN)/python -m pytest -q -m "" tests
 
 ## make bench: the performance benchmark (prints a table)
 bench: $(STAMP)

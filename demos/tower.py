@@ -186,7 +186,6 @@ def check(sim, blocks, ball, mon: Monitor, full: bool) -> dict:
     assert disp[struck].mean() > 0.5 * BH, f"the upper blocks barely moved ({disp[struck].mean():.3g} m)"
     if full:
         assert drop[struck].mean() > BH, f"the upper blocks did not fall (mean drop {drop[struck].mean():.3g} m)"
-    out["passed"] = True
     return out
 
 

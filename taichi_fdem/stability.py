@@ -96,21 +96,18 @@ def _build(scene, **kw):
 
 
 def scenario_disks(speed: float = 2.0, penalty_factor: float = 10.0, dt_factor: float | None = None,
-                   offset: float = 0.02, friction: float = 0.0, resolution: int = 3):
-    """Two elastic disks (R = 5 cm) in an oblique impact at ±``speed`` [m/s]; ``dt_factor`` × the
-    estimated limit (None: the automatic step, safety 0.2; > 1 is forced)."""
-    from . import mesh
-    from .scene import Scene
-    mat = _material(penalty=penalty_factor * E_S, friction=friction)
+                   offset: float = 0.02, friction: float = 0.0, resolution: int = 3, gap: float = 0.002):
+    """Two elastic disks (R = 5 cm, 2·``gap`` apart) in an oblique impact at ±``speed`` [m/s];
+    ``dt_factor`` × the estimated limit (None: the automatic step, safety 0.2; > 1 is forced)."""
+    from .verification import two_disks_scene
     R = 0.05
-    d = mesh.disk(R, R / resolution)
-    scene = Scene(gravity=(0.0, 0.0))
-    gap = 0.002
-    scene.add_body(d, mat, position=(-R - gap, -offset), velocity=(speed, 0.0))
-    scene.add_body(d, mat, position=(R + gap, offset), velocity=(-speed, 0.0))
-    probe = _build(scene)
-    sim = probe if dt_factor is None else _build(scene, dt=dt_factor * probe.dt_limit, force_dt=dt_factor > 1)
-    duration = 2 * gap / max(speed, 1e-9) + 8 * R / mat.p_wave_speed("strain") + 0.3 * R / max(speed, 1e-9)
+    mat = dict(density=RHO_S, young=E_S, poisson=NU_S, penalty=penalty_factor * E_S, friction=friction)
+    make = lambda **kw: two_disks_scene(R, R / resolution, (speed, 0.0), (-speed, 0.0), offset=offset, gap=2 * gap,
+                                        material=mat, mirror=False, **kw)[0]
+    probe = make()
+    sim = probe if dt_factor is None else make(dt=dt_factor * probe.dt_limit, force_dt=dt_factor > 1)
+    c_p = _material().p_wave_speed("strain")
+    duration = 2 * gap / max(speed, 1e-9) + 8 * R / c_p + 0.3 * R / max(speed, 1e-9)
     return sim, duration, f"two disks, v = ±{speed:g} m/s, p = {penalty_factor:g}·E"
 
 

@@ -10,6 +10,7 @@ contact detection).  They are written from FDEM_SPEC.md, not from the package co
 from __future__ import annotations
 
 import math
+import os
 import warnings
 
 import numpy as np
@@ -235,3 +236,18 @@ def couple_set(sim):
     s = set(pairs)
     assert len(s) == len(pairs), "duplicate couples in the couple list"
     return s
+
+
+DEMOS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "demos")
+
+
+def load_demo(name):
+    """The module demos/NAME.py (the demos import their helper module _common from demos/)."""
+    import importlib.util
+    import sys
+    if DEMOS not in sys.path:
+        sys.path.insert(0, DEMOS)
+    spec = importlib.util.spec_from_file_location(f"demo_{name}", os.path.join(DEMOS, f"{name}.py"))
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod

@@ -1,18 +1,19 @@
-"""Every demo runs (short mode, in-process), passes its physics checks and writes a video."""
-import importlib.util
+"""Every demo runs (short mode in-process; full mode under the ``slow`` marker), writes its video,
+and its returned numbers agree with the analytic values computed here.
+
+A demo's ``main`` raises when its own ``check`` fails, so a returned result already means the
+demo's checks passed; these tests add references the demos do not use (the analytic laws
+written out again here from the demo's constants, conservation laws on the returned vectors).
+"""
+import math
 import os
-import sys
 
-DEMOS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "demos")
+import numpy as np
+import pytest
 
+from conftest import DEMOS, load_demo as _load
 
-def _load(name):
-    if DEMOS not in sys.path:
-        sys.path.insert(0, DEMOS)          # the demos import their helper module _common
-    spec = importlib.util.spec_from_file_location(f"demo_{name}", os.path.join(DEMOS, f"{name}.py"))
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+G = 9.81
 
 
 def _run(name, tmp_path, still=False):
@@ -21,7 +22,6 @@ def _run(name, tmp_path, still=False):
     if still:
         argv += ["--still", str(tmp_path / "still.png")]
     result = _load(name).main(argv)
-    assert result["passed"] is True
     assert out.is_file() and out.stat().st_size > 0
     import imageio.v3 as iio
     assert sum(1 for _ in iio.imiter(str(out))) >= 2
@@ -31,42 +31,129 @@ def _run(name, tmp_path, still=False):
 
 
 def test_two_disks_short(tmp_path):
+    """A (speed V) hits B (at rest), equal masses: momentum v_A + v_B = V x̂ (round-off), B leaves
+    with nearly V (exchange), and the rigid-body kinetic energy ½m(v_A² + v_B²) cannot exceed the
+    kinetic energy the demo measured (Koenig), which cannot exceed the initial one."""
+    mod = _load("two_disks")
     r = _run("two_disks", tmp_path)
-    assert r["momentum_rel_error"] < 1e-10
-    assert r["exchange_error_A"] < 0.05 and r["exchange_error_B"] < 0.05
-    assert r["energy_rel_error"] < 0.01
+    V = mod.V
+    va, vb = np.array(r["velocity_A"]), np.array(r["velocity_B"])
+    np.testing.assert_allclose(va + vb, [V, 0.0], rtol=0, atol=1e-9 * V)
+    assert vb[0] == pytest.approx(V, rel=0.05) and abs(va[0]) < 0.05 * V
+    rigid = (va @ va + vb @ vb) / V ** 2                    # in units of ½ m V²
+    assert rigid <= r["kinetic_fraction_kept"] + 1e-12 <= 1.0 + 1e-9
 
 
 def test_pile_short(tmp_path):
+    """The demo checks containment and energy growth (the full mode also settling); in the short
+    run the bodies must have fallen: over 10 % of the initial potential energy released."""
     r = _run("pile", tmp_path)
-    assert r["max_excursion_m"] < 0.005              # 1 % of the 0.5 m box
-    assert r["energy_rise_max_frac_pe0"] < 0.03
-    assert r["potential_released_J"] > 0            # the bodies fell
+    assert r["potential_released_J"] > 0.1 * r["potential_initial_J"]
 
 
 def test_tower_short(tmp_path):
+    """Momentum: the change through the impact equals the floor's impulse (the demo's balance),
+    and the horizontal momentum before the impact is the projectile's."""
+    mod = _load("tower")
     r = _run("tower", tmp_path, still=True)
-    assert r["max_block_speed_before_mps"] < 0.1          # 1 % of the projectile speed
-    assert r["momentum_balance_rel_error"] < 0.05         # momentum change = floor impulse
-    assert r["momentum_x_kept"] > 0.8
-    assert r["energy_rise_max_frac"] < 0.02
-    assert r["upper_disp_mean_m"] > 0.05                  # half a block height
+    assert r["momentum_x_before_window"] == pytest.approx(r["momentum_x_before"], rel=1e-3)
+    assert r["momentum_balance_rel_error"] < 0.05
+    assert r["max_block_speed_before_mps"] < 0.01 * mod.V
 
 
 def test_incline_short(tmp_path):
+    """The block slides s = ½ g (sin θ − μ cos θ) t² (θ = 30°, μ = 0.3, written out here) within 2 %,
+    along the slope (off-slope motion below 1 % of s)."""
     r = _run("incline", tmp_path, still=True)
-    assert r["rel_error"] < 0.02
-    assert r["distance_sim_m"] > 0.0
+    t = r["time"]
+    s = 0.5 * G * (math.sin(math.radians(30.0)) - 0.3 * math.cos(math.radians(30.0))) * t * t
+    assert r["distance_sim_m"] == pytest.approx(s, rel=0.02)
+    assert r["off_slope_m"] < 0.01 * s
 
 
 def test_brazilian_short(tmp_path):
+    """24 elements across, loaded over 20 D/c_p: the peak of the filtered load gives
+    σ_t × Hondros factor = f_t within 15 %, the crack runs along the loaded diameter, and the CSV
+    holds the filtered record whose peak is the reported one."""
+    import csv
     r = _run("brazilian", tmp_path)
-    assert abs(r["sigma_t_over_ft"] - 1.0) < 0.2
-    assert r["central_fraction"] >= 0.8
-    assert os.path.isfile(r["csv"])
+    alpha = math.radians(10.0)
+    hondros = (math.sin(2 * alpha) - alpha) / alpha
+    sigma = 2.0 * r["P_max_N_per_m"] / (math.pi * 0.1)
+    assert sigma * hondros / 5e6 == pytest.approx(1.0, rel=0.15)
+    assert r["central_fraction"] >= 0.8 and r["broken_after_peak"] >= 5
+    rows = list(csv.DictReader(open(r["csv"])))
+    assert max(float(row["load_filtered_N_per_m"]) for row in rows) == pytest.approx(r["P_max_N_per_m"], rel=1e-5)
+
+
+def _components(n_tri, pairs):
+    """Connected components of n_tri triangles linked by ``pairs`` (union-find, brute force)."""
+    parent = list(range(n_tri))
+
+    def find(a):
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+    for a, b in pairs:
+        ra, rb = find(int(a)), find(int(b))
+        if ra != rb:
+            parent[ra] = rb
+    return len({find(a) for a in range(n_tri)})
 
 
 def test_fragment_plate_short(tmp_path):
+    """The fragmenting impact (verification.fragment_plate_scene): joints broke, the work of the
+    broken joints is positive and below the projectile's kinetic energy, the total energy
+    (kinetic + strain + contact + joints + fracture work) stayed within 0.1 % of the initial one,
+    and the fragment count equals a brute-force union-find over the intact joints."""
     r = _run("fragment_plate", tmp_path)
-    assert r["broken_joints"] >= 5 and r["fragments"] >= 2
-    assert r["energy_rel_error_max"] < 0.02
+    sim = r["sim"]
+    plate = sim.bodies[0]
+    assert r["broken_joints"] >= 5
+    assert 0 < r["fracture_energy_J"] < r["initial_energy_J"]
+    assert r["energy_rel_error_max"] < 1e-3
+    intact = sim.joint_state.to_numpy()[: sim.joint_count] == 0
+    n_plate = plate.triangles.stop - plate.triangles.start
+    ref = _components(sim.tri_count, sim._joint_tris_np[intact]) - (sim.tri_count - n_plate)
+    assert ref >= 2
+    assert sim.fragment_count(plate) == ref
+    assert sim.fragment_count() == ref + 1
+
+
+# ------------------------------------------------------------------------------------------------
+# every demo in full mode, as `make demos` runs it (slow: minutes each)
+# ------------------------------------------------------------------------------------------------
+FULL = sorted(f[:-3] for f in os.listdir(DEMOS) if f.endswith(".py") and not f.startswith("_"))
+
+
+def _readme_figures(name, r):
+    """The README gallery's figures, from the full demo runs."""
+    if name == "brazilian":
+        # σ_t = 2P/(πD) = 1.06 f_t at the peak of the filtered load (×0.96 Hondros: 1.02), 2,594 triangles
+        assert r["triangles"] == 2594
+        assert r["sigma_t_over_ft"] == pytest.approx(1.06, abs=0.01)
+        assert r["sigma_t_hondros_over_ft"] == pytest.approx(1.0, rel=0.05)
+        assert r["max_drop_before_peak"] < 0.02                    # a smooth rise to the peak
+        assert r["central_fraction"] >= 0.8 and r["broken_after_peak"] >= 5
+    elif name == "fragment_plate":
+        # 1,357 triangles, about 690 joints broken (686 measured; ±20 for round-off of other builds),
+        # energy balance within 0.1 %
+        assert r["triangles"] == 1357
+        assert 670 <= r["broken_joints"] <= 710
+        assert r["energy_rel_error_max"] < 1e-3
+    elif name == "incline":
+        t = r["time"]
+        s = 0.5 * G * (math.sin(math.radians(30.0)) - 0.3 * math.cos(math.radians(30.0))) * t * t
+        assert r["distance_sim_m"] == pytest.approx(s, rel=0.02)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", FULL)
+def test_demo_full_mode_runs_to_the_end(name, tmp_path):
+    """`python demos/NAME.py` in full mode (as `make demos` runs it) passes its own checks, and the
+    README's figures hold.  In-process, so that the returned numbers can be checked; the
+    command-line path is the same main()."""
+    ext = ".csv" if name == "sweep_friction" else ".mp4"
+    r = _load(name).main(["--out", str(tmp_path / f"{name}{ext}")])
+    _readme_figures(name, r)

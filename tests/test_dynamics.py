@@ -1,13 +1,12 @@
 """Rigid-body and collision dynamics (FDEM_SPEC §6.1, §8.2, §8.4): free fall, elastic impact of
 two disks, a block sliding and stopping under Coulomb friction, a block on an incline."""
-import math
 
 import numpy as np
 import pytest
 
 import taichi_fdem as fdem
 from conftest import mass_centroid
-from taichi_fdem.mesh import TriMesh
+from taichi_fdem import verification as V
 
 E = 1.0e7
 RHO = 1000.0
@@ -58,16 +57,13 @@ def test_free_fall_matches_the_discrete_and_continuous_parabola():
 
 
 def two_disks(offset=0.0, safety=0.2, strategy="auto"):
-    """Two equal elastic disks (radius 5 cm) approaching at ±2 m/s along x, the second the mirror
-    image of the first so that the contact is symmetric; ``offset`` shifts them ±offset in y."""
-    mat = fdem.Material(density=RHO, young=E, poisson=0.25)
-    R, v = 0.05, 2.0
-    d = fdem.mesh.disk(R, 0.02)
-    mirrored = TriMesh(d.points * np.array([-1.0, 1.0]), d.triangles)   # reoriented to CCW
-    scene = fdem.Scene(gravity=(0.0, 0.0))
-    a = scene.add_body(d, mat, position=(-R - 0.003, -offset), velocity=(v, 0.0))
-    b = scene.add_body(mirrored, mat, position=(R + 0.003, offset), velocity=(-v, 0.0))
-    return scene.build(safety=safety, strategy=strategy), a, b, v
+    """Two equal elastic disks (radius 5 cm, h = 2 cm) approaching at ±2 m/s along x
+    (verification.two_disks_scene: B mirrored, so a head-on contact is symmetric); ``offset``
+    shifts them ±offset in y."""
+    v = 2.0
+    sim, a, b = V.two_disks_scene(0.05, 0.02, (v, 0.0), (-v, 0.0), offset=offset,
+                                  material=dict(density=RHO, young=E, poisson=0.25), safety=safety, strategy=strategy)
+    return sim, a, b, v
 
 
 def momentum(sim):
@@ -183,21 +179,4 @@ def test_block_sliding_stops_after_coulomb_distance():
     assert np.abs(sim.node_displacements(floor)).max() == 0.0         # the floor is fixed
 
 
-@pytest.mark.parametrize("theta_deg", [30.0, 10.0])
-def test_block_on_incline(theta_deg):
-    """§8.2 with the incline made by tilting gravity: tan θ > μ slides with
-    a = g(sin θ − μ cos θ) (x = ½ a t², accept 2 %); tan θ ≤ μ sticks (only elastic creep)."""
-    th = math.radians(theta_deg)
-    sim, floor, block = block_on_floor((G * math.sin(th), -G * math.cos(th)))
-    c0, _ = mass_centroid(sim, block)
-    duration = 0.1
-    sim.step(int(round(duration / sim.dt)))
-    c, vc = mass_centroid(sim, block)
-    t = sim.time
-    if math.tan(th) > MU:
-        a = G * (math.sin(th) - MU * math.cos(th))
-        assert c[0] - c0[0] == pytest.approx(0.5 * a * t * t, rel=0.02)
-        assert vc[0] == pytest.approx(a * t, rel=0.02)
-    else:
-        assert abs(c[0] - c0[0]) < 1e-3 * 0.5 * G * math.sin(th) * t * t
-        assert abs(vc[0]) < 1e-3 * G * math.sin(th) * t
+# the block on an incline (§8.2) is verification.case_incline: tests/test_verification.py

@@ -35,9 +35,12 @@ def test_single_body_with_self_contact_does_detect():
     sim = scene.build()
     assert sim.contact is True
     assert sim.detection_count >= 1
-    # self-contact couples never join triangles that share a node
+    # self-contact couples exist (surface triangles of the same body near each other) and never
+    # join triangles that share a node
     t = np.asarray(sim.scene.bodies[0].mesh.triangles)
-    for a, b in sim.couples():
+    couples = sim.couples()
+    assert len(couples) > 0
+    for a, b in couples:
         assert not set(t[a]) & set(t[b])
 
 
@@ -84,7 +87,17 @@ def test_two_bodies_detect_and_collide():
     b0, b1 = sim.bodies
     _, v1 = mass_centroid(sim, b1)
     _, v0 = mass_centroid(sim, b0)
-    assert v0[0] < -0.5 and v1[0] > -0.5        # they hit: momentum went to the first block
+    # equal blocks, head on, elastic: apart again (no contact energy), momentum conserved to
+    # round-off (v0 + v1 = −1 m/s), total energy within 1 %, and the velocities nearly exchanged:
+    # restitution of the rigid motions e = v1 − v0 (−1 m/s before) between 0.8 and 1 (the rest
+    # of the energy rings in the blocks as vibration)
+    e = sim.energies()
+    assert e["contact"] == 0.0
+    assert v0[0] + v1[0] == pytest.approx(-1.0, abs=1e-12)
+    e0 = 0.5 * sim.node_masses(b1).sum() * 1.0 ** 2
+    assert e["kinetic"] + e["strain"] == pytest.approx(e0, rel=0.01)
+    assert 0.8 < v1[0] - v0[0] <= 1.0
+    assert v0[0] < -0.9                          # the first block took ≥ 90 % of the momentum
 
 
 def small_collision(strategy):
@@ -129,7 +142,7 @@ def test_switching_strategy_and_profile_keep_the_trajectory():
     mixed.strategy = "parallel"
     mixed.step(300)
     timings = mixed.profile(150)
-    assert timings["steps"] == 150 and timings["total"] >= 0.0
+    assert timings["steps"] == 150
     mixed.strategy = "serial"
     mixed.step(150)
     assert mixed.step_count == ref.step_count == 900
@@ -178,3 +191,49 @@ def test_set_node_velocities_and_run():
     assert np.abs(sim.node_displacements(a)).max() == 0.0
     assert np.array_equal(sim.node_positions(1), sim.node_positions(b))      # a body by index
     assert sim.stresses(b).shape == (b.mesh.triangle_count, 2, 2)
+
+
+# ------------------------------------------------------------------------------------------------
+# README "Defaults and why": couple properties and the contact buffer
+# ------------------------------------------------------------------------------------------------
+def _pressed_blocks(mat_a, mat_b, steps=300):
+    """Block B (0.1 m) pressed into and sliding over block A: B starts overlapping A by 1 mm and
+    moving at (1, −0.2) m/s.  Returns the simulation after ``steps`` steps at a fixed dt."""
+    scene = fdem.Scene(gravity=(0.0, 0.0))
+    scene.add_body(fdem.mesh.rectangle(0.3, 0.1, 0.05, origin=(-0.15, -0.1)), mat_a, fixed=True)
+    scene.add_body(fdem.mesh.rectangle(0.1, 0.1, 0.05, origin=(-0.05, -0.001)), mat_b, velocity=(1.0, -0.2))
+    import warnings
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="bodies overlap", category=RuntimeWarning)
+        sim = scene.build(dt=2e-6)
+    sim.step(steps)
+    return sim
+
+
+def test_couple_penalty_and_friction_are_the_smaller_of_the_two_materials():
+    """README: a couple uses the smaller of its two materials' penalty and friction coefficient.
+    Materials (p = 10·E, μ = 0.6) and (p = 30·E, μ = 0.2) give bit-identical contact forces and
+    trajectory to both bodies made of (p = 10·E, μ = 0.2), in either order, and differ from
+    (p = 30·E, μ = 0.6) and from (p = 10·E, μ = 0.6)."""
+    soft_rough = MAT.with_(penalty=10 * MAT.young, friction=0.6)
+    stiff_smooth = MAT.with_(penalty=30 * MAT.young, friction=0.2)
+    low = MAT.with_(penalty=10 * MAT.young, friction=0.2)
+    ref = _pressed_blocks(low, low)
+    assert ref.energies()["friction"] > 0                    # it slid: friction was exercised
+    for a, b in ((soft_rough, stiff_smooth), (stiff_smooth, soft_rough)):
+        sim = _pressed_blocks(a, b)
+        np.testing.assert_array_equal(sim.forces(contact_only=True), ref.forces(contact_only=True))
+        np.testing.assert_array_equal(sim.node_positions(), ref.node_positions())
+    for other in (MAT.with_(penalty=30 * MAT.young, friction=0.6), MAT.with_(penalty=10 * MAT.young, friction=0.6)):
+        sim = _pressed_blocks(other, other)
+        assert np.abs(sim.node_positions() - ref.node_positions()).max() > 1e-9
+
+
+def test_contact_buffer_is_a_quarter_of_the_mean_edge_length():
+    """README: buffer b = ¼ × the mean edge length of the contact triangles.  Two 0.1 m squares
+    meshed at h = 0.05 (every triangle touches the surface): right-angled triangles with edges
+    h, h, h√2, so b = ¼ h (2 + √2)/3, by hand."""
+    sim = two_blocks().build()
+    h = 0.05
+    assert sim.buffer == pytest.approx(0.25 * h * (2 + 2 ** 0.5) / 3, rel=1e-12)
+    assert sim.info()["buffer"] == sim.buffer

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 import taichi_fdem as fdem
+from taichi_fdem import verification as V
 from taichi_fdem.mesh import TriMesh
-from taichi_fdem.scene import explode_for_fracture
 
 Z_INTEGRAL = 0.3863      # ∫₀¹ z(D) dD (§7.5)
 
@@ -26,77 +26,7 @@ def _square():
     return TriMesh(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]), np.array([[0, 1, 2], [0, 2, 3]]))
 
 
-class Pair:
-    """Two triangles of a unit square with one joint; A's and B's nodes both prescribed (initially at rest)."""
-
-    def __init__(self, **matkw):
-        mesh = _square()
-        ex, jn, jt = explode_for_fracture(mesh)
-        assert len(jn) == 1
-        a, b = int(jt[0, 0]), int(jt[0, 1])
-        self.A, self.B = np.arange(3 * a, 3 * a + 3), np.arange(3 * b, 3 * b + 3)
-        x0, x1, x2, x3 = ex.points[jn[0]]
-        e = 0.5 * (x1 + x2 - x0 - x3)
-        self.L = float(np.linalg.norm(e))
-        self.e = e / self.L
-        self.n = np.array([-self.e[1], self.e[0]])        # points into A (§7.2)
-        kw = dict(density=1000.0, young=1e8, poisson=0.25, tensile_strength=1e6, fracture_energy=1e4)
-        kw.update(matkw)
-        self.mat = fdem.Material(**kw)
-        self.ft, self.c, self.tanphi, self.gI, self.gII, self.pf = self.mat.joint_properties()
-        scene = fdem.Scene(gravity=(0.0, 0.0))
-        body = scene.add_body(mesh, self.mat, fracture=True)
-        scene.fix_nodes(lambda x, y: np.isin(np.arange(len(x)), self.A), body=body, velocity=(0.0, 0.0))
-        scene.fix_nodes(lambda x, y: np.isin(np.arange(len(x)), self.B), body=body, velocity=(0.0, 0.0))
-        self.dt = 1e-4
-        self.sim = scene.build(dt=self.dt)
-        self.jn = self.sim.joint_nodes.to_numpy()[0]
-        assert set(self.jn[:2]) <= set(self.A) and set(self.jn[2:]) <= set(self.B)
-        self.vbc = self.sim.node_vbc.to_numpy()
-
-    def move_A(self, velocity):
-        self.vbc[self.A] = velocity
-        self.sim.node_vbc.from_numpy(self.vbc)
-
-    def gap(self):
-        """Mean (opening, sliding) of the joint from the node positions (§7.2)."""
-        x = self.sim.node_positions()
-        d = 0.5 * ((x[self.jn[0]] - x[self.jn[3]]) + (x[self.jn[1]] - x[self.jn[2]]))
-        return float(d @ self.n), float(d @ self.e)
-
-    def traction(self):
-        """(σ, τ) per unit length from the joint's nodal forces on A (contact subtracted)."""
-        f = self.sim.forces() - self.sim.forces(contact_only=True)
-        fa = f[self.A].sum(axis=0)
-        return float(-(fa @ self.n) / self.L), float(-(fa @ self.e) / self.L)
-
-    def drive(self, direction, comp, peak, span, fine=100, coarse=10):
-        """Move A along ``direction`` at δ_peak/fine per step until the joint breaks.
-
-        ``comp`` 0 measures opening and σ, 1 sliding and τ.
-
-        Forces are sampled every step up to 1.3 δ_peak and every ``coarse`` steps after.
-        Returns (displacement samples, traction samples, displacement at breakage).
-        """
-        inc = peak / fine
-        self.move_A(direction * inc / self.dt)
-        u0 = self.gap()[comp]
-        t0 = self.sim.time
-        us, ts = [0.0], [self.traction()[comp]]
-        total = int(1.5 * (peak + span) / inc)
-        done = 0
-        while done < total and not self.sim.broken_joint_count:
-            k = 1 if us[-1] < 1.3 * peak else coarse
-            self.sim.step(k)
-            done += k
-            us.append(self.gap()[comp] - u0)
-            ts.append(self.traction()[comp])
-        assert self.sim.broken_joint_count == 1, "the joint did not break"
-        t_break = float(self.sim.broken_joints()["time"][0])
-        # the joint breaks inside a step: its recorded time is the start of that step (positions at
-        # the start of the step are those evaluated)
-        u_break = (t_break - t0) * inc / self.dt
-        return np.array(us[:-1]), np.array(ts[:-1]), u_break
+Pair = V.JointPair          # the single-joint scenario, shared with verification.case_joint_pull
 
 
 def _trapezoid(y, x):
@@ -104,13 +34,15 @@ def _trapezoid(y, x):
 
 
 def test_single_joint_pull_mode_I():
+    """README: f_t at δ_p, breakage at δ_p + Δ_n and the work f_t(2δ_p/3 + 0.3863 Δ_n) to < 0.1 %."""
     p = Pair()
+    assert set(p.jn[:2]) <= set(p.A) and set(p.jn[2:]) <= set(p.B)
     dp = 2.0 * p.L * p.ft / p.pf          # §7.4
     dn = 3.0 * p.gI / p.ft                # Y-Geo softening span
     o, sig, o_break = p.drive(p.n, 0, dp, dn)
     i = int(np.argmax(sig))
-    assert sig[i] == pytest.approx(p.ft, rel=0.01)
-    assert o[i] == pytest.approx(dp, rel=0.02)
+    assert sig[i] == pytest.approx(p.ft, rel=1e-3)
+    assert o[i] == pytest.approx(dp, rel=1e-3)
     # pre-peak branch of §7.6: σ = f_t (2r − r²), r = o/δ_p
     r = o[o <= dp] / dp
     assert np.allclose(sig[o <= dp], p.ft * (2 * r - r * r), rtol=1e-6, atol=1e-6 * p.ft)
@@ -119,10 +51,10 @@ def test_single_joint_pull_mode_I():
     print(f"\npull: peak σ/f_t = {sig[i] / p.ft:.5f} at o/δ_p = {o[i] / dp:.4f}; breakage o/(δ_p+Δ_n) = "
           f"{o_break / (dp + dn):.5f}; work/ref = {work / w_ref:.5f}, energies/ref = "
           f"{p.sim.energies()['fracture'] / p.L / w_ref:.5f}")
-    assert o_break == pytest.approx(dp + dn, rel=0.02)
-    assert work == pytest.approx(w_ref, rel=0.02)
+    assert o_break == pytest.approx(dp + dn, rel=1e-3)
+    assert work == pytest.approx(w_ref, rel=1e-3)
     e = p.sim.energies()
-    assert e["fracture"] / p.L == pytest.approx(w_ref, rel=0.02)
+    assert e["fracture"] / p.L == pytest.approx(w_ref, rel=1e-3)
     assert e["joints"] == 0.0
     bj = p.sim.broken_joints()
     assert list(bj["mode"]) == ["I"]
@@ -138,15 +70,15 @@ def test_single_joint_shear_mode_II():
     ds = 3.0 * p.gII / p.c
     s, tau, s_break = p.drive(p.e, 1, sp, ds)
     i = int(np.argmax(tau))
-    assert tau[i] == pytest.approx(p.c, rel=0.01)
-    assert s[i] == pytest.approx(sp, rel=0.02)
+    assert tau[i] == pytest.approx(p.c, rel=1e-3)
+    assert s[i] == pytest.approx(sp, rel=1e-3)
     w_ref = p.c * (2 * sp / 3 + Z_INTEGRAL * ds)
     print(f"\nshear: peak τ/c = {tau[i] / p.c:.5f} at s/s_p = {s[i] / sp:.4f}; breakage s/(s_p+Δ_s) = "
           f"{s_break / (sp + ds):.5f}; work/ref = {_trapezoid(tau, s) / w_ref:.5f}, energies/ref = "
           f"{p.sim.energies()['fracture'] / p.L / w_ref:.5f}")
-    assert s_break == pytest.approx(sp + ds, rel=0.02)
-    assert _trapezoid(tau, s) == pytest.approx(w_ref, rel=0.02)
-    assert p.sim.energies()["fracture"] / p.L == pytest.approx(w_ref, rel=0.02)
+    assert s_break == pytest.approx(sp + ds, rel=1e-3)
+    assert _trapezoid(tau, s) == pytest.approx(w_ref, rel=1e-3)
+    assert p.sim.energies()["fracture"] / p.L == pytest.approx(w_ref, rel=1e-3)
     assert list(p.sim.broken_joints()["mode"]) == ["II"]
 
 
@@ -170,9 +102,9 @@ def test_single_joint_shear_mohr_coulomb_confinement():
     i = int(np.argmax(tau))
     print(f"\nconfined shear: σ_n = {sigma_n:.4g} Pa, peak τ/(c − σ_n tan φ) = {tau[i] / fs:.5f} at s/s_p = "
           f"{s[i] / sp:.4f}; breakage s/(s_p+Δ_s) = {s_break / (sp + ds):.5f}")
-    assert tau[i] == pytest.approx(fs, rel=0.03)
-    assert s[i] == pytest.approx(sp, rel=0.02)
-    assert s_break == pytest.approx(sp + ds, rel=0.02)
+    assert tau[i] == pytest.approx(fs, rel=1e-3)
+    assert s[i] == pytest.approx(sp, rel=1e-3)
+    assert s_break == pytest.approx(sp + ds, rel=1e-3)
     assert list(p.sim.broken_joints()["mode"]) == ["II"]
 
 
@@ -181,12 +113,13 @@ def test_single_joint_shear_mohr_coulomb_confinement():
 # ------------------------------------------------------------------------------------------------
 def test_direct_tension_strip_peak_stress():
     """A fully jointed strip (1 × 0.2 m, 2 elements across) pulled quasi-statically: the peak
-    stress equals f_t within 2 %, and it breaks into pieces (taichi_fdem.verification)."""
-    from taichi_fdem import verification as V
+    stress equals f_t within 0.5 %, the README's figure 0.997 f_t to ±0.0005, and it breaks into
+    pieces (taichi_fdem.verification.case_direct_tension)."""
     r = V.case_direct_tension(resolution=2)
     print(f"\nstrip: peak stress / f_t = {r['peak_over_ft']:.5f}; {r['broken_joints']} joints broken; "
           f"{r['steps']} steps")
-    assert r["peak_over_ft"] == pytest.approx(1.0, rel=0.02)
+    assert r["peak_over_ft"] == pytest.approx(1.0, rel=0.005)
+    assert r["peak_over_ft"] == pytest.approx(0.997, abs=5e-4)
     assert r["broken_joints"] >= 2
     assert r["fragments"] >= 2
 
@@ -217,153 +150,30 @@ def _arrival_time(fracture: bool, pf_factor: float = 10.0):
 
 
 def test_wave_speed_jointed_strip():
+    """Intact joints add compliance in series with the elements: 1/E_eff = 1/E + κ/p_f, so
+    (c/c_jointed)² − 1 = κ E/p_f halves when p_f doubles: the κ measured at 10·E and 20·E (0.66,
+    0.80) agree within 25 % (the arrival times also carry the discrete dispersion, 1.4 % of c).
+    README: at the default p_f = 10·E the jointed strip carries the wave at 0.97 (±0.005) of the
+    unjointed speed; the unjointed speed is √(E/ρ) within 2 % (discrete dispersion)."""
     t_plain, x = _arrival_time(False)
-    t_joint, _ = _arrival_time(True)
+    t_10, _ = _arrival_time(True, 10.0)
+    t_20, _ = _arrival_time(True, 20.0)
     c0 = math.sqrt(1e8 / 1000.0)
-    ratio = t_plain / t_joint                  # c_jointed / c_plain
-    lo, hi = 1.0 / math.sqrt(1.0 + 3.0 / 10.0), 1.0 / math.sqrt(1.0 + 0.3 / 10.0)   # κ ∈ [0.3, 3], p_f = 10 E
-    kappa = (1.0 / ratio ** 2 - 1.0) * 10.0
-    print(f"\nwave: unjointed c/c0 = {x / t_plain / c0:.4f}; jointed/unjointed speed = {ratio:.4f} "
-          f"(κ = {kappa:.2f}; bounds {lo:.4f}..{hi:.4f})")
-    assert x / t_plain == pytest.approx(c0, rel=0.03)
-    assert lo <= ratio <= hi
-    assert ratio >= 0.9
+    r10, r20 = t_plain / t_10, t_plain / t_20                # c_jointed / c_plain
+    k10, k20 = (1.0 / r10 ** 2 - 1.0) * 10.0, (1.0 / r20 ** 2 - 1.0) * 20.0
+    print(f"\nwave: unjointed c/c0 = {x / t_plain / c0:.4f}; jointed/unjointed speed = {r10:.4f} (p_f = 10 E), "
+          f"{r20:.4f} (20 E); κ = {k10:.3f}, {k20:.3f}")
+    assert x / t_plain == pytest.approx(c0, rel=0.02)
+    assert r10 == pytest.approx(0.97, abs=0.005)
+    assert r10 < r20 < 1.0
+    assert k20 == pytest.approx(k10, rel=0.25)
 
 
 # ------------------------------------------------------------------------------------------------
-# Brazilian disc (§8.8)
+# Brazilian disc (§8.8) and a fragmenting impact: verification.brazilian_scene and
+# fragment_plate_scene, run by the demos; tests/test_demos.py checks them (short mode in CI,
+# full mode and the README figures under the slow marker)
 # ------------------------------------------------------------------------------------------------
-def brazilian_scene(D=0.1, elements=40, alpha_deg=10.0, load_time=60.0, damping=1.0):
-    """A disc of diameter D (ring mesh, h = D/elements) with flattened caps of half-angle α
-    (nodes clipped to |y| ≤ R cos α: the load spreads over ~2α instead of one node), between two
-    stiff platens moving at ±v; v is chosen so that the expected platen approach at peak is
-    covered in ``load_time`` × D/c_p.  Returns (sim, disk, top, bottom, v, material)."""
-    R, h = 0.5 * D, D / elements
-    mat = fdem.Material(density=2500.0, young=10e9, poisson=0.2, damping=damping, tensile_strength=5e6,
-                        fracture_energy=50.0, cohesion=15e6, friction_angle=35.0, name="rock")
-    platen = fdem.Material(density=2500.0, young=100e9, poisson=0.2, penalty=3 * mat.young, name="steel")
-    d0 = fdem.mesh.disk(R, h)
-    yc = R * math.cos(math.radians(alpha_deg))
-    pts = d0.points.copy()
-    pts[:, 1] = np.clip(pts[:, 1], -yc, yc)
-    scene = fdem.Scene(gravity=(0.0, 0.0), plane="strain")
-    disk = scene.add_body(TriMesh(pts, d0.triangles), mat, fracture=True, name="disc")
-    cp = mat.p_wave_speed("strain")
-    approach = 6e-4 * D / 0.1                  # nominal; the measured approach at peak is ≈ 0.28 mm, so the
-    #                                            peak comes after ≈ 0.45 load_time (≈ 28 D/c_p at 60: test budget)
-    v = 0.5 * approach / (load_time * D / cp)
-    pm = fdem.mesh.rectangle(0.5 * D, 0.1 * D, D / 20)
-    top = scene.add_body(pm, platen, position=(0.0, yc + 0.05 * D + 1e-9), prescribed_velocity=(0.0, -v), name="top")
-    bot = scene.add_body(pm, platen, position=(0.0, -yc - 0.05 * D - 1e-9), prescribed_velocity=(0.0, v), name="bottom")
-    sim = scene.build(safety=0.35)
-    return sim, disk, top, bot, v, mat
-
-
-def run_brazilian(sim, top, bot, v, D, load_time, cp, samples=200, callback=None):
-    """Load with a ramp of the platen speed over 0.1 load_time D/c_p; sample P (per unit thickness,
-    on the top platen) and the platen approach until the load has dropped below 30 % of its peak.
-    Returns dict(t, P, approach, broken)."""
-    t_load = load_time * D / cp
-    n_total = int(1.3 * t_load / sim.dt)
-    k = max(1, n_total // samples)
-    vbc0 = sim.node_vbc.to_numpy()
-    t_ramp = 0.1 * t_load
-    y_top0, y_bot0 = sim.node_positions(top)[:, 1].mean(), sim.node_positions(bot)[:, 1].mean()
-    out = {"t": [], "P": [], "approach": [], "broken": []}
-    while sim.step_count < n_total:
-        if sim.time < t_ramp + k * sim.dt:
-            sim.node_vbc.from_numpy(vbc0 * min(1.0, (sim.time + 0.5 * k * sim.dt) / t_ramp))
-        sim.step(k)
-        P = float(sim.forces()[top.nodes, 1].sum())           # thickness 1: per unit thickness
-        out["t"].append(sim.time)
-        out["P"].append(P)
-        out["approach"].append(float((y_top0 - sim.node_positions(top)[:, 1].mean())
-                                     + (sim.node_positions(bot)[:, 1].mean() - y_bot0)))
-        out["broken"].append(sim.broken_joint_count)
-        if callback is not None:
-            callback(sim)
-        if out["broken"][-1] and P < 0.3 * max(out["P"]):
-            break
-    return {key: np.array(val) for key, val in out.items()}
-
-
-def test_brazilian_disc():
-    D, load_time = 0.1, 60.0
-    sim, disk, top, bot, v, mat = brazilian_scene(D, 40, load_time=load_time)
-    cp = mat.p_wave_speed("strain")
-    r = run_brazilian(sim, top, bot, v, D, load_time, cp)
-    i = int(np.argmax(r["P"]))
-    sigma_t = 2.0 * r["P"][i] / (math.pi * D * 1.0)
-    ratio = sigma_t / mat.tensile_strength
-    alpha = math.radians(10.0)
-    hondros = (math.sin(2 * alpha) - alpha) / alpha            # centre stress factor of a load spread over 2α
-    bj = sim.broken_joints()
-    j = min(i + 10, len(r["t"]) - 1)
-    sel = bj["time"] <= r["t"][j]
-    central = float(np.mean(np.abs(bj["position"][sel, 0]) < 0.15 * D)) if sel.any() else 0.0
-    print(f"\nbrazilian: {sim.info()['triangles']} triangles, loading time to peak {r['t'][i] * cp / D:.0f} D/c_p; "
-          f"σ_t/f_t = {ratio:.4f} (with the Hondros factor {hondros:.3f}: {ratio * hondros:.4f}); "
-          f"{sel.sum()} joints broken by shortly after the peak, {central:.0%} with |x| < 0.15 D; "
-          f"fragments {sim.fragment_count(disk)}")
-    # The caps are flattened over ±α, so the analytic centre stress of this geometry is
-    # 2P/(πDt) × (sin 2α − α)/α (Hondros); the peak load itself is sensitive to round-off (the
-    # first joints to break decide the crack path): seen 1.107 and 1.162 for two builds.
-    assert ratio * hondros == pytest.approx(1.0, rel=0.15)
-    assert sel.sum() >= 5
-    assert central >= 0.8
-
-
-# ------------------------------------------------------------------------------------------------
-# fracturing impact: energy balance and fragments
-# ------------------------------------------------------------------------------------------------
-def _components(n_tri, pairs):
-    """Connected components of n_tri triangles linked by ``pairs`` (union-find, brute force)."""
-    parent = list(range(n_tri))
-
-    def find(a):
-        while parent[a] != a:
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        return a
-    for a, b in pairs:
-        ra, rb = find(int(a)), find(int(b))
-        if ra != rb:
-            parent[ra] = rb
-    return len({find(a) for a in range(n_tri)})
-
-
-def impact_scene(plate_h=0.02, speed=30.0):
-    mat = fdem.Material(density=1000.0, young=1e8, poisson=0.25, tensile_strength=2e5, fracture_energy=20.0,
-                        name="plate")
-    proj = fdem.Material(density=3000.0, young=1e8, poisson=0.25, name="projectile")
-    scene = fdem.Scene(gravity=(0.0, 0.0))
-    plate = scene.add_body(fdem.mesh.rectangle(0.4, 0.1, plate_h), mat, fracture=True, name="plate")
-    ball = scene.add_body(fdem.mesh.disk(0.03, 0.015), proj, position=(0.0, 0.085), velocity=(0.0, -speed),
-                          name="projectile")
-    return scene, plate, ball
-
-
-def test_fracturing_impact_energy_and_fragments():
-    scene, plate, ball = impact_scene()
-    sim = scene.build()
-    e0 = sim.energies()["total"]
-    worst = 0.0
-    for _ in range(30):
-        sim.step(100)
-        worst = max(worst, abs(sim.energies()["total"] - e0) / e0)
-    e = sim.energies()
-    nb = sim.broken_joint_count
-    jt = sim._joint_tris_np
-    intact = sim.joint_state.to_numpy()[: sim.joint_count] == 0
-    plate_tris = np.arange(plate.triangles.start, plate.triangles.stop)
-    ref = _components(sim.tri_count, jt[intact]) - (sim.tri_count - len(plate_tris))
-    print(f"\nimpact: {nb} joints broken, fracture energy {e['fracture']:.4g} J of {e0:.4g} J; worst |ΔE|/E0 = "
-          f"{worst:.4%}; fragments of the plate {sim.fragment_count(plate)} (brute force {ref})")
-    assert nb >= 5
-    assert e["fracture"] > 0
-    assert worst < 0.02
-    assert sim.fragment_count(plate) == ref
-    assert sim.fragment_count() == ref + 1
 
 
 # ------------------------------------------------------------------------------------------------

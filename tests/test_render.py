@@ -194,10 +194,25 @@ def test_scene_size_changes_and_degenerate_input():
     two = r.render(many_x, np.array([[0, 1, 2], [3, 4, 5]]), None)   # None -> grey
     grey = (two[..., 0] == two[..., 1]) & (two[..., 1] == two[..., 2]) & (np.abs(two[..., 0].astype(int) - 178) <= 1)
     assert grey.sum() > 100
-    # degenerate (zero-area) triangle and a NaN node do not crash nor hang
-    bad_x = np.array([[0, 0], [1, 1], [2, 2], [np.nan, 0.0], [1, 0], [0, 1]])
-    img = render.RendererImage(64, 48, view=(-1, 3, -1, 3)).render(bad_x, np.array([[0, 1, 2], [3, 4, 5]]), TRI_C[[0, 0]])
+    # a degenerate (zero-area) triangle draws nothing (no crash, no hang, no stray pixels): the
+    # picture equals that of the valid triangle drawn alone
+    _assert_draws_nothing(np.array([[0, 0], [1, 1], [2, 2]]))
+
+
+def _assert_draws_nothing(bad_x):
+    rr = render.RendererImage(64, 48, view=(-1, 3, -1, 3), draw_edges=False)
+    alone = rr.render(TRI_X, TRI_T, TRI_C).copy()
+    assert _is(alone, (255, 0, 0)).sum() > 20
+    img = rr.render(np.concatenate([TRI_X, bad_x]), np.array([[0, 1, 2], [3, 4, 5]]), TRI_C[[0, 0]])
     assert img.shape == (48, 64, 3)
+    np.testing.assert_array_equal(img, alone)
+
+
+@pytest.mark.xfail(strict=True, reason="engine bug for the lead: render.py rasteriser paints ~260 stray pixels "
+                   "(a band of rows) for a triangle with a NaN node instead of skipping it (issue 13)")
+def test_triangle_with_a_nan_node_draws_nothing():
+    """A triangle with a non-finite node (a blown-up simulation) must not paint anything."""
+    _assert_draws_nothing(np.array([[np.nan, 0.0], [1, 0], [0, 1]]))
 
 
 def test_argument_validation():
@@ -459,35 +474,48 @@ def test_render_sim_speed_extremes_map_to_colormap_ends():
     assert _close(_pixel_at(r, img, cen_b), render.body_colors([0])[0])
 
 
-def test_tri_scalars_uniaxial_stretch_analytic():
-    """An affine uniaxial stretch x' = (1 + e) x: von Mises and principal stresses of the kernel equal
-    the analytic values of the Cauchy stress (FDEM_SPEC §3.2) and the numpy ones of sim.stresses()."""
+def _hooke_finite(E, nu, plane, e):
+    """Hand computation of the Cauchy stress (σxx, σyy) of FDEM_SPEC §3.2 for the uniaxial stretch
+    F = diag(1 + e, 1), from E and ν only: μ = E/(2(1+ν)), λ_Y = half the plane problem's Lamé λ."""
+    mu = E / (2.0 * (1.0 + nu))
+    lam_y = E * nu / (2.0 * (1.0 - nu * nu)) if plane == "stress" else E * nu / (2.0 * (1.0 + nu) * (1.0 - 2.0 * nu))
+    J = 1.0 + e
+    return mu / J * ((1.0 + e) ** 2 - 1.0) + lam_y * (J - 1.0 / J), lam_y * (J - 1.0 / J)
+
+
+def _stretched(plane, e):
     mat = fdem.Material(**ROCK)
-    sc = fdem.Scene(gravity=(0.0, 0.0))
+    sc = fdem.Scene(gravity=(0.0, 0.0), plane=plane)
     sc.add_body(fdem.mesh.rectangle(1.0, 0.5, h=0.1), mat)
     sim = sc.build()
     X = sim.node_positions()
-    e = 0.01
     sim.node_x.from_numpy(X * np.array([1.0 + e, 1.0]))
+    return sim, mat, X
+
+
+def test_tri_scalars_uniaxial_stretch_analytic():
+    """Plane stress, affine uniaxial stretch x' = (1 + e) x: the kernel's von Mises and principal
+    stresses equal the values computed by hand from E and ν (FDEM_SPEC §3.2); σ_zz = 0 in plane
+    stress, so von Mises = √(σxx² − σxx σyy + σyy²)."""
+    e = 0.01
+    sim, mat, X = _stretched("stress", e)
     v = np.zeros_like(X)
     v[:, 1] = 0.5
     sim.set_node_velocities(v)
     r = render.RendererImage(64, 64)
-    mu, lam = sim.mat_mu.to_numpy()[0], sim.mat_lam.to_numpy()[0]
-    J = 1.0 + e
-    sxx = mu / J * ((1.0 + e) ** 2 - 1.0) + lam * (J - 1.0 / J)
-    syy = lam * (J - 1.0 / J)
+    sxx, syy = _hooke_finite(mat.young, mat.poisson, "stress", e)
     vm_exact = math.sqrt(sxx * sxx - sxx * syy + syy * syy)
     vm = r.tri_scalars(sim, "von_mises")
     assert vm.shape == (sim.tri_count,)
     assert np.allclose(vm, vm_exact, rtol=1e-9)
     T = sim.stresses()
-    s_xx, s_yy, s_xy = T[:, 0, 0], T[:, 1, 1], T[:, 0, 1]
-    assert np.allclose(vm, np.sqrt(s_xx ** 2 - s_xx * s_yy + s_yy ** 2 + 3 * s_xy ** 2), rtol=1e-12)
+    assert np.allclose(T[:, 0, 0], sxx, rtol=1e-9) and np.allclose(T[:, 1, 1], syy, rtol=1e-9)
+    assert np.abs(T[:, 0, 1]).max() < 1e-9 * sxx
     assert np.allclose(r.tri_scalars(sim, "max_principal"), sxx, rtol=1e-9)
     assert np.allclose(r.tri_scalars(sim, "min_principal"), syy, rtol=1e-9)
     assert np.allclose(r.tri_scalars(sim, "speed"), 0.5)
-    disp = np.linalg.norm(sim.node_displacements(), axis=1)[sim._tri_nodes_np].mean(1)
+    # displacement of node i is (e X_i, 0): the triangle mean of |u| by hand
+    disp = (e * np.abs(X[:, 0]))[sim._tri_nodes_np].mean(1)
     assert np.allclose(r.tri_scalars(sim, "displacement"), disp, rtol=1e-12)
     with pytest.raises(ValueError):
         r.tri_scalars(sim, "body")
@@ -497,6 +525,27 @@ def test_tri_scalars_uniaxial_stretch_analytic():
     w = np.linalg.eigvalsh(0.5 * (T + T.transpose(0, 2, 1)))
     assert np.allclose(r.tri_scalars(sim, "max_principal"), w[:, 1], rtol=1e-9, atol=1e-6 * np.abs(w).max())
     assert np.allclose(r.tri_scalars(sim, "min_principal"), w[:, 0], rtol=1e-9, atol=1e-6 * np.abs(w).max())
+
+
+@pytest.mark.xfail(strict=True, reason="engine bug for the lead: render.py (_tri_scalar mode 2) and export.py "
+                   "(frame_fields von_mises) use the plane-stress form and drop σ_zz = ν(σxx + σyy) in "
+                   "plane strain (issue 13)")
+def test_von_mises_plane_strain_includes_sigma_zz(tmp_path):
+    """Plane strain, small uniaxial strain ε (F = diag(1 + ε, 1)): Hooke gives σxx = (λ+2μ)ε,
+    σyy = λε and σzz = ν(σxx + σyy) = λε, so von Mises = √(½[(σxx−σyy)² + (σyy−σzz)² +
+    (σzz−σxx)²]) = 2με exactly, by hand from E and ν (the in-plane formula gives √7 με at ν = ¼).
+    Checked in the renderer and in the VTU export."""
+    from taichi_fdem.export import frame_fields
+    eps = 1e-6
+    sim, mat, _ = _stretched("strain", eps)
+    mu = mat.young / (2.0 * (1.0 + mat.poisson))
+    vm_exact = 2.0 * mu * eps
+    r = render.RendererImage(64, 64)
+    export_vm = frame_fields(sim)["cell_data"]["von_mises"]
+    render_vm = r.tri_scalars(sim, "von_mises")
+    assert np.allclose(export_vm, vm_exact, rtol=1e-4)
+    assert np.allclose(render_vm, vm_exact, rtol=1e-4)
+
 
 
 def test_colour_bar_drawn_with_colormap_ends():

@@ -276,7 +276,7 @@ def test_bad_sweep_files(tmp_path):
 # ------------------------------------------------------------------------------------------------
 def test_dask_cluster_gives_the_local_results(grid_run, tmp_path, markers):
     distributed = pytest.importorskip("dask.distributed", reason="dask[distributed] is not installed "
-                                      "(pip install 'taichi-fdem[distributed]')")
+                                      "(the test extra that CI installs has it: pip install -e '.[test]')")
     sw, local, _, _ = grid_run
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                                   dashboard_address=None) as cluster:
@@ -298,7 +298,8 @@ def test_dask_cluster_gives_the_local_results(grid_run, tmp_path, markers):
 
 
 def test_dask_missing_scheduler_is_a_clear_error(tmp_path):
-    pytest.importorskip("dask.distributed", reason="dask[distributed] is not installed")
+    pytest.importorskip("dask.distributed", reason="dask[distributed] is not installed (the test extra that CI "
+                        "installs has it: pip install -e '.[test]')")
     sw = Sweep(base_block, axes={"material.friction": [0.2]}, metrics=block_metrics, duration=DURATION)
     with pytest.raises(SweepError, match=r"scheduler must be an address"):
         sw.run(output=str(tmp_path / "x.csv"), scheduler=12)
@@ -306,25 +307,19 @@ def test_dask_missing_scheduler_is_a_clear_error(tmp_path):
 
 def test_sweep_friction_demo_short(tmp_path):
     """demos/sweep_friction.py --short: every point stops within 3 % of v0²/(2 μ g)."""
-    import importlib.util
-    import sys
-    demos = os.path.join(ROOT, "demos")
-    if demos not in sys.path:
-        sys.path.insert(0, demos)
-    spec = importlib.util.spec_from_file_location("demo_sweep_friction", os.path.join(demos, "sweep_friction.py"))
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    from conftest import load_demo
+    mod = load_demo("sweep_friction")
     out = tmp_path / "sf.csv"
     r = mod.main(["--short", "--out", str(out)])
-    assert r["passed"] is True and r["points"] == 4 and r["max_rel_error"] < 0.03
+    assert r["points"] == 4
     assert len(read_csv(out)) == 4
     for row in r["results"]:
-        assert row["d_analytic"] == pytest.approx(1.0 / (2 * row["mu"] * 9.81))
-    try:
-        import matplotlib  # noqa: F401
-        assert os.path.getsize(r["png"]) > 0
-    except ImportError:
-        assert r["png"] is None
+        # the stop distance of a block launched at 1 m/s: v0²/(2 μ g), written out here; and it stopped
+        assert row["d_sim"] == pytest.approx(1.0 / (2 * row["mu"] * 9.81), rel=0.03)
+        assert abs(row["v_end"]) < 0.01
+    pytest.importorskip("matplotlib", reason="matplotlib is not installed (the test extra that CI installs has "
+                        "it: pip install -e '.[test]')")
+    assert os.path.getsize(r["png"]) > 0
 
 
 def test_example_sweep_file_loads():

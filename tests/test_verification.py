@@ -56,13 +56,16 @@ def test_large_rigid_rotation_leaves_no_stress():
 
 @pytest.mark.parametrize("theta_deg", [30.0, 10.0])
 def test_block_on_incline(theta_deg):
-    """§8.2, μ = 0.3: at 30° (tan θ > μ) x(t) = ½ g (sin θ − μ cos θ) t² within 2 %; at 10° it
-    sticks (creep below 0.1 % of a free slide)."""
+    """§8.2, μ = 0.3: at 30° (tan θ > μ) the centroid slides x(t) = ½ g (sin θ − μ cos θ) t²
+    (written out here) within 2 %; at 10° it sticks: creep below 0.1 % of a free slide ½ g sin θ t²."""
     r = V.case_incline(theta_deg=theta_deg)
+    t = r["steps"] * r["dt"]
+    th = math.radians(theta_deg)
     if theta_deg == 30.0:
-        assert r["slides"] and r["error"] < 0.02, r
+        x_ref = 0.5 * 9.81 * (math.sin(th) - 0.3 * math.cos(th)) * t * t
+        assert r["displacement"] == pytest.approx(x_ref, rel=0.02), r
     else:
-        assert not r["slides"] and r["error"] < 1e-3, r
+        assert abs(r["displacement"]) < 1e-3 * 0.5 * 9.81 * math.sin(th) * t * t, r
 
 
 def test_elastic_impact_of_two_disks():
@@ -72,16 +75,67 @@ def test_elastic_impact_of_two_disks():
     assert r["error"] < 0.01, r
     assert r["momentum_error"] < 1e-12, r
     assert 0.9 < r["restitution"] <= 1.0, r
-    assert math.isclose(r["restitution"] ** 2 + r["vibration_share"], 1.0, abs_tol=0.01)
 
 
-def test_joint_pull_case():
-    """§8.7: peak f_t, breakage at δ_p + Δ_n and work f_t(2δ_p/3 + 0.3863 Δ_n), each within 2 %."""
-    r = V.case_joint_pull(resolution=50)
-    assert r["error"] < 0.02, r
+# the fracture cases (joint pull: verification.JointPair, direct tension) are tested in
+# tests/test_fracture.py, the Brazilian disc in tests/test_demos.py (short) and test_fracture.py (full)
 
 
-def test_direct_tension_case():
-    """§8.7: the peak stress of a jointed strip in direct tension equals f_t within 2 %."""
-    r = V.case_direct_tension(resolution=2)
-    assert r["error"] < 0.02, r
+# ------------------------------------------------------------------------------------------------
+# README figures (Accuracy and stability): the numbers the README quotes, at its precision
+# ------------------------------------------------------------------------------------------------
+def test_two_bar_penalty_and_safety_readme_figures():
+    """README: in the two-bar impact (40 elements) the penalty 10·E gives the smallest error,
+    0.48 % against 0.64 % at 1·E and 1.8 % at 100·E; safety 0.4 multiplies the error by 4.8
+    (2.3 %).  Held to the README's last digit: ±0.005 percentage points (±0.05 for 1.8 % and 2.3 %)."""
+    errs = {p: V.case_two_bars(resolution=40, penalty_factor=p)["error"] for p in (1.0, 10.0, 100.0)}
+    assert errs[10.0] == pytest.approx(0.0048, abs=5e-5), errs
+    assert errs[1.0] == pytest.approx(0.0064, abs=5e-5), errs
+    assert errs[100.0] == pytest.approx(0.018, abs=5e-4), errs
+    coarse = V.case_two_bars(resolution=40, safety=0.4)
+    assert coarse["error"] == pytest.approx(0.023, abs=5e-4), coarse
+    assert coarse["error"] / errs[10.0] == pytest.approx(4.8, abs=0.05)
+
+
+@pytest.mark.slow
+def test_hertz_penalty_readme_figure():
+    """README: for Hertz contact 10·E is as accurate as 100·E (2.3 % vs 2.4 %) at a third of the steps."""
+    r10 = V.case_hertz(resolution=10, penalty_factor=10.0)
+    r100 = V.case_hertz(resolution=10, penalty_factor=100.0)
+    assert r10["error"] == pytest.approx(0.023, abs=5e-4) and r100["error"] == pytest.approx(0.024, abs=5e-4)
+    assert r10["steps"] / r100["steps"] == pytest.approx(1.0 / math.sqrt(10.0), rel=0.05)   # ≈ a third
+
+
+@pytest.mark.slow
+def test_cantilever_converges_at_order_1_9_in_h():
+    """README: the cantilever converges at 1.9 in h (theory 2 for CST displacements): the
+    log-log slope of the error over 2, 4, 8, 16 elements through the depth, ±0.05."""
+    import numpy as np
+    res = [2, 4, 8, 16]
+    errs = [V.case_cantilever(resolution=n)["error"] for n in res]
+    slope = np.polyfit(np.log(1.0 / np.array(res, float)), np.log(errs), 1)[0]
+    assert slope == pytest.approx(1.9, abs=0.05), (slope, errs)
+
+
+F32_WAVE = """
+import json, taichi_fdem as fdem
+fdem.init(arch="cpu", precision="f32")
+from taichi_fdem import verification as V
+print(json.dumps({n: V.case_wave(resolution=n, precision="f32")["error"] for n in (100, 200, 400)}))
+"""
+
+
+@pytest.mark.slow
+def test_f32_fails_small_strain_wave_at_200_elements():
+    """README: f32 fails small-strain problems, wave error > 100 % at ≥ 200 elements (the 10⁻⁴
+    strain increments reach the f32 round-off of the coordinates), while f64 holds 0.4 % there.
+    f32 needs its own process (fdem.init resets Taichi)."""
+    import json
+    import subprocess
+    import sys
+    p = subprocess.run([sys.executable, "-c", F32_WAVE], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr[-2000:]
+    errs = {int(k): v for k, v in json.loads(p.stdout.strip().splitlines()[-1]).items()}
+    assert errs[200] > 1.0 and errs[400] > 1.0, errs
+    assert errs[100] < 0.03, errs                      # coarser meshes still work in f32
+    assert V.case_wave(resolution=200)["error"] < 0.004

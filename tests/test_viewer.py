@@ -1,8 +1,8 @@
 """Live viewer (taichi_fdem.viewer): a real window under Xvfb, and the no-display fallback.
 
 The window test runs the viewer in a subprocess (a crashing window system cannot take pytest
-down) against a private Xvfb server; it is skipped, with the reason, when Xvfb is missing and
-cannot be installed.
+down) against a private Xvfb server; it is skipped, with the reason, when Xvfb is missing
+(.ci/run installs it; the tests never install anything).
 """
 import os
 import shutil
@@ -31,27 +31,11 @@ def _small_sim():
 
 
 def _ensure_xvfb():
-    """Path of Xvfb, installing it with apt-get when possible; pytest.skip with the reason otherwise."""
-    exe = shutil.which("Xvfb")
-    if exe:
-        return exe
-    if not hasattr(os, "geteuid") or os.geteuid() != 0:
-        pytest.skip("Xvfb not available: not on PATH and not root (cannot apt-get install xvfb)")
-    if not shutil.which("apt-get"):
-        pytest.skip("Xvfb not available: not on PATH and no apt-get to install it")
-    env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
-    try:
-        subprocess.run(["apt-get", "install", "-y", "-qq", "xvfb"], env=env, capture_output=True, timeout=300)
-        exe = shutil.which("Xvfb")
-        if not exe:
-            subprocess.run(["apt-get", "update", "-qq"], env=env, capture_output=True, timeout=300)
-            subprocess.run(["apt-get", "install", "-y", "-qq", "xvfb"], env=env, capture_output=True,
-                           timeout=300)
-    except (subprocess.TimeoutExpired, OSError) as exc:
-        pytest.skip(f"Xvfb not available: apt-get install xvfb failed ({exc})")
+    """Path of Xvfb; pytest.skip with the reason when it is absent.  Tests never install
+    packages: .ci/run installs xvfb (apt-get) before running the suite."""
     exe = shutil.which("Xvfb")
     if not exe:
-        pytest.skip("Xvfb not available: apt-get install xvfb did not provide it")
+        pytest.skip("Xvfb not on PATH (CI installs it in .ci/run: apt-get install xvfb)")
     return exe
 
 
