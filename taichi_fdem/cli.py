@@ -205,7 +205,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="2D combined finite-discrete element simulations on Taichi: run scene files, "
                     "parameter sweeps and demos.",
         epilog="Exit codes: 0 ok, 1 simulation failure, 2 bad input.  Scene and sweep file formats: "
-               "python -c 'import taichi_fdem.scenefile as m; help(m)'.")
+               "python -c 'import taichi_fdem.io.scenefile as m; help(m)'.")
     ap.add_argument("--traceback", action="store_true", help="show Python tracebacks of failures")
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("--arch", default="cpu", choices=("cpu", "cuda", "gpu", "vulkan", "metal", "opengl"),

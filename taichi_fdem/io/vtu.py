@@ -18,8 +18,8 @@ point data
 cell data
     ``stress``: elastic Cauchy stress [Pa] as 3 components (σ_xx, σ_yy, σ_xy), from
     :meth:`Simulation.stresses` (without the viscous part);
-    ``von_mises`` [Pa]: √(σ_xx² − σ_xx σ_yy + σ_yy² + 3 σ_xy²), the in-plane form the renderer
-    uses; ``strain``: Green–Lagrange strain E = ½(FᵀF − I) (dimensionless) as 3 tensor
+    ``von_mises`` [Pa]: √(½[(σ_xx−σ_yy)² + (σ_yy−σ_zz)² + (σ_zz−σ_xx)²] + 3 σ_xy²), with
+    σ_zz = 0 in plane stress and σ_zz = ν(σ_xx + σ_yy) in plane strain (as the renderer); ``strain``: Green–Lagrange strain E = ½(FᵀF − I) (dimensionless) as 3 tensor
     components (E_xx, E_yy, E_xy) — not engineering shear; it equals the small strain
     sym(∇u) to first order; ``body_id`` and ``material_id`` (int32); ``damage`` in [0, 1]
     (the simulation's ``tri_damage()`` — or ``tri_damage`` array — when it has one, zeros
@@ -60,7 +60,13 @@ def frame_fields(sim) -> dict:
 
     T = np.asarray(sim.stresses(), dtype=np.float64)
     sxx, syy, sxy = T[:, 0, 0], T[:, 1, 1], 0.5 * (T[:, 0, 1] + T[:, 1, 0])
-    von_mises = np.sqrt(np.maximum(sxx * sxx - sxx * syy + syy * syy + 3.0 * sxy * sxy, 0.0))
+    szz = np.zeros_like(sxx)
+    scene = getattr(sim, "scene", None)
+    if getattr(scene, "plane", "stress") == "strain":     # Hooke's out-of-plane stress σ_zz = ν(σ_xx + σ_yy)
+        nu = np.array([m.poisson for m in sim.materials])[np.asarray(sim._tri_mat_np)]
+        szz = nu * (sxx + syy)
+    von_mises = np.sqrt(np.maximum(0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2)
+                                   + 3.0 * sxy * sxy, 0.0))
 
     # deformation gradient F = [x1 - x0, x2 - x0] · (rest edges)^-1, as in Simulation.stresses
     Fx = np.stack([x[tris[:, 1]] - x[tris[:, 0]], x[tris[:, 2]] - x[tris[:, 0]]], axis=2)

@@ -79,6 +79,18 @@ def _clear_kernel(img: ti.types.ndarray(), bg: _vec3f):
         img[i, j] = bg
 
 
+@ti.func
+def _finite_tri(a, b, c):
+    """All six coordinates finite: a triangle with a NaN / inf node (a blown-up run) is skipped,
+    not clamped into a band of stray pixels."""
+    ok = True
+    for v in ti.static([a, b, c]):
+        for k in ti.static(range(2)):
+            if not (ti.abs(v[k]) < ti.math.inf):       # false for NaN too
+                ok = False
+    return ok
+
+
 @ti.kernel
 def _raster_kernel(p: ti.types.ndarray(), tri: ti.types.ndarray(), col: ti.types.ndarray(),
                    img: ti.types.ndarray(), edge_col: _vec3f, half_w: ti.f32, draw_edges: ti.i32):
@@ -90,7 +102,7 @@ def _raster_kernel(p: ti.types.ndarray(), tri: ti.types.ndarray(), col: ti.types
         ia = tri[t][0]
         ib = tri[t][1]
         ic = tri[t][2]
-        if 0 <= ia < n and 0 <= ib < n and 0 <= ic < n:
+        if 0 <= ia < n and 0 <= ib < n and 0 <= ic < n and _finite_tri(p[ia], p[ib], p[ic]):
             a = p[ia]
             b = p[ib]
             c = p[ic]
@@ -149,8 +161,9 @@ def _tri_scalar_kernel(x: ti.types.ndarray(), v: ti.types.ndarray(), x0: ti.type
     """Per-triangle scalar for colouring, ``out[e]``:
 
     mode 0: speed, mean of |v| over the 3 nodes [m/s];  1: displacement, mean |x - X| [m];
-    2: von Mises stress of the in-plane elastic Cauchy stress (plane-stress form
-    sqrt(sxx^2 - sxx syy + syy^2 + 3 sxy^2)) [Pa];  3 / 4: max / min principal stress [Pa].
+    2: von Mises stress of the elastic Cauchy stress in plane stress (szz = 0) [Pa];  5: the same
+    in plane strain, with szz = nu (sxx + syy), nu = lam_Y / (2 lam_Y + mu) the material's
+    Poisson ratio [Pa];  3 / 4: max / min principal stress (in plane) [Pa].
     Stresses follow elastic.cauchy_elastic; an inverted triangle (J <= 0) gives NaN.
     """
     for e in range(tri.shape[0]):
@@ -176,8 +189,13 @@ def _tri_scalar(x: ti.template(), v: ti.template(), x0: ti.template(), tri: ti.t
                 m = tri_mat[e]
                 T = cauchy_elastic(F, J, mat_mu[m], mat_lam[m])
                 sxx, syy, sxy = T[0, 0], T[1, 1], 0.5 * (T[0, 1] + T[1, 0])
-                if mode == 2:
-                    val = ti.sqrt(ti.max(sxx * sxx - sxx * syy + syy * syy + 3.0 * sxy * sxy, 0.0))
+                if mode == 2 or mode == 5:
+                    szz = 0.0
+                    if mode == 5:       # plane strain: the out-of-plane stress of Hooke's law
+                        lam = mat_lam[m]
+                        szz = lam / (2.0 * lam + mat_mu[m]) * (sxx + syy)
+                    val = ti.sqrt(ti.max(0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2)
+                                         + 3.0 * sxy * sxy, 0.0))
                 else:
                     c = 0.5 * (sxx + syy)
                     r = ti.sqrt(0.25 * (sxx - syy) ** 2 + sxy * sxy)
@@ -271,7 +289,7 @@ def _raster_u8_kernel(x: ti.types.ndarray(), tri: ti.types.ndarray(), col: ti.ty
         ia = tri[t][0]
         ib = tri[t][1]
         ic = tri[t][2]
-        if 0 <= ia < n and 0 <= ib < n and 0 <= ic < n:
+        if 0 <= ia < n and 0 <= ib < n and 0 <= ic < n and _finite_tri(x[ia], x[ib], x[ic]):
             pa = _pix(x[ia], params)
             pb = _pix(x[ib], params)
             pc = _pix(x[ic], params)

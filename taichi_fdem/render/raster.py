@@ -26,6 +26,14 @@ from .labels import _Overlays
 __all__ = ["RendererImage"]
 
 
+def _plane_mode(kid, sim):
+    """Kernel mode of a colour mode for this simulation: von Mises (2) becomes 5 in plane strain,
+    where the out-of-plane stress σ_zz = ν(σ_xx + σ_yy) enters."""
+    if kid == 2 and getattr(getattr(sim, "scene", None), "plane", "stress") == "strain":
+        return 5
+    return kid
+
+
 class RendererImage(_Overlays):
     """Off-screen triangle rasteriser producing ``(height, width, 3)`` uint8 images.
 
@@ -345,7 +353,7 @@ class RendererImage(_Overlays):
         """The per-triangle scalar of a scalar colour mode, (m,) float64 in the mode's unit
         (m/s, m or Pa; NaN for inverted triangles), computed by a Taichi kernel."""
         mode = _check_color_by(self.color_by if color_by is None else color_by)
-        kid = COLOR_MODES[mode][0]
+        kid = _plane_mode(COLOR_MODES[mode][0], sim)
         if kid is None:
             raise ValueError(f"tri_scalars: color_by={mode!r} is not a scalar mode")
         if kid < 0:      # "damage"
@@ -434,7 +442,7 @@ class RendererImage(_Overlays):
             self.last_range = None
         else:
             # scalars and their finite range in one launch; nothing per-triangle leaves the device
-            scal, info = self._frame_scalars(sim, kid)
+            scal, info = self._frame_scalars(sim, _plane_mode(kid, sim))
             finite_any = info[2] > 0
             vmin, vmax = self.vmin, self.vmax
             if vmin is None:
