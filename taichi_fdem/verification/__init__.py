@@ -1,0 +1,32 @@
+"""Verification cases with analytic references (FDEM_SPEC §8).
+
+Each ``case_NAME(resolution=..., safety=0.2, penalty_factor=10.0, precision="f64", **kw)`` builds
+its scene, runs it and returns a dict with at least
+
+* ``error``: the relative error against the analytic value (the largest of the checked
+  quantities when several are checked),
+* ``wall``: wall-clock seconds spent stepping (inside ``Simulation.step``), ``wall_total``:
+  with the measuring (sampling, force evaluations) added; build excluded,
+* ``build``: wall seconds of ``Scene.build``, ``steps``: time steps taken, ``dt`` [s],
+* the measured and analytic values themselves.
+
+``resolution`` is the case's mesh-size knob (documented per case), ``safety`` the time-step
+fraction of the stable limit, ``penalty_factor`` the contact penalty in units of E (cases
+without contact ignore it), ``precision`` "f64" or "f32": Taichi must already be initialised
+with that precision (``fdem.init(precision=...)`` resets Taichi, so a sweep over precisions
+runs each in its own process; ``benchmarks/accuracy.py`` does).
+
+Modules: :mod:`.cases` (wave, two bars, Hertz, cantilever, rotation, incline, disks) and
+:mod:`.fracture` (joint pull, direct tension, Brazilian disc, fragmenting plate), sharing
+:mod:`._common`.
+"""
+from ._common import E, NU, RHO, _build, _centroid_velocity, _crossing, _precision, _result  # noqa: F401
+from .cases import (cantilever_deflection, case_cantilever, case_disks, case_hertz, case_incline,  # noqa: F401
+                    case_rotation, case_two_bars, case_wave, two_disks_scene)
+from .fracture import (BRAZILIAN_MATERIAL, JointPair, brazilian_load, brazilian_result, brazilian_scene,  # noqa: F401
+                       case_brazilian, case_direct_tension, case_joint_pull, fragment_plate_scene, hondros_factor)
+
+CASES = {"wave": case_wave, "two_bars": case_two_bars, "hertz": case_hertz, "cantilever": case_cantilever,
+         "rotation": case_rotation, "incline": case_incline, "disks": case_disks,
+         "joint_pull": case_joint_pull, "direct_tension": case_direct_tension,
+         "brazilian": case_brazilian}
