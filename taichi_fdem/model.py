@@ -251,6 +251,17 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     md.ctri_count = len(ctri) if md.contact else 0
     md.contact_tri = i32(ctri if md.contact else np.zeros(1, np.int32))
     md.joint_nodes = _ndarray(joint_nodes, ti.i32, vec=4)
+    md.joint_tris = _ndarray(joint_tris, ti.i32, vec=2)
+    # original (unexploded) nodes of each triangle, numbered apart from every other body's
+    origin = tris.copy()
+    md.tri_fracturing = np.zeros(len(tris), bool)
+    base = len(X)
+    for b in bodies:
+        if b.fracture and b.origin_triangles is not None:
+            origin[b.triangles] = b.origin_triangles + base
+            base += int(b.origin_triangles.max()) + 1
+            md.tri_fracturing[b.triangles] = True
+    md.tri_origin = _ndarray(origin, ti.i32, vec=3)
     md.joint_mat = i32(joint_mat)
     md.joint_fs0 = np.repeat(mat_joint[joint_mat, 1:2], 3, axis=1)     # initial shear strength c [Pa]
     md.step_dt = _scalar(md.dt, rti)
@@ -343,6 +354,9 @@ def allocate_state(md: Model) -> State:
     st.node_f = v2(np.zeros_like(md.node_rest))
     st.node_vbc = v2(md.node_vbc0 if md.has_bc else np.zeros((1, 2)))
     st.tri_diss = sc(np.zeros(md.tri_count if md.damping else 1))
+    # a triangle of a fracturing body starts intact: while it and a mesh neighbour both are, the
+    # joint's compression law carries the pair and contact is not evaluated (engine.contact)
+    st.tri_intact = i32(md.tri_fracturing.astype(np.int32))
     nj = md.joint_nodes.shape[0]
     st.joint_state = i32(np.zeros(nj))
     st.joint_dmax = _ndarray(np.zeros((nj, 3), real), rti, vec=3)

@@ -52,6 +52,7 @@ class Body:
     fracture: bool = False
     joint_nodes: Optional[np.ndarray] = None   # (k, 4) local node indices (j0, j1, j2, j3), §7.1
     joint_tris: Optional[np.ndarray] = None    # (k, 2) local triangles (A, B) of each joint
+    origin_triangles: Optional[np.ndarray] = None  # (m, 3) node indices before explode_for_fracture
 
     @property
     def nodes(self) -> slice:
@@ -167,16 +168,17 @@ class Scene:
             if fixed:
                 raise ValueError(f"{where}: give either fixed=True or prescribed_velocity, not both")
             pv = _vec2(prescribed_velocity, "prescribed_velocity", where)
-        joint_nodes = joint_tris = None
+        joint_nodes = joint_tris = origin = None
         if fracture:
             material.joint_properties()            # validates the fracture parameters early
+            origin = np.asarray(mesh.triangles, dtype=np.int32).copy()
             mesh, joint_nodes, joint_tris = explode_for_fracture(mesh)
             self_contact = True
         body = Body(index=len(self.bodies), name=name or f"body{len(self.bodies)}", mesh=mesh,
                     material=material, velocity=v, angular_velocity=w, fixed=bool(fixed),
                     prescribed_velocity=pv, self_contact=bool(self_contact),
                     node_start=self._node_count, tri_start=self._tri_count, fracture=bool(fracture),
-                    joint_nodes=joint_nodes, joint_tris=joint_tris)
+                    joint_nodes=joint_nodes, joint_tris=joint_tris, origin_triangles=origin)
         self.bodies.append(body)
         self._node_count += mesh.point_count
         self._tri_count += mesh.triangle_count

@@ -245,16 +245,17 @@ class Simulation(SimulationResults):
         """
         st, md, p = self.state, self.model, self._packs
         keep = {k: v for k, v in st.ndarrays().items()
-                if k.startswith(("step_", "joint_")) or k in ("couple_hist", "tri_diss")}
+                if k.startswith(("step_", "joint_")) or k in ("couple_hist", "tri_diss", "tri_intact")}
         saved = {k: v.to_numpy() for k, v in keep.items()}
         st.node_f.fill(0)
         if not contact_only:
             self._launch("eval_elastic", kernels.eval_elastic, p["nodes"], p["tris"], p["mats"], p["step"])
             if md.fracture:
-                self._launch("eval_joints", kernels.eval_joints, p["nodes"], p["mats"], p["joints"], p["step"])
+                self._launch("eval_joints", kernels.eval_joints, p["nodes"], p["tris"], p["mats"], p["joints"],
+                             p["step"])
         if md.contact:
             self._launch("eval_contact", kernels.eval_contact, p["nodes"], p["tris"], p["mats"], p["contact"],
-                         p["step"], md.friction)
+                         p["step"], md.friction, md.fracture)
         f = st.node_f.to_numpy().astype(np.float64) * self.thickness
         st.node_f.fill(0)
         for k, v in saved.items():
@@ -279,10 +280,11 @@ class Simulation(SimulationResults):
             kernels.eval_elastic(p["nodes"], p["tris"], p["mats"], p["step"])
             t1 = pc(); t["elastic"] += t1 - t0
             if md.fracture:
-                kernels.eval_joints(p["nodes"], p["mats"], p["joints"], p["step"])
+                kernels.eval_joints(p["nodes"], p["tris"], p["mats"], p["joints"], p["step"])
                 t0, t1 = t1, pc(); t["joints"] += t1 - t0
             if md.contact:
-                kernels.eval_contact(p["nodes"], p["tris"], p["mats"], p["contact"], p["step"], md.friction)
+                kernels.eval_contact(p["nodes"], p["tris"], p["mats"], p["contact"], p["step"], md.friction,
+                                     md.fracture)
             t2 = pc(); t["contact"] += t2 - t1
             code = kernels.integrate(p["nodes"], p["step"])
             if md.fracture:

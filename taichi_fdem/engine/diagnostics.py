@@ -4,7 +4,7 @@ import taichi as ti
 from .groups import SWITCH_DAMPING, ContactGroup, MaterialGroup, NodeGroup, StepGroup, TriGroup
 from .tiutil import vec2
 
-from .contact import boxes_overlap
+from .contact import boxes_overlap, is_bonded
 from .elastic import tri_strain_energy
 
 
@@ -80,8 +80,13 @@ def pass_potential(c0, c1, c2, t0, t1, t2):
 
 @ti.kernel
 def energy_terms(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: ContactGroup,
-                 step: StepGroup, couple_count: ti.i32, out: ti.types.ndarray(), friction: ti.template()):
-    """out = [kinetic, strain, contact (penalty + friction spring), gravity, damping dissipated], J/m."""
+                 step: StepGroup, couple_count: ti.i32, out: ti.types.ndarray(), friction: ti.template(),
+                 fracture: ti.template()):
+    """out = [kinetic, strain, contact (penalty + friction spring), gravity, damping dissipated], J/m.
+
+    Pairs bonded by intact joints (:func:`taichi_fdem.engine.contact.is_bonded`) carry no contact
+    energy, as they carry no contact force.
+    """
     for i in range(5):
         out[i] = 0.0
     g = step.step_gravity[None]
@@ -102,7 +107,10 @@ def energy_terms(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: Con
         a0, a1, a2 = nodes.node_x[na[0]], nodes.node_x[na[1]], nodes.node_x[na[2]]
         b0, b1, b2 = nodes.node_x[nb[0]], nodes.node_x[nb[1]], nodes.node_x[nb[2]]
         prop = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]]
-        if boxes_overlap(a0, a1, a2, b0, b1, b2):
+        bonded = False
+        if ti.static(fracture):
+            bonded = is_bonded(A, B, tris)
+        if not bonded and boxes_overlap(a0, a1, a2, b0, b1, b2):
             out[2] += prop[0] * (pass_potential(b0, b1, b2, a0, a1, a2) + pass_potential(a0, a1, a2, b0, b1, b2))
         if ti.static(friction):
             for q in ti.static(range(6)):

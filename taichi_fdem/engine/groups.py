@@ -12,7 +12,9 @@ group      members
 nodes      x [m], v [m/s], f [N/m] (vec2); mass [kg/m]; free (vec2: 1 free, 0 prescribed per
            component); vbc (vec2, prescribed velocity [m/s])
 tris       nodes (vec3 i32); rest_inv (2×2, F0⁻¹ [1/m]; A0 = ½ / det F0⁻¹); mat, body (i32);
-           visc (viscous coefficient k_s [Pa·s]); diss (damping work [J/m])
+           visc (viscous coefficient k_s [Pa·s]); diss (damping work [J/m]); origin (vec3 i32: the
+           nodes before a fracturing body was exploded, globally numbered: mesh neighbours share
+           one); intact (1 while every joint of a fracturing triangle is undamaged, else 0)
 mats       mu, lam (Lamé μ, λ_Y [Pa]); pair ((M, M) vec4: penalty p [Pa], tangential penalty
            k_t [Pa/m], friction μ, normal damping c_n); joint ((M,) vec6: f_t, c, tan φ, G_I,
            G_II, p_f)
@@ -21,7 +23,7 @@ contact    ctri (contact triangles), body_flags (bit 0 self-contact, bit 1 fully
            detection scratch circle (vec3: bounding-circle centre [m], radius [m]), bin (ivec2:
            hashed cell, slot in it), bucket (ivec2: first, count), sorted_k, cnew (counts, then
            their exclusive prefix), old_start, old_b, old_hist (the previous couples)
-joints     nodes (vec4 i32), mat; state (0 intact, else the failure mode at breakage), dmax
+joints     nodes (vec4 i32), tris (ivec2: triangles A, B), mat; state (0 intact, else the failure mode at breakage), dmax
            (vec3), fs (vec3 [Pa]), work [J/m], brk (vec3: time, x, y), g (vec4: nodal forces [N/m])
 step       parameters set by the host: dt [s], gravity (vec2 [m/s²]), buffer [m], vlimit [m/s],
            switches (runtime feature bits, :data:`SWITCH_DAMPING` ...: one compiled variant);
@@ -52,12 +54,13 @@ def _group(*names):
 
 
 NODE_MEMBERS = ("node_x", "node_v", "node_f", "node_mass", "node_free", "node_vbc")
-TRI_MEMBERS = ("tri_nodes", "tri_rest_inv", "tri_mat", "tri_body", "tri_visc", "tri_diss")
+TRI_MEMBERS = ("tri_nodes", "tri_rest_inv", "tri_mat", "tri_body", "tri_visc", "tri_diss", "tri_origin",
+               "tri_intact")
 MAT_MEMBERS = ("mat_mu", "mat_lam", "mat_pair", "mat_joint")
 CONTACT_MEMBERS = ("contact_tri", "body_flags", "couple_a", "couple_b", "couple_hist", "couple_start", "det_circle",
                    "det_bin", "det_bucket", "det_sorted_k", "det_cnew", "det_old_start", "det_old_b", "det_old_hist")
-JOINT_MEMBERS = ("joint_nodes", "joint_mat", "joint_state", "joint_dmax", "joint_fs", "joint_work", "joint_break",
-                 "joint_g")
+JOINT_MEMBERS = ("joint_nodes", "joint_tris", "joint_mat", "joint_state", "joint_dmax", "joint_fs", "joint_work",
+                 "joint_break", "joint_g")
 STEP_PARAMS = ("step_dt", "step_gravity", "step_buffer", "step_vlimit", "step_switches")
 STEP_COUNTERS = ("step_real", "step_int")
 STEP_MEMBERS = STEP_PARAMS + STEP_COUNTERS

@@ -39,8 +39,13 @@ def parabola(r):
 
 
 @ti.func
-def eval_joint(j, joints: ti.template(), mats: ti.template(), nodes: ti.template(), step: ti.template()):
+def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(), nodes: ti.template(),
+               step: ti.template()):
     """Forces of intact joint j added to nodes.node_f; damage, shear strength and breakage updated.
+
+    Once the joint has any damage (or breaks), its two triangles stop being ``intact``: from
+    then on contact is evaluated for their couples with mesh neighbours (see
+    :func:`taichi_fdem.engine.contact.is_bonded`).
 
     The nodal forces g0 (on the pair j0/j3) and g1 (on j1/j2) are kept in joints.joint_g[j] so that
     :func:`add_joint_work` can book their work over the step with the new velocities.
@@ -84,10 +89,11 @@ def eval_joint(j, joints: ti.template(), mats: ti.template(), nodes: ti.template
             if D >= 1.0:
                 failed += 1
                 D = 1.0
-            z = 0.0
+            z = 1.0                                   # z(0) = 1: no exp / pow while undamaged
             if D >= dmax[p]:
                 dmax[p] = D
-                z = softening_z(D)
+                if D > 0.0:
+                    z = softening_z(D)
             else:                                     # unloading from a damaged state (§7.8)
                 z = softening_z(dmax[p]) * (dp + D * dn) / (dp + dmax[p] * dn)
             sigma = 0.0
@@ -108,6 +114,13 @@ def eval_joint(j, joints: ti.template(), mats: ti.template(), nodes: ti.template
             trac[p, 1] = t[1]
         joints.joint_dmax[j] = dmax
         joints.joint_fs[j] = fsv
+        if failed >= 2 or dmax[0] > 0.0 or dmax[1] > 0.0 or dmax[2] > 0.0:
+            # damage has started: contact takes over from the joint's compression law for the
+            # couples of both triangles (while the overlap is still the small elastic one)
+            jt = joints.joint_tris[j]
+            for k in ti.static(range(2)):
+                if tris.tri_intact[jt[k]] != 0:
+                    tris.tri_intact[jt[k]] = 0
         if failed >= 2:
             # broken for good: record when, where and how (§7.8); re-detect contacts at once (§7.10)
             mode = MODE_MIXED

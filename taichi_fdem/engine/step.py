@@ -103,9 +103,10 @@ def phase_elastic(nodes: ti.template(), tris: ti.template(), mats: ti.template()
 
 
 @ti.func
-def phase_joints(nodes: ti.template(), mats: ti.template(), joints: ti.template(), step: ti.template()):
+def phase_joints(nodes: ti.template(), tris: ti.template(), mats: ti.template(), joints: ti.template(),
+                 step: ti.template()):
     for j in range(joints.joint_nodes.shape[0]):
-        eval_joint(j, joints, mats, nodes, step)
+        eval_joint(j, joints, tris, mats, nodes, step)
 
 
 @ti.func
@@ -116,9 +117,9 @@ def phase_joint_work(nodes: ti.template(), joints: ti.template(), step: ti.templ
 
 @ti.func
 def phase_contact(nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
-                  step: ti.template(), friction: ti.template()):
+                  step: ti.template(), friction: ti.template(), fracture: ti.template()):
     for c in range(step.step_int[COUPLES]):
-        eval_couple(c, nodes, tris, mats, con, step, friction)
+        eval_couple(c, nodes, tris, mats, con, step, friction, fracture)
 
 
 @ti.func
@@ -151,9 +152,9 @@ def phases_forces_integrate(nodes: ti.template(), tris: ti.template(), mats: ti.
     """Phases 2–6 of a step."""
     phase_elastic(nodes, tris, mats, step)
     if ti.static(fracture):
-        phase_joints(nodes, mats, joints, step)
+        phase_joints(nodes, tris, mats, joints, step)
     if ti.static(contact):
-        phase_contact(nodes, tris, mats, con, step, friction)
+        phase_contact(nodes, tris, mats, con, step, friction, fracture)
     phase_integrate(nodes, step)
     if ti.static(fracture):
         phase_joint_work(nodes, joints, step)
@@ -225,14 +226,14 @@ def eval_elastic(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, step: St
 
 
 @ti.kernel
-def eval_joints(nodes: NodeGroup, mats: MaterialGroup, joints: JointGroup, step: StepGroup):
-    phase_joints(nodes, mats, joints, step)
+def eval_joints(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, joints: JointGroup, step: StepGroup):
+    phase_joints(nodes, tris, mats, joints, step)
 
 
 @ti.kernel
 def eval_contact(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: ContactGroup, step: StepGroup,
-                 friction: ti.template()):
-    phase_contact(nodes, tris, mats, con, step, friction)
+                 friction: ti.template(), fracture: ti.template()):
+    phase_contact(nodes, tris, mats, con, step, friction, fracture)
 
 
 @ti.kernel
