@@ -101,6 +101,7 @@ def restore(sim, snap: dict) -> None:
                 raise RuntimeError(f"restore_last_good: array {k} shrank since the saved state")
         cur.from_numpy(saved)
     sim.step_count = snap["step_count"]
+    sim._after_restore()
 
 
 # ---- run-time checks -----------------------------------------------------------------------------

@@ -398,26 +398,38 @@ def grow_couples(md: Model, st: State, capacity: int) -> None:
     st.couple_max = capacity
 
 
-def allocate_scratch(md: Model, st: State) -> Scratch:
-    """Detection work arrays sized for the model's contact triangles and the state's couple buffer."""
+def allocate_scratch(md: Model, st: State, parallel: bool = False) -> Scratch:
+    """Detection work arrays sized for the model's contact triangles and the state's couple
+    buffer, and (``parallel``) the force slots and node lists of the parallel strategy."""
     rti = backend.real_ti()
     sw = Scratch()
+    sw.parallel = bool(parallel)
     K = md.ctri_count if md.contact else 1
     H = _next_pow2(2 * K) if md.contact else 1
     sw.det_circle = ti.Vector.ndarray(3, rti, shape=K)
-    sw.det_bin = ti.Vector.ndarray(2, ti.i32, shape=K)
+    sw.det_sort = ti.Vector.ndarray(3, ti.i32, shape=K)
     sw.det_bucket = ti.Vector.ndarray(2, ti.i32, shape=H)
-    for name, n in (("sorted_k", K), ("cnew", K + 1), ("old_start", K + 1 if md.friction else 1)):
+    for name, n in (("cnew", K + 1), ("old_start", K + 1 if md.friction else 1)):
         setattr(sw, "det_" + name, ti.ndarray(ti.i32, shape=n))
-    size_old_couples(md, st, sw)
+    sw.asm_node_start = ti.ndarray(ti.i32, shape=md.node_count + 1 if parallel else 1)
+    size_couple_scratch(md, st, sw)
     return sw
 
 
-def size_old_couples(md: Model, st: State, sw: Scratch) -> None:
-    """The previous-couple copies used to carry friction history over match the couple buffer."""
+def size_couple_scratch(md: Model, st: State, sw: Scratch) -> None:
+    """Scratch sized by the couple buffer: the previous-couple copies that carry friction history
+    over and, for the parallel strategy, the force slots (3 per triangle, 6 per couple) and the
+    node lists (3 per triangle, 4 per joint, 6 per couple)."""
     cap = st.couple_max
     sw.det_old_b = ti.ndarray(ti.i32, shape=cap if md.friction else 1)
     sw.det_old_hist = ti.ndarray(backend.real_ti(), shape=6 * cap if md.friction else 1)
+    if sw.parallel:
+        ncap = cap if md.contact else 0
+        sw.asm_force = ti.Vector.ndarray(2, backend.real_ti(), shape=3 * md.tri_count + 6 * ncap)
+        sw.asm_node_slots = ti.ndarray(ti.i32, shape=3 * md.tri_count + 4 * md.joint_count + 6 * ncap)
+    else:
+        sw.asm_force = ti.Vector.ndarray(2, backend.real_ti(), shape=1)
+        sw.asm_node_slots = ti.ndarray(ti.i32, shape=1)
 
 
 def pack_groups(md: Model, st: State, sw: Scratch) -> dict:

@@ -30,7 +30,7 @@ from .engine.diagnostics import overlap_areas
 from .guards import SimulationError
 from .engine.groups import COUPLES, DACC, DETECTIONS, FOUND
 from .model import (allocate_scratch, allocate_state, build_model, counter, grow_couples, pack_groups,
-                    size_old_couples)
+                    size_couple_scratch)
 from .results import SimulationResults
 from .timestep import CONTACT_LIMIT_FACTOR  # noqa: F401  (re-exported)
 
@@ -81,11 +81,11 @@ class Simulation(SimulationResults):
                                  speed_limit=speed_limit)
         self.bodies = self.model.bodies
         self.state = allocate_state(self.model)
-        self.scratch = allocate_scratch(self.model, self.state)
-        self._repack()
         if strategy == "auto":
             strategy = "serial" if backend.arch() == "cpu" else "parallel"
         self.strategy = strategy
+        self.scratch = allocate_scratch(self.model, self.state, parallel=strategy == "parallel")
+        self._repack()
         self.step_count = 0
         self.launches: dict[str, int] = {}
         self._stats = {"wall_steps": 0.0, "wall_detect": 0.0}
@@ -93,6 +93,8 @@ class Simulation(SimulationResults):
             self._detect()
             if check_overlap:
                 self._warn_overlaps()
+        elif strategy == "parallel":
+            self._build_node_slots()             # no contact: the node lists never change
 
     # ------------------------------------------------------------------------------------------
     # model / state access
@@ -113,17 +115,27 @@ class Simulation(SimulationResults):
         """Rebuild the argpacks (after an array of the state was reallocated)."""
         self._packs = pack_groups(self.model, self.state, self.scratch)
         p = self._packs
-        self._groups = (p["nodes"], p["tris"], p["mats"], p["contact"], p["joints"], p["step"])
+        # the groups each step kernel takes, in order
+        self._groups = {"serial": (p["nodes"], p["tris"], p["mats"], p["contact"], p["detect"], p["joints"], p["step"]),
+                        "parallel": (p["nodes"], p["tris"], p["mats"], p["contact"], p["joints"], p["step"], p["asm"])}
 
     def _after_restore(self) -> None:
-        """Re-derive scratch sizes and argpacks after the state was replaced (checkpoint load)."""
-        size_old_couples(self.model, self.state, self.scratch)
+        """Re-derive scratch sizes, argpacks and node lists after the state was replaced
+        (checkpoint load, restore_last_good)."""
+        size_couple_scratch(self.model, self.state, self.scratch)
         self._repack()
+        if self.strategy == "parallel":
+            self._build_node_slots()
 
     def _grow_couples(self, capacity: int) -> None:
         grow_couples(self.model, self.state, capacity)
-        size_old_couples(self.model, self.state, self.scratch)
+        size_couple_scratch(self.model, self.state, self.scratch)
         self._repack()
+
+    def _build_node_slots(self) -> None:
+        p = self._packs
+        self._launch("build_node_slots", kernels.build_node_slots, p["tris"], p["contact"], p["joints"], p["step"],
+                     p["asm"], self.model.contact, self.model.fracture)
 
     _alloc_couples = _grow_couples
 
@@ -163,11 +175,15 @@ class Simulation(SimulationResults):
     def _detect(self) -> None:
         t0 = _time.perf_counter()
         p = self._packs
-        found = self._launch("detect_count", kernels.detect_count, p["nodes"], p["tris"], p["contact"], p["step"])
+        found = self._launch("detect_count", kernels.detect_count, p["nodes"], p["tris"], p["detect"], p["contact"],
+                             p["step"])
         if found > self.state.couple_max:
             self._grow_couples(int(found * 1.5) + 64)
             p = self._packs
-        self._launch("detect_fill", kernels.detect_fill, p["tris"], p["contact"], p["step"], self.model.friction)
+        self._launch("detect_fill", kernels.detect_fill, p["tris"], p["detect"], p["contact"], p["step"],
+                     self.model.friction)
+        if self.strategy == "parallel":
+            self._build_node_slots()
         self._stats["wall_detect"] += _time.perf_counter() - t0
 
     def _warn_overlaps(self) -> None:
@@ -214,7 +230,7 @@ class Simulation(SimulationResults):
         for _ in range(n):
             if due:
                 self._detect()
-            code = self._launch("step_parallel", kernels.step_parallel, *self._groups, *switches)
+            code = self._launch("step_parallel", kernels.step_parallel, *self._groups["parallel"], *switches)
             self.step_count += 1
             due = self.model.contact and bool(code & 1)
             if code & 2:
@@ -225,7 +241,7 @@ class Simulation(SimulationResults):
         per_launch = self.steps_per_launch()
         while n > 0:
             chunk = min(n, per_launch)
-            done = self._launch("run_steps_serial", kernels.run_steps_serial, chunk, *self._groups, *switches)
+            done = self._launch("run_steps_serial", kernels.run_steps_serial, chunk, *self._groups["serial"], *switches)
             unstable = done >= kernels.UNSTABLE_BIT
             done &= kernels.UNSTABLE_BIT - 1
             self.step_count += done
@@ -288,7 +304,7 @@ class Simulation(SimulationResults):
             t2 = pc(); t["contact"] += t2 - t1
             code = kernels.integrate(p["nodes"], p["step"])
             if md.fracture:
-                kernels.book_joint_work(p["nodes"], p["joints"], p["step"])
+                kernels.book_joint_work(p["nodes"], p["tris"], p["joints"], p["step"])
             t["integration"] += pc() - t2
             self.step_count += 1
             due = md.contact and bool(code & 1)

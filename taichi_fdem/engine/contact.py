@@ -246,18 +246,19 @@ def is_bonded(A, B, tris: ti.template()):
 
 
 @ti.func
-def eval_couple(c, nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
-                step: ti.template(), friction: ti.template(), fracture: ti.template()):
-    """Contact forces of couple c (both passes) added to nodes.f (§2.3.2 COUPLE).
-
-    With fracture, a pair bonded by intact joints (:func:`is_bonded`) is skipped.
-    """
+def couple_forces(c, nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
+                  step: ti.template(), friction: ti.template(), fracture: ti.template()):
+    """Contact forces of couple c (both passes, §2.3.2 COUPLE): (gA, gB), 3×2 matrices whose row r
+    is the force [N/m] on node r of triangle A, B.  Zero for a pair bonded by intact joints
+    (:func:`is_bonded`, fracture only) and for pairs whose boxes do not overlap."""
     A = con.couple_a[c]
     B = con.couple_b[c]
     na = tris.tri_nodes[A]
     nb = tris.tri_nodes[B]
     a0, a1, a2 = nodes.node_x[na[0]], nodes.node_x[na[1]], nodes.node_x[na[2]]
     b0, b1, b2 = nodes.node_x[nb[0]], nodes.node_x[nb[1]], nodes.node_x[nb[2]]
+    gA = ti.Matrix.zero(float, 3, 2)
+    gB = ti.Matrix.zero(float, 3, 2)
     bonded = False
     if ti.static(fracture):
         bonded = is_bonded(A, B, tris)
@@ -280,8 +281,6 @@ def eval_couple(c, nodes: ti.template(), tris: ti.template(), mats: ti.template(
                 VB[r, 0], VB[r, 1] = vb[0], vb[1]
         # pass 0: contactor B, target A; pass 1: contactor A, target B (a runtime loop: one
         # copy of the pass code, which keeps compile time down)
-        gA = ti.Matrix.zero(float, 3, 2)
-        gB = ti.Matrix.zero(float, 3, 2)
         for ps in range(2):
             C, U, T, W = XB, VB, XA, VA
             if ps == 1:
@@ -294,10 +293,20 @@ def eval_couple(c, nodes: ti.template(), tris: ti.template(), mats: ti.template(
             else:
                 gA += gC
                 gB += gT
-        for r in ti.static(range(3)):
-            ti.atomic_add(nodes.node_f[na[r]], vec2(gA[r, 0], gA[r, 1]))
-            ti.atomic_add(nodes.node_f[nb[r]], vec2(gB[r, 0], gB[r, 1]))
     else:
         if ti.static(friction):
             for s in ti.static(range(6)):
                 con.couple_hist[c * 6 + s] = 0.0
+    return gA, gB
+
+
+@ti.func
+def eval_couple(c, nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
+                step: ti.template(), friction: ti.template(), fracture: ti.template()):
+    """Add the contact forces of couple c (:func:`couple_forces`) to nodes.node_f."""
+    gA, gB = couple_forces(c, nodes, tris, mats, con, step, friction, fracture)
+    na = tris.tri_nodes[con.couple_a[c]]
+    nb = tris.tri_nodes[con.couple_b[c]]
+    for r in ti.static(range(3)):
+        ti.atomic_add(nodes.node_f[na[r]], vec2(gA[r, 0], gA[r, 1]))
+        ti.atomic_add(nodes.node_f[nb[r]], vec2(gB[r, 0], gB[r, 1]))

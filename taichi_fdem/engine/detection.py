@@ -35,13 +35,13 @@ def hash_cell(ix, iy, H):
 
 
 @ti.func
-def prepare_circle(k, con: ti.template(), tris: ti.template(), nodes: ti.template(), step: ti.template()):
+def prepare_circle(k, det: ti.template(), tris: ti.template(), nodes: ti.template(), step: ti.template()):
     """Bounding circle of contact triangle k; the largest radius into step_real[RMAX]."""
-    n = tris.tri_nodes[con.contact_tri[k]]
+    n = tris.tri_nodes[det.contact_tri[k]]
     x0, x1, x2 = nodes.node_x[n[0]], nodes.node_x[n[1]], nodes.node_x[n[2]]
     c = (x0 + x1 + x2) / 3.0
     r = ti.sqrt(ti.max((x0 - c).norm_sqr(), ti.max((x1 - c).norm_sqr(), (x2 - c).norm_sqr())))
-    con.det_circle[k] = ti.Vector([c[0], c[1], r], dt=float)
+    det.det_circle[k] = ti.Vector([c[0], c[1], r], dt=float)
     ti.atomic_max(step.step_real[RMAX], r)
 
 
@@ -52,17 +52,18 @@ def cell_size(step: ti.template()):
 
 
 @ti.func
-def bin_circle(k, con: ti.template(), step: ti.template()):
+def bin_circle(k, det: ti.template(), step: ti.template()):
     """Hashed cell of contact triangle k and its slot in the cell (counting sort, pass 1)."""
-    H = con.det_bucket.shape[0]
-    ck = con.det_circle[k]
+    H = det.det_bucket.shape[0]
+    ck = det.det_circle[k]
     ix, iy = cell_of(vec2(ck[0], ck[1]), cell_size(step))
     h = hash_cell(ix, iy, H)
-    con.det_bin[k] = ti.Vector([h, ti.atomic_add(con.det_bucket[h][1], 1)])
+    det.det_sort[k][0] = h
+    det.det_sort[k][1] = ti.atomic_add(det.det_bucket[h][1], 1)
 
 
 @ti.func
-def is_excluded(ta, tb, tris: ti.template(), con: ti.template()):
+def is_excluded(ta, tb, tris: ti.template(), det: ti.template()):
     """Couples only between triangles that may touch (§2.3.3).
 
     body_flags[b] bit 0: self-contact allowed; bit 1: every node of the body is fixed.
@@ -75,9 +76,9 @@ def is_excluded(ta, tb, tris: ti.template(), con: ti.template()):
     ba = tris.tri_body[ta]
     bb = tris.tri_body[tb]
     excluded = False
-    if ba == bb and (con.body_flags[ba] & 1) == 0:
+    if ba == bb and (det.body_flags[ba] & 1) == 0:
         excluded = True
-    elif (con.body_flags[ba] & 2) != 0 and (con.body_flags[bb] & 2) != 0:
+    elif (det.body_flags[ba] & 2) != 0 and (det.body_flags[bb] & 2) != 0:
         excluded = True
     else:
         na = tris.tri_nodes[ta]
@@ -90,20 +91,20 @@ def is_excluded(ta, tb, tris: ti.template(), con: ti.template()):
 
 
 @ti.func
-def scan_partners(k, count_only: ti.template(), con: ti.template(), tris: ti.template(), step: ti.template(),
-                  out_start, friction: ti.template()):
+def scan_partners(k, count_only: ti.template(), det: ti.template(), con: ti.template(), tris: ti.template(),
+                  step: ti.template(), out_start, friction: ti.template()):
     """Find the couples (k, k2), k2 > k, of contact triangle k.
 
     With count_only, returns their number; otherwise writes them from out_start on (and, with
     friction, copies the slip history of couples that existed at the previous detection).
     """
-    H = con.det_bucket.shape[0]
+    H = det.det_bucket.shape[0]
     d = cell_size(step)
     b = step.step_buffer[None]
-    cc = con.det_circle[k]
+    cc = det.det_circle[k]
     ck = vec2(cc[0], cc[1])
     rk = cc[2]
-    ta = con.contact_tri[k]
+    ta = det.contact_tri[k]
     ix, iy = cell_of(ck, d)
     found = 0
     seen = ti.Vector([-1, -1, -1, -1, -1, -1, -1, -1, -1])
@@ -115,16 +116,16 @@ def scan_partners(k, count_only: ti.template(), con: ti.template(), tris: ti.tem
                 dup = True
         seen[s] = h
         if not dup:
-            bk = con.det_bucket[h]
+            bk = det.det_bucket[h]
             for m in range(bk[0], bk[0] + bk[1]):
-                k2 = con.det_sorted_k[m]
+                k2 = det.det_sort[m][2]
                 if k2 > k:
-                    c2 = con.det_circle[k2]
+                    c2 = det.det_circle[k2]
                     dc = vec2(c2[0], c2[1]) - ck
                     reach = rk + c2[2] + b
                     if dc.norm_sqr() < reach * reach:
-                        tb = con.contact_tri[k2]
-                        if not is_excluded(ta, tb, tris, con):
+                        tb = det.contact_tri[k2]
+                        if not is_excluded(ta, tb, tris, det):
                             if ti.static(not count_only):
                                 c = out_start + found
                                 con.couple_a[c] = ta
@@ -132,9 +133,9 @@ def scan_partners(k, count_only: ti.template(), con: ti.template(), tris: ti.tem
                                 if ti.static(friction):
                                     for q in ti.static(range(6)):
                                         con.couple_hist[6 * c + q] = 0.0
-                                    for co in range(con.det_old_start[k], con.det_old_start[k + 1]):
-                                        if con.det_old_b[co] == tb:
+                                    for co in range(det.det_old_start[k], det.det_old_start[k + 1]):
+                                        if det.det_old_b[co] == tb:
                                             for q in ti.static(range(6)):
-                                                con.couple_hist[6 * c + q] = con.det_old_hist[6 * co + q]
+                                                con.couple_hist[6 * c + q] = det.det_old_hist[6 * co + q]
                             found += 1
     return found

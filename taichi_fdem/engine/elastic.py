@@ -36,16 +36,19 @@ def strain_energy_density(F, J, mu, lam):
 
 
 @ti.func
-def eval_tri_elastic(e, nodes: ti.template(), tris: ti.template(), mats: ti.template(), step: ti.template()):
-    """Add the internal nodal forces of triangle e to nodes.node_f (§3.5: f_i += ½ T n_i).
+def tri_forces(e, nodes: ti.template(), tris: ti.template(), mats: ti.template(), step: ti.template()):
+    """The internal nodal forces (f0, f1, f2) [N/m] of triangle e (§3.5: f_i = ½ T n_i).
 
     With the damping switch on, the viscous stress k_s D is added and its dissipated work
     k_s (D:D) A Δt is accumulated in tris.tri_diss[e] [J/m].  A non-positive J flags
-    step_int[INVERTED] (1 + triangle index) and contributes no force.
+    step_int[INVERTED] (1 + triangle index) and gives zero forces.
     """
     n = tris.tri_nodes[e]
     x0, x1, x2 = nodes.node_x[n[0]], nodes.node_x[n[1]], nodes.node_x[n[2]]
     Fx, F, J = deformation(x0, x1, x2, tris.tri_rest_inv[e])
+    f0 = vec2(0.0, 0.0)
+    f1 = vec2(0.0, 0.0)
+    f2 = vec2(0.0, 0.0)
     if J <= 0.0:
         ti.atomic_max(step.step_int[INVERTED], e + 1)
     else:
@@ -61,12 +64,20 @@ def eval_tri_elastic(e, nodes: ti.template(), tris: ti.template(), mats: ti.temp
             area = 0.5 * Fx.determinant()
             tris.tri_diss[e] += ks * (D[0, 0] ** 2 + 2.0 * D[0, 1] ** 2 + D[1, 1] ** 2) * area * step.step_dt[None]
         # n_i = (y_k − y_j, x_j − x_k), (i, j, k) cyclic: outward normal of the edge opposite i
-        n0 = vec2(x2[1] - x1[1], x1[0] - x2[0])
-        n1 = vec2(x0[1] - x2[1], x2[0] - x0[0])
-        n2 = vec2(x1[1] - x0[1], x0[0] - x1[0])
-        ti.atomic_add(nodes.node_f[n[0]], 0.5 * (T @ n0))
-        ti.atomic_add(nodes.node_f[n[1]], 0.5 * (T @ n1))
-        ti.atomic_add(nodes.node_f[n[2]], 0.5 * (T @ n2))
+        f0 = 0.5 * (T @ vec2(x2[1] - x1[1], x1[0] - x2[0]))
+        f1 = 0.5 * (T @ vec2(x0[1] - x2[1], x2[0] - x0[0]))
+        f2 = 0.5 * (T @ vec2(x1[1] - x0[1], x0[0] - x1[0]))
+    return f0, f1, f2
+
+
+@ti.func
+def eval_tri_elastic(e, nodes: ti.template(), tris: ti.template(), mats: ti.template(), step: ti.template()):
+    """Add the internal nodal forces of triangle e (:func:`tri_forces`) to nodes.node_f."""
+    f0, f1, f2 = tri_forces(e, nodes, tris, mats, step)
+    n = tris.tri_nodes[e]
+    ti.atomic_add(nodes.node_f[n[0]], f0)
+    ti.atomic_add(nodes.node_f[n[1]], f1)
+    ti.atomic_add(nodes.node_f[n[2]], f2)
 
 
 @ti.func

@@ -18,11 +18,14 @@ tris       nodes (vec3 i32); rest_inv (2×2, F0⁻¹ [1/m]; A0 = ½ / det F0⁻�
 mats       mu, lam (Lamé μ, λ_Y [Pa]); pair ((M, M) vec4: penalty p [Pa], tangential penalty
            k_t [Pa/m], friction μ, normal damping c_n); joint ((M,) vec6: f_t, c, tan φ, G_I,
            G_II, p_f)
-contact    ctri (contact triangles), body_flags (bit 0 self-contact, bit 1 fully fixed);
-           couples a, b, hist (6 slip values per couple [m]), start (first couple of each ctri);
-           detection scratch circle (vec3: bounding-circle centre [m], radius [m]), bin (ivec2:
-           hashed cell, slot in it), bucket (ivec2: first, count), sorted_k, cnew (counts, then
-           their exclusive prefix), old_start, old_b, old_hist (the previous couples)
+contact    the couples: a, b (triangles), hist (6 slip values per couple [m])
+detect     ctri (contact triangles), body_flags (bit 0 self-contact, bit 1 fully fixed), start
+           (first couple of each ctri); scratch: circle (vec3: bounding-circle centre [m], radius
+           [m]), sort (ivec3 per contact triangle k: hashed cell of k, slot of k in it, and the k at
+           sorted position k), bucket (ivec2: first, count), cnew (counts, then their exclusive
+           prefix; cnew[K] = couples found), old_start, old_b, old_hist (the previous couples)
+asm        force slots of the parallel strategy (no atomics): force (vec2: 3 per triangle, then 6
+           per couple [N/m]), node_start (N+1) and node_slots (each node's slots, sorted)
 joints     nodes (vec4 i32), tris (ivec2: triangles A, B), mat; state (0 intact, else the failure mode at breakage), dmax
            (vec3), fs (vec3 [Pa]), work [J/m], brk (vec3: time, x, y), g (vec4: nodal forces [N/m])
 step       parameters set by the host: dt [s], gravity (vec2 [m/s²]), buffer [m], vlimit [m/s],
@@ -57,8 +60,10 @@ NODE_MEMBERS = ("node_x", "node_v", "node_f", "node_mass", "node_free", "node_vb
 TRI_MEMBERS = ("tri_nodes", "tri_rest_inv", "tri_mat", "tri_body", "tri_visc", "tri_diss", "tri_origin",
                "tri_intact")
 MAT_MEMBERS = ("mat_mu", "mat_lam", "mat_pair", "mat_joint")
-CONTACT_MEMBERS = ("contact_tri", "body_flags", "couple_a", "couple_b", "couple_hist", "couple_start", "det_circle",
-                   "det_bin", "det_bucket", "det_sorted_k", "det_cnew", "det_old_start", "det_old_b", "det_old_hist")
+CONTACT_MEMBERS = ("couple_a", "couple_b", "couple_hist")
+DETECT_MEMBERS = ("contact_tri", "body_flags", "couple_start", "det_circle", "det_sort", "det_bucket", "det_cnew",
+                  "det_old_start", "det_old_b", "det_old_hist")
+ASSEMBLY_MEMBERS = ("asm_force", "asm_node_start", "asm_node_slots")
 JOINT_MEMBERS = ("joint_nodes", "joint_tris", "joint_mat", "joint_state", "joint_dmax", "joint_fs", "joint_work",
                  "joint_break", "joint_g")
 STEP_PARAMS = ("step_dt", "step_gravity", "step_buffer", "step_vlimit", "step_switches")
@@ -69,6 +74,8 @@ NodeGroup = _group(*NODE_MEMBERS)
 TriGroup = _group(*TRI_MEMBERS)
 MaterialGroup = _group(*MAT_MEMBERS)
 ContactGroup = _group(*CONTACT_MEMBERS)
+DetectGroup = _group(*DETECT_MEMBERS)
+AssemblyGroup = _group(*ASSEMBLY_MEMBERS)
 JointGroup = _group(*JOINT_MEMBERS)
 StepGroup = _group(*STEP_MEMBERS)
 
@@ -76,8 +83,9 @@ StepGroup = _group(*STEP_MEMBERS)
 # the state or the scratch (prefix-first: node_x, tri_nodes, couple_a, step_dt): Taichi flattens
 # argpack members into one namespace per kernel, so they must be unique across groups.
 GROUPS = {"nodes": (NodeGroup, NODE_MEMBERS), "tris": (TriGroup, TRI_MEMBERS), "mats": (MaterialGroup, MAT_MEMBERS),
-          "contact": (ContactGroup, CONTACT_MEMBERS), "joints": (JointGroup, JOINT_MEMBERS),
-          "step": (StepGroup, STEP_MEMBERS)}
+          "contact": (ContactGroup, CONTACT_MEMBERS), "detect": (DetectGroup, DETECT_MEMBERS),
+          "joints": (JointGroup, JOINT_MEMBERS), "step": (StepGroup, STEP_MEMBERS),
+          "asm": (AssemblyGroup, ASSEMBLY_MEMBERS)}
 
 # Stored in step.dacc to force a contact detection at the next step.
 DACC_FORCE = 1e30
@@ -103,14 +111,21 @@ WORK_BOUNDARY = 6   # work done on the system by prescribed velocities [J/m]
 REAL_COUNTERS = 8   # length of step_real (spare components for new work terms)
 # step_int:
 COUPLES = 0         # couples in the list
-FOUND = 1           # couples found by the last count pass
+FOUND = 1           # couples found by the last count pass (also det_cnew[K])
 NONFINITE = 2       # 1 + a node whose position or velocity is not finite (0: none)
 INVERTED = 3        # 1 + a triangle with non-positive area (0: none)
 DETECTIONS = 4      # detections run
 BROKEN = 5          # joints broken so far
 INT_COUNTERS = 8    # length of step_int
 
-# argument leaves of the serial step kernel (nsteps + 6 argpacks + their members); at most 64
-LEAVES_SERIAL = 1 + sum(1 + len(m) for m in (NODE_MEMBERS, TRI_MEMBERS, MAT_MEMBERS, CONTACT_MEMBERS,
-                                             JOINT_MEMBERS, STEP_MEMBERS))
-assert LEAVES_SERIAL <= 64, LEAVES_SERIAL
+def _leaves(*groups):
+    return sum(1 + len(m) for m in groups)
+
+
+# argument leaves of the serial step kernel (nsteps + 7 argpacks + their members) and of the
+# parallel step kernel (6 argpacks, no detection scratch, plus the assembly slots); at most 64
+LEAVES_SERIAL = 1 + _leaves(NODE_MEMBERS, TRI_MEMBERS, MAT_MEMBERS, CONTACT_MEMBERS, DETECT_MEMBERS, JOINT_MEMBERS,
+                            STEP_MEMBERS)
+LEAVES_PARALLEL = _leaves(NODE_MEMBERS, TRI_MEMBERS, MAT_MEMBERS, CONTACT_MEMBERS, JOINT_MEMBERS, STEP_MEMBERS,
+                          ASSEMBLY_MEMBERS)
+assert LEAVES_SERIAL <= 64 and LEAVES_PARALLEL <= 64, (LEAVES_SERIAL, LEAVES_PARALLEL)

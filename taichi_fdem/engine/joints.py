@@ -39,13 +39,11 @@ def parabola(r):
 
 
 @ti.func
-def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(), nodes: ti.template(),
-               step: ti.template()):
-    """Forces of intact joint j added to nodes.node_f; damage, shear strength and breakage updated.
-
-    Once the joint has any damage (or breaks), its two triangles stop being ``intact``: from
-    then on contact is evaluated for their couples with mesh neighbours (see
-    :func:`taichi_fdem.engine.contact.is_bonded`).
+def eval_joint(j, joints: ti.template(), mats: ti.template(), nodes: ti.template(), step: ti.template(),
+               scatter: ti.template()):
+    """Forces of intact joint j (added to nodes.node_f when ``scatter``; always kept in
+    joints.joint_g, which the parallel strategy gathers); damage, shear strength and breakage
+    updated.
 
     The nodal forces g0 (on the pair j0/j3) and g1 (on j1/j2) are kept in joints.joint_g[j] so that
     :func:`add_joint_work` can book their work over the step with the new velocities.
@@ -114,13 +112,6 @@ def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(
             trac[p, 1] = t[1]
         joints.joint_dmax[j] = dmax
         joints.joint_fs[j] = fsv
-        if failed >= 2 or dmax[0] > 0.0 or dmax[1] > 0.0 or dmax[2] > 0.0:
-            # damage has started: contact takes over from the joint's compression law for the
-            # couples of both triangles (while the overlap is still the small elastic one)
-            jt = joints.joint_tris[j]
-            for k in ti.static(range(2)):
-                if tris.tri_intact[jt[k]] != 0:
-                    tris.tri_intact[jt[k]] = 0
         if failed >= 2:
             # broken for good: record when, where and how (§7.8); re-detect contacts at once (§7.10)
             mode = MODE_MIXED
@@ -147,10 +138,11 @@ def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(
             t1 = vec2(trac[2, 0], trac[2, 1])
             g0 = (L / 6.0) * (t0 + 2.0 * tm)          # on the pair (j0, j3)
             g1 = (L / 6.0) * (2.0 * tm + t1)          # on the pair (j1, j2)
-            ti.atomic_add(nodes.node_f[nd[0]], -g0)
-            ti.atomic_add(nodes.node_f[nd[1]], -g1)
-            ti.atomic_add(nodes.node_f[nd[2]], g1)
-            ti.atomic_add(nodes.node_f[nd[3]], g0)
+            if ti.static(scatter):
+                ti.atomic_add(nodes.node_f[nd[0]], -g0)
+                ti.atomic_add(nodes.node_f[nd[1]], -g1)
+                ti.atomic_add(nodes.node_f[nd[2]], g1)
+                ti.atomic_add(nodes.node_f[nd[3]], g0)
             joints.joint_g[j] = ti.Vector([g0[0], g0[1], g1[0], g1[1]], dt=float)
             # work over the step, central estimate g·(x_{n+1} − x_{n−1})/2: the half with the old
             # velocities here, the half with the new ones in add_joint_work
@@ -160,8 +152,20 @@ def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(
 
 
 @ti.func
-def add_joint_work(j, joints: ti.template(), nodes: ti.template(), step: ti.template()):
-    """Second half of the work done on joint j over the step (see :func:`eval_joint`) [J/m]."""
+def add_joint_work(j, joints: ti.template(), tris: ti.template(), nodes: ti.template(), step: ti.template()):
+    """Second half of the work done on joint j over the step (see :func:`eval_joint`) [J/m].
+
+    Also, at the end of the step: once the joint has any damage (or is broken), its two
+    triangles stop being ``intact``; from the next step on, contact is evaluated for their
+    couples with corner neighbours (:func:`taichi_fdem.engine.contact.is_bonded`).  Marking it
+    here, after every force of the step, keeps the serial and parallel strategies identical.
+    """
+    dm = joints.joint_dmax[j]
+    if joints.joint_state[j] != 0 or dm[0] > 0.0 or dm[1] > 0.0 or dm[2] > 0.0:
+        jt = joints.joint_tris[j]
+        for k in ti.static(range(2)):
+            if tris.tri_intact[jt[k]] != 0:
+                tris.tri_intact[jt[k]] = 0
     g = joints.joint_g[j]
     if g[0] != 0.0 or g[1] != 0.0 or g[2] != 0.0 or g[3] != 0.0:
         nd = joints.joint_nodes[j]

@@ -8,16 +8,21 @@ A step is a list of phases, each a ``@ti.func`` made of loops over one kind of e
 3. cohesive joint forces, fracture only (:func:`phase_joints`);
 4. contact forces of the couples (:func:`phase_contact`);
 5. integration of the nodes (:func:`phase_integrate`);
-6. the second half of the joints' work (:func:`phase_joint_work`).
+6. the second half of the joints' work, and the end of intact bonds (:func:`phase_joint_work`).
 
-Called at the top level of a kernel a phase's loops are parallel; called inside the serialised
-step loop of :func:`run_steps_serial` they run serially.  So one body of maths serves both
-strategies:
+The maths of each phase is one function per entity (``elastic.tri_forces``,
+``joints.eval_joint``, ``contact.couple_forces``, ``integrate.integrate_node``) shared by
+both strategies:
 
-* **parallel** (large scenes, GPUs): one launch per step runs the force phases and the
-  integration as parallel loops; detection runs in two launches when the buffer is used up.
-* **serial** (small scenes, bound by launch overhead): one launch runs up to thousands of steps
-  in a serial loop, detection included.
+* **serial** (default on the CPU for small and mid-size scenes): one launch runs up to
+  thousands of steps in a serialised loop, detection included; forces are added to
+  ``node_f`` directly.
+* **parallel** (large scenes, several cores, GPUs): per step, one launch with three parallel
+  loops and no atomic float add: (a) every triangle, joint and couple writes its nodal forces
+  into its own slots (:func:`phase_slots`); (b) every node sums its slots through a sorted
+  list (:func:`phase_gather_integrate`, the list rebuilt at each detection by
+  :func:`build_node_slots`) and integrates; (c) the joints' work.  Sums run in a fixed order,
+  so results are bit-identical from run to run and for any thread count.
 
 Every kernel takes the array groups of :mod:`taichi_fdem.engine.groups`.  ``contact``,
 ``friction`` and ``fracture`` are compile-time switches (absent features are not compiled);
@@ -25,17 +30,19 @@ damping, contact damping and prescribed velocities are runtime switches in the s
 """
 import taichi as ti
 
-from .contact import eval_couple
+from .tiutil import vec2
+
+from .contact import couple_forces, eval_couple
 from .detection import bin_circle, prepare_circle, scan_partners
-from .elastic import eval_tri_elastic
-from .groups import (COUPLES, DACC, DETECTIONS, FOUND, INVERTED, NONFINITE, RMAX, VMAX, ContactGroup, JointGroup,
-                     MaterialGroup, NodeGroup, StepGroup, TriGroup)
-from .integrate import integrate_nodes
+from .elastic import eval_tri_elastic, tri_forces
+from .groups import (COUPLES, DACC, DETECTIONS, FOUND, INVERTED, NONFINITE, RMAX, VMAX, AssemblyGroup, ContactGroup,
+                     DetectGroup, JointGroup, MaterialGroup, NodeGroup, StepGroup, TriGroup)
+from .integrate import integrate_nodes, integrate_nodes_gathered
 from .joints import add_joint_work, eval_joint
 
 UNSTABLE_BIT = 1 << 24   # added to run_steps_serial's return value (steps per launch < 2^24)
 
-__all__ = ["UNSTABLE_BIT", "detect_count", "detect_fill", "step_parallel", "run_steps_serial",
+__all__ = ["UNSTABLE_BIT", "detect_count", "detect_fill", "build_node_slots", "step_parallel", "run_steps_serial",
            "eval_elastic", "eval_joints", "eval_contact", "integrate", "book_joint_work"]
 
 
@@ -43,53 +50,55 @@ __all__ = ["UNSTABLE_BIT", "detect_count", "detect_fill", "step_parallel", "run_
 # phases
 # ---------------------------------------------------------------------------------------------
 @ti.func
-def phase_detect_count(nodes: ti.template(), tris: ti.template(), con: ti.template(), step: ti.template()):
-    """Bounding circles, counting sort and couple count; con.det_cnew = exclusive prefix of counts."""
-    K = con.contact_tri.shape[0]
-    H = con.det_bucket.shape[0]
+def phase_detect_count(nodes: ti.template(), tris: ti.template(), det: ti.template(), con: ti.template(),
+                       step: ti.template()):
+    """Bounding circles, counting sort and couple count; det.det_cnew = exclusive prefix of counts."""
+    K = det.contact_tri.shape[0]
+    H = det.det_bucket.shape[0]
     for _ in range(1):
         step.step_real[RMAX] = 0.0
     for k in range(K):
-        prepare_circle(k, con, tris, nodes, step)
+        prepare_circle(k, det, tris, nodes, step)
     for h in range(H):
-        con.det_bucket[h] = ti.Vector([0, 0])
+        det.det_bucket[h] = ti.Vector([0, 0])
     for k in range(K):
-        bin_circle(k, con, step)
+        bin_circle(k, det, step)
     for _ in range(1):
         s = 0
         for h in range(H):
-            con.det_bucket[h][0] = s
-            s += con.det_bucket[h][1]
+            det.det_bucket[h][0] = s
+            s += det.det_bucket[h][1]
     for k in range(K):
-        bn = con.det_bin[k]
-        con.det_sorted_k[con.det_bucket[bn[0]][0] + bn[1]] = k
+        bn = det.det_sort[k]
+        det.det_sort[det.det_bucket[bn[0]][0] + bn[1]][2] = k
     for k in range(K):
-        con.det_cnew[k] = scan_partners(k, True, con, tris, step, 0, False)
+        det.det_cnew[k] = scan_partners(k, True, det, con, tris, step, 0, False)
     for _ in range(1):
         s = 0
         for k in range(K):              # counts -> exclusive prefix, in place
-            n = con.det_cnew[k]
-            con.det_cnew[k] = s
+            n = det.det_cnew[k]
+            det.det_cnew[k] = s
             s += n
-        con.det_cnew[K] = s
+        det.det_cnew[K] = s
         step.step_int[FOUND] = s
 
 
 @ti.func
-def phase_detect_fill(tris: ti.template(), con: ti.template(), step: ti.template(), friction: ti.template()):
+def phase_detect_fill(tris: ti.template(), det: ti.template(), con: ti.template(), step: ti.template(),
+                      friction: ti.template()):
     """Write the couples counted by :func:`phase_detect_count` (capacity already checked)."""
-    K = con.contact_tri.shape[0]
+    K = det.contact_tri.shape[0]
     if ti.static(friction):
         # keep the previous couples and their slip history to carry it over (§4.1, §9.4)
         for k in range(K + 1):
-            con.det_old_start[k] = con.couple_start[k]
-            con.couple_start[k] = con.det_cnew[k]
+            det.det_old_start[k] = det.couple_start[k]
+            det.couple_start[k] = det.det_cnew[k]
         for c in range(step.step_int[COUPLES]):
-            con.det_old_b[c] = con.couple_b[c]
+            det.det_old_b[c] = con.couple_b[c]
             for q in ti.static(range(6)):
-                con.det_old_hist[6 * c + q] = con.couple_hist[6 * c + q]
+                det.det_old_hist[6 * c + q] = con.couple_hist[6 * c + q]
     for k in range(K):
-        scan_partners(k, False, con, tris, step, con.det_cnew[k], friction)
+        scan_partners(k, False, det, con, tris, step, det.det_cnew[k], friction)
     for _ in range(1):
         step.step_int[COUPLES] = step.step_int[FOUND]
         step.step_int[DETECTIONS] += 1
@@ -106,13 +115,13 @@ def phase_elastic(nodes: ti.template(), tris: ti.template(), mats: ti.template()
 def phase_joints(nodes: ti.template(), tris: ti.template(), mats: ti.template(), joints: ti.template(),
                  step: ti.template()):
     for j in range(joints.joint_nodes.shape[0]):
-        eval_joint(j, joints, tris, mats, nodes, step)
+        eval_joint(j, joints, mats, nodes, step, True)
 
 
 @ti.func
-def phase_joint_work(nodes: ti.template(), joints: ti.template(), step: ti.template()):
+def phase_joint_work(nodes: ti.template(), tris: ti.template(), joints: ti.template(), step: ti.template()):
     for j in range(joints.joint_nodes.shape[0]):
-        add_joint_work(j, joints, nodes, step)
+        add_joint_work(j, joints, tris, nodes, step)
 
 
 @ti.func
@@ -157,38 +166,157 @@ def phases_forces_integrate(nodes: ti.template(), tris: ti.template(), mats: ti.
         phase_contact(nodes, tris, mats, con, step, friction, fracture)
     phase_integrate(nodes, step)
     if ti.static(fracture):
-        phase_joint_work(nodes, joints, step)
+        phase_joint_work(nodes, tris, joints, step)
+
+
+@ti.func
+def phase_slots(nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
+                joints: ti.template(), step: ti.template(), asm: ti.template(), contact: ti.template(),
+                friction: ti.template(), fracture: ti.template()):
+    """Phases 2–4 of the parallel strategy as one parallel loop over triangles, joints and couples:
+    each writes its nodal forces into its own slots (triangle t: asm_force[3t + r]; couple c:
+    asm_force[3T + 6c + r], rows of A then B; joint j: joint_g[j]), never adding to a node."""
+    T = tris.tri_nodes.shape[0]
+    J = 0
+    C = 0
+    if ti.static(fracture):
+        J = joints.joint_nodes.shape[0]
+    if ti.static(contact):
+        C = step.step_int[COUPLES]
+    for item in range(T + J + C):
+        if item < T:
+            f0, f1, f2 = tri_forces(item, nodes, tris, mats, step)
+            asm.asm_force[3 * item] = f0
+            asm.asm_force[3 * item + 1] = f1
+            asm.asm_force[3 * item + 2] = f2
+        elif item < T + J:
+            if ti.static(fracture):
+                eval_joint(item - T, joints, mats, nodes, step, False)
+        else:
+            if ti.static(contact):
+                c = item - T - J
+                gA, gB = couple_forces(c, nodes, tris, mats, con, step, friction, fracture)
+                base = 3 * T + 6 * c
+                for r in ti.static(range(3)):
+                    asm.asm_force[base + r] = vec2(gA[r, 0], gA[r, 1])
+                    asm.asm_force[base + 3 + r] = vec2(gB[r, 0], gB[r, 1])
+
+
+@ti.func
+def phase_gather_integrate(nodes: ti.template(), tris: ti.template(), joints: ti.template(), step: ti.template(),
+                           asm: ti.template()):
+    """Phase 5 of the parallel strategy: each node sums its slots in list order, then integrates."""
+    integrate_nodes_gathered(nodes, tris, joints, step, asm)
+
+
+@ti.func
+def phases_parallel(nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
+                    joints: ti.template(), step: ti.template(), asm: ti.template(), contact: ti.template(),
+                    friction: ti.template(), fracture: ti.template()):
+    """Phases 2–6 of a step in the parallel strategy (no atomic float add)."""
+    phase_slots(nodes, tris, mats, con, joints, step, asm, contact, friction, fracture)
+    phase_gather_integrate(nodes, tris, joints, step, asm)
+    if ti.static(fracture):
+        phase_joint_work(nodes, tris, joints, step)
 
 
 # ---------------------------------------------------------------------------------------------
 # kernels
 # ---------------------------------------------------------------------------------------------
 @ti.kernel
-def detect_count(nodes: NodeGroup, tris: TriGroup, con: ContactGroup, step: StepGroup) -> ti.i32:
+def detect_count(nodes: NodeGroup, tris: TriGroup, det: DetectGroup, con: ContactGroup, step: StepGroup) -> ti.i32:
     """Parallel broad phase, first half; returns the number of couples found."""
-    phase_detect_count(nodes, tris, con, step)
+    phase_detect_count(nodes, tris, det, con, step)
     return step.step_int[FOUND]
 
 
 @ti.kernel
-def detect_fill(tris: TriGroup, con: ContactGroup, step: StepGroup, friction: ti.template()):
+def detect_fill(tris: TriGroup, det: DetectGroup, con: ContactGroup, step: StepGroup, friction: ti.template()):
     """Parallel broad phase, second half: write the couples."""
-    phase_detect_fill(tris, con, step, friction)
+    phase_detect_fill(tris, det, con, step, friction)
+
+
+@ti.kernel
+def build_node_slots(tris: TriGroup, con: ContactGroup, joints: JointGroup, step: StepGroup, asm: AssemblyGroup,
+                     contact: ti.template(), fracture: ti.template()):
+    """Each node's list of force slots (parallel strategy), sorted: rebuilt after every detection.
+
+    Counting sort by node (integer atomics only), then each node's short list sorted by slot, so
+    the gather sums in the same order whatever the thread count.
+    """
+    N = asm.asm_node_start.shape[0] - 1
+    T = tris.tri_nodes.shape[0]
+    for i in range(N + 1):
+        asm.asm_node_start[i] = 0
+    for e in range(T):
+        n = tris.tri_nodes[e]
+        for r in ti.static(range(3)):
+            ti.atomic_add(asm.asm_node_start[n[r] + 1], 1)
+    if ti.static(fracture):
+        for j in range(joints.joint_nodes.shape[0]):
+            n = joints.joint_nodes[j]
+            for r in ti.static(range(4)):
+                ti.atomic_add(asm.asm_node_start[n[r] + 1], 1)
+    if ti.static(contact):
+        for c in range(step.step_int[COUPLES]):
+            na = tris.tri_nodes[con.couple_a[c]]
+            nb = tris.tri_nodes[con.couple_b[c]]
+            for r in ti.static(range(3)):
+                ti.atomic_add(asm.asm_node_start[na[r] + 1], 1)
+                ti.atomic_add(asm.asm_node_start[nb[r] + 1], 1)
+    for _ in range(1):
+        for i in range(1, N + 1):
+            asm.asm_node_start[i] += asm.asm_node_start[i - 1]           # asm.asm_node_start[i]: first slot of node i
+    for e in range(T):
+        n = tris.tri_nodes[e]
+        for r in ti.static(range(3)):
+            asm.asm_node_slots[ti.atomic_add(asm.asm_node_start[n[r]], 1)] = 3 * e + r
+    if ti.static(fracture):
+        for j in range(joints.joint_nodes.shape[0]):
+            n = joints.joint_nodes[j]
+            for r in ti.static(range(4)):
+                asm.asm_node_slots[ti.atomic_add(asm.asm_node_start[n[r]], 1)] = -1 - (4 * j + r)
+    if ti.static(contact):
+        for c in range(step.step_int[COUPLES]):
+            na = tris.tri_nodes[con.couple_a[c]]
+            nb = tris.tri_nodes[con.couple_b[c]]
+            base = 3 * T + 6 * c
+            for r in ti.static(range(3)):
+                asm.asm_node_slots[ti.atomic_add(asm.asm_node_start[na[r]], 1)] = base + r
+                asm.asm_node_slots[ti.atomic_add(asm.asm_node_start[nb[r]], 1)] = base + 3 + r
+    for _ in range(1):
+        for i0 in range(N):                    # asm.asm_node_start[i] now ends node i: shift back
+            i = N - i0
+            asm.asm_node_start[i] = asm.asm_node_start[i - 1]
+        asm.asm_node_start[0] = 0
+    for i in range(N):
+        lo = asm.asm_node_start[i]
+        hi = asm.asm_node_start[i + 1]
+        for a in range(lo + 1, hi):            # insertion sort: lists are short
+            key = asm.asm_node_slots[a]
+            b = a - 1
+            while b >= lo:
+                if asm.asm_node_slots[b] > key:
+                    asm.asm_node_slots[b + 1] = asm.asm_node_slots[b]
+                    b -= 1
+                else:
+                    break
+            asm.asm_node_slots[b + 1] = key
 
 
 @ti.kernel
 def step_parallel(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: ContactGroup, joints: JointGroup,
-                  step: StepGroup, contact: ti.template(), friction: ti.template(),
+                  step: StepGroup, asm: AssemblyGroup, contact: ti.template(), friction: ti.template(),
                   fracture: ti.template()) -> ti.i32:
-    """One step, each phase a parallel loop.  Returns :func:`status_code`."""
-    phases_forces_integrate(nodes, tris, mats, con, joints, step, contact, friction, fracture)
+    """One step in three parallel loops without atomic float adds.  Returns :func:`status_code`."""
+    phases_parallel(nodes, tris, mats, con, joints, step, asm, contact, friction, fracture)
     return status_code(step)
 
 
 @ti.kernel
 def run_steps_serial(nsteps: ti.i32, nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: ContactGroup,
-                     joints: JointGroup, step: StepGroup, contact: ti.template(), friction: ti.template(),
-                     fracture: ti.template()) -> ti.i32:
+                     det: DetectGroup, joints: JointGroup, step: StepGroup, contact: ti.template(),
+                     friction: ti.template(), fracture: ti.template()) -> ti.i32:
     """Up to ``nsteps`` whole steps, detection included, in one serial loop (small scenes).
 
     Stops early, before the step that needs it, when the couple buffer is too small (the
@@ -202,11 +330,11 @@ def run_steps_serial(nsteps: ti.i32, nodes: NodeGroup, tris: TriGroup, mats: Mat
         stop = 0
         if ti.static(contact):
             if step.step_real[DACC] >= step.step_buffer[None]:
-                phase_detect_count(nodes, tris, con, step)
+                phase_detect_count(nodes, tris, det, con, step)
                 if step.step_int[FOUND] > con.couple_a.shape[0]:
                     stop = 1                    # the host grows the buffer to step_int[FOUND]
                 else:
-                    phase_detect_fill(tris, con, step, friction)
+                    phase_detect_fill(tris, det, con, step, friction)
         if stop == 0:
             phases_forces_integrate(nodes, tris, mats, con, joints, step, contact, friction, fracture)
             done += 1
@@ -243,5 +371,5 @@ def integrate(nodes: NodeGroup, step: StepGroup) -> ti.i32:
 
 
 @ti.kernel
-def book_joint_work(nodes: NodeGroup, joints: JointGroup, step: StepGroup):
-    phase_joint_work(nodes, joints, step)
+def book_joint_work(nodes: NodeGroup, tris: TriGroup, joints: JointGroup, step: StepGroup):
+    phase_joint_work(nodes, tris, joints, step)
