@@ -248,9 +248,10 @@ def is_bonded(A, B, tris: ti.template()):
 @ti.func
 def couple_forces(c, nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
                   step: ti.template(), friction: ti.template(), fracture: ti.template()):
-    """Contact forces of couple c (both passes, §2.3.2 COUPLE): (gA, gB), 3×2 matrices whose row r
-    is the force [N/m] on node r of triangle A, B.  Zero for a pair bonded by intact joints
-    (:func:`is_bonded`, fracture only) and for pairs whose boxes do not overlap."""
+    """Contact forces of couple c (both passes, §2.3.2 COUPLE): (gA, gB, hit); gA, gB are 3×2
+    matrices whose row r is the force [N/m] on node r of triangle A, B.  ``hit`` is False, and the
+    forces zero, for a pair bonded by intact joints (:func:`is_bonded`, fracture only) and for
+    pairs whose boxes do not overlap (the common cheap case)."""
     A = con.couple_a[c]
     B = con.couple_b[c]
     na = tris.tri_nodes[A]
@@ -262,7 +263,8 @@ def couple_forces(c, nodes: ti.template(), tris: ti.template(), mats: ti.templat
     bonded = False
     if ti.static(fracture):
         bonded = is_bonded(A, B, tris)
-    if not bonded and boxes_overlap(a0, a1, a2, b0, b1, b2):
+    hit = not bonded and boxes_overlap(a0, a1, a2, b0, b1, b2)
+    if hit:
         prop = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]]      # (p, k_t, μ_f, c_n)
         cdamping = step.step_switches[None] & SWITCH_CDAMPING
         dt = step.step_dt[None]
@@ -297,16 +299,18 @@ def couple_forces(c, nodes: ti.template(), tris: ti.template(), mats: ti.templat
         if ti.static(friction):
             for s in ti.static(range(6)):
                 con.couple_hist[c * 6 + s] = 0.0
-    return gA, gB
+    return gA, gB, hit
 
 
 @ti.func
 def eval_couple(c, nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
                 step: ti.template(), friction: ti.template(), fracture: ti.template()):
-    """Add the contact forces of couple c (:func:`couple_forces`) to nodes.node_f."""
-    gA, gB = couple_forces(c, nodes, tris, mats, con, step, friction, fracture)
-    na = tris.tri_nodes[con.couple_a[c]]
-    nb = tris.tri_nodes[con.couple_b[c]]
-    for r in ti.static(range(3)):
-        ti.atomic_add(nodes.node_f[na[r]], vec2(gA[r, 0], gA[r, 1]))
-        ti.atomic_add(nodes.node_f[nb[r]], vec2(gB[r, 0], gB[r, 1]))
+    """Add the contact forces of couple c (:func:`couple_forces`) to nodes.node_f (nothing to add
+    for the many couples whose boxes do not overlap)."""
+    gA, gB, hit = couple_forces(c, nodes, tris, mats, con, step, friction, fracture)
+    if hit:
+        na = tris.tri_nodes[con.couple_a[c]]
+        nb = tris.tri_nodes[con.couple_b[c]]
+        for r in ti.static(range(3)):
+            ti.atomic_add(nodes.node_f[na[r]], vec2(gA[r, 0], gA[r, 1]))
+            ti.atomic_add(nodes.node_f[nb[r]], vec2(gB[r, 0], gB[r, 1]))

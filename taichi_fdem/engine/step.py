@@ -195,7 +195,7 @@ def phase_slots(nodes: ti.template(), tris: ti.template(), mats: ti.template(), 
         else:
             if ti.static(contact):
                 c = item - T - J
-                gA, gB = couple_forces(c, nodes, tris, mats, con, step, friction, fracture)
+                gA, gB, hit = couple_forces(c, nodes, tris, mats, con, step, friction, fracture)
                 base = 3 * T + 6 * c
                 for r in ti.static(range(3)):
                     asm.asm_force[base + r] = vec2(gA[r, 0], gA[r, 1])
