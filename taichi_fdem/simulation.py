@@ -71,14 +71,14 @@ class Simulation(SimulationResults):
         return cls.checkpoint_io
 
     def __init__(self, scene, dt=None, safety=0.2, force_dt=False, buffer=None, strategy="auto",
-                 check_overlap=True, speed_limit=None):
+                 check_overlap=True, speed_limit=None, quasi_static=0.0):
         backend.ensure_init()
         if strategy not in ("auto", "serial", "parallel"):
             raise ValueError(f"Scene.build: strategy must be 'auto', 'serial' or 'parallel', got {strategy!r}")
         self.scene = scene
         self.thickness = scene.thickness
         self.model = build_model(scene, dt=dt, safety=safety, force_dt=force_dt, buffer=buffer,
-                                 speed_limit=speed_limit)
+                                 speed_limit=speed_limit, quasi_static=quasi_static)
         self.bodies = self.model.bodies
         self.state = allocate_state(self.model)
         self.scratch = allocate_scratch(self.model, self.state)
@@ -147,11 +147,12 @@ class Simulation(SimulationResults):
         return counter(self.state.step_int, DETECTIONS)
 
     def _switches(self):
-        # contact, friction and fracture are compile-time switches (their code is large: absent
-        # features are not compiled); damping, contact damping and prescribed velocities are
-        # runtime switches in the step group (a branch each), which keeps compiled variants few
+        # contact, friction, fracture, loads and the local damping are compile-time switches
+        # (absent features are not compiled: a scene without them runs the code it always ran);
+        # damping, contact damping, prescribed velocities and initial stress are runtime switches
+        # in the step group (a branch each), which keeps compiled variants few
         md = self.model
-        return md.contact, md.friction, md.fracture
+        return md.contact, md.friction, md.fracture, md.loads, md.local_damping
 
     def steps_per_launch(self) -> int:
         """Steps one serial launch runs (~50 ms of work): the chunk of :meth:`run` without frames."""
@@ -286,9 +287,13 @@ class Simulation(SimulationResults):
                 kernels.eval_contact(p["nodes"], p["tris"], p["mats"], p["contact"], p["step"], md.friction,
                                      md.fracture)
             t2 = pc(); t["contact"] += t2 - t1
-            code = kernels.integrate(p["nodes"], p["step"])
+            if md.loads:
+                kernels.eval_loads(p["nodes"], p["step"])
+            code = kernels.integrate(p["nodes"], p["step"], md.local_damping)
             if md.fracture:
                 kernels.book_joint_work(p["nodes"], p["joints"], p["step"])
+            if md.loads:
+                kernels.book_loads_work(p["nodes"], p["step"])
             t["integration"] += pc() - t2
             self.step_count += 1
             due = md.contact and bool(code & 1)
