@@ -142,7 +142,9 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
 
     # ---- boundary conditions -----------------------------------------------------------------
     curves = _Curves()
-    free, vbc, body_flags, vcurve, md.bc_groups = _boundary_conditions(scene, bodies, X, curves)
+    free, vbc, body_flags, vcurve, groups = _boundary_conditions(scene, bodies, X, curves)
+    md.bc_group_labels = [g[0] for g in groups]          # reactions recorded by the history
+    md.bc_group_masks = np.array([g[1] for g in groups], bool).reshape(len(groups), len(X))
     md.has_bc = bool(np.any(free == 0.0))
     md.has_bc_work = bool(np.any((free == 0.0) & (vbc != 0.0)))
     vbc_raw = vbc

@@ -155,6 +155,12 @@ class Curve:
     def __call__(self, t):
         return np.interp(t, self.times, self.values)
 
+    def __eq__(self, other):
+        return (isinstance(other, Curve) and self.name == other.name and np.array_equal(self.times, other.times)
+                and np.array_equal(self.values, other.values))
+
+    __hash__ = object.__hash__
+
     def __repr__(self):
         return f"Curve({len(self.times)} points, t = {self.times[0]:g}…{self.times[-1]:g} s)"
 
