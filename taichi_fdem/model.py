@@ -431,8 +431,9 @@ def _load_table(scene, bodies, X, mass, dt, curves, free, vbc_raw, vcurve):
                     dash[j] += 0.5 * zp * l0
         if len(rows) == n0:
             raise ValueError(f"{what}: the predicate selects no {'node' if kind == LOAD_FORCE else 'boundary edge'}"
-                             f"{' of ' + ld.body.name if ld.body is not None else ''} (an edge needs both its "
-                             "nodes selected, on initial coordinates)")
+                             f"{' of ' + ld.body.name if ld.body is not None else ''}"
+                             f"{'' if kind == LOAD_FORCE else ' (an edge needs both its nodes selected)'}"
+                             " (initial coordinates)")
         if not np.all(np.isfinite(vals[n0:])):
             raise ValueError(f"{what}: the load is not finite")
     if np.any(dash > 0):
