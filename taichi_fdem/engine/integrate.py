@@ -1,24 +1,57 @@
 """Explicit central-difference integration of the nodes (FDEM_SPEC §6.1), with prescribed
-velocities, the instability checks and the re-detection trigger D_acc (§4.1)."""
+velocities and their reactions (§12.3), the local (quasi-static) damping, the instability checks
+and the re-detection trigger D_acc (§4.1).
+
+Local non-viscous damping (Cundall 1987; the "local damping" of Itasca's PFC/UDEC/3DEC): with
+the quasi-static option, each free component d of a node receives the extra force
+``F_d = −α |F_d^unbal| sign(v_d)``, where F^unbal = f + m g is the unbalanced force and v the
+velocity of the last half step.  It damps every mode alike (its strength is a fraction α of the
+force that drives the motion, not a viscosity tied to a frequency) and vanishes for steady
+motion (no unbalanced force), so a body at equilibrium or sliding steadily is not resisted; it
+is meant for reaching static equilibrium, not for dynamics.  Its work is booked in
+step_real[WORK_LOCAL].
+"""
 import taichi as ti
 
-from .groups import DACC, NONFINITE, SWITCH_BC, SWITCH_BC_WORK, TIME, VMAX, WORK_BOUNDARY
+from .groups import DACC, NONFINITE, QS_ALPHA, SWITCH_BC, SWITCH_BC_WORK, TIME, VMAX, WORK_BOUNDARY, WORK_LOCAL
 from .tiutil import vec2
 
 CHUNK = 256   # nodes per chunk in reductions (one atomic per chunk, not per node)
 
 
 @ti.func
-def integrate_node(i, f, nodes: ti.template(), step: ti.template(), dt, g, bc, bc_work):
-    """Central difference for node i under the total force f [N/m]: v += Δt (f/m + g),
-    prescribed velocities, x += Δt v, node_f = 0.  Returns (|v|², constraint work [J/m], bad)
-    where bad = i + 1 if the new state is not finite."""
+def _sign(x):
+    s = 0.0
+    if x > 0.0:
+        s = 1.0
+    elif x < 0.0:
+        s = -1.0
+    return s
+
+
+@ti.func
+def integrate_node(i, f, nodes: ti.template(), dt, g, bc, bc_work, alpha, local_damping: ti.template()):
+    """Central difference for node i under the total force f [N/m]: v += Δt (f/m + g), the local
+    damping (compile time ``local_damping``, coefficient α), prescribed velocities and their
+    reaction R = (1 − free)(m (v_b − v)/Δt − f − m g) in nodes.node_react[i] (§12.3),
+    x += Δt v, node_f = 0.  Returns (|v|², constraint work, local-damping work [J/m], bad) where
+    bad = i + 1 if the new state is not finite."""
     m = nodes.node_mass[i]
     v = nodes.node_v[i] + dt * (f / m + g)
+    local = 0.0
+    if ti.static(local_damping):
+        v0 = nodes.node_v[i]
+        F = f + m * g
+        fd = -alpha * vec2(ti.abs(F[0]) * _sign(v0[0]), ti.abs(F[1]) * _sign(v0[1]))
+        if bc != 0:
+            fd *= nodes.node_free[i]          # prescribed components are not damped
+        v += (dt / m) * fd
+        local = -dt * fd.dot(v)
     work = 0.0
     if bc != 0:
         free = nodes.node_free[i]
         vb = nodes.node_vbc[i]
+        nodes.node_react[i] = (1.0 - free) * (m * (vb - nodes.node_v[i]) / dt - f - m * g)
         if bc_work != 0:
             # work of the constraint force R = m (v_b − v_free)/Δt over x_{n+1} − x_n = Δt v_b
             work = ((1.0 - free) * m * (vb - v)).dot(vb)
@@ -31,47 +64,11 @@ def integrate_node(i, f, nodes: ti.template(), step: ti.template(), dt, g, bc, b
     bad = 0
     if not (s < 1e200) or not (ti.abs(x[0]) < 1e200 and ti.abs(x[1]) < 1e200):
         bad = i + 1
-    return s, work, bad
+    return s, work, local, bad
 
 
 @ti.func
-def _integrate_all(nodes: ti.template(), tris: ti.template(), joints: ti.template(), step: ti.template(),
-                   asm: ti.template(), gathered: ti.template()):
-    N = nodes.node_x.shape[0]
-    dt = step.step_dt[None]
-    g = step.step_gravity[None]
-    bc = step.step_switches[None] & SWITCH_BC
-    bc_work = step.step_switches[None] & SWITCH_BC_WORK
-    for _ in range(1):
-        step.step_real[VMAX] = 0.0
-    for chunk in range((N + CHUNK - 1) // CHUNK):
-        vmax2 = 0.0
-        bad = 0
-        work = 0.0
-        for i in range(chunk * CHUNK, ti.min(N, chunk * CHUNK + CHUNK)):
-            f = nodes.node_f[i]
-            if ti.static(gathered):
-                # the node's slots, in the sorted order of build_node_slots: a fixed summation order
-                T = tris.tri_nodes.shape[0]
-                for a in range(asm.asm_node_start[i], asm.asm_node_start[i + 1]):
-                    f += _slot_force(asm.asm_node_slots[a], T, joints, asm)
-            s, w, b = integrate_node(i, f, nodes, step, dt, g, bc, bc_work)
-            work += w
-            bad = ti.max(bad, b)
-            vmax2 = ti.max(vmax2, s)
-        ti.atomic_max(step.step_real[VMAX], ti.sqrt(vmax2))
-        if bad > 0:
-            ti.atomic_max(step.step_int[NONFINITE], bad)
-        if bc_work != 0:
-            ti.atomic_add(step.step_real[WORK_BOUNDARY], work)
-    for _ in range(1):
-        # re-detection trigger D_acc += 2 Δt v_max (§4.1)
-        step.step_real[DACC] += 2.0 * dt * step.step_real[VMAX]
-        step.step_real[TIME] += dt
-
-
-@ti.func
-def _slot_force(s, T, joints: ti.template(), asm: ti.template()):
+def _slot_force(s, joints: ti.template(), asm: ti.template()):
     """The force [N/m] of node slot s: s >= 0 indexes asm_force (triangles, then couples);
     s < 0 is slot k = q % 4 of joint j = q // 4, q = −1 − s (forces −g0, −g1, +g1, +g0 on the
     joint's nodes j0..j3, §7.3)."""
@@ -94,17 +91,60 @@ def _slot_force(s, T, joints: ti.template(), asm: ti.template()):
 
 
 @ti.func
-def integrate_nodes(nodes: ti.template(), step: ti.template()):
-    """v += Δt (f/m + g); prescribed velocities; x += Δt v; f = 0; v_max, D_acc, time.
-
-    A node speed above step.vlimit is read as instability (see :func:`taichi_fdem.engine.step.is_unstable`).
-    """
-    _integrate_all(nodes, nodes, nodes, step, nodes, False)
+def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
+                   gathered: ti.template(), local_damping: ti.template()):
+    N = nodes.node_x.shape[0]
+    dt = step.step_dt[None]
+    g = step.step_gravity[None]
+    bc = step.step_switches[None] & SWITCH_BC
+    bc_work = step.step_switches[None] & SWITCH_BC_WORK
+    alpha = 0.0
+    if ti.static(local_damping):
+        alpha = step.step_real[QS_ALPHA]
+    for _ in range(1):
+        step.step_real[VMAX] = 0.0
+    for chunk in range((N + CHUNK - 1) // CHUNK):
+        vmax2 = 0.0
+        bad = 0
+        work = 0.0
+        local = 0.0
+        for i in range(chunk * CHUNK, ti.min(N, chunk * CHUNK + CHUNK)):
+            f = nodes.node_f[i]
+            if ti.static(gathered):
+                # the node's slots, in the sorted order of build_node_slots: a fixed summation order
+                for a in range(asm.asm_node_start[i], asm.asm_node_start[i + 1]):
+                    f += _slot_force(asm.asm_node_slots[a], joints, asm)
+            s, w, lw, b = integrate_node(i, f, nodes, dt, g, bc, bc_work, alpha, local_damping)
+            work += w
+            local += lw
+            bad = ti.max(bad, b)
+            vmax2 = ti.max(vmax2, s)
+        ti.atomic_max(step.step_real[VMAX], ti.sqrt(vmax2))
+        if bad > 0:
+            ti.atomic_max(step.step_int[NONFINITE], bad)
+        if bc_work != 0:
+            ti.atomic_add(step.step_real[WORK_BOUNDARY], work)
+        if ti.static(local_damping):
+            ti.atomic_add(step.step_real[WORK_LOCAL], local)
+    for _ in range(1):
+        # re-detection trigger D_acc += 2 Δt v_max (§4.1)
+        step.step_real[DACC] += 2.0 * dt * step.step_real[VMAX]
+        step.step_real[TIME] += dt
 
 
 @ti.func
-def integrate_nodes_gathered(nodes: ti.template(), tris: ti.template(), joints: ti.template(), step: ti.template(),
-                             asm: ti.template()):
+def integrate_nodes(nodes: ti.template(), step: ti.template(), local_damping: ti.template()):
+    """v += Δt (f/m + g); local damping; prescribed velocities and reactions; x += Δt v; f = 0;
+    v_max, D_acc, time (:func:`integrate_node` per node).
+
+    A node speed above step.step_vlimit is read as instability (see :func:`taichi_fdem.engine.step.is_unstable`).
+    """
+    _integrate_all(nodes, nodes, step, nodes, False, local_damping)
+
+
+@ti.func
+def integrate_nodes_gathered(nodes: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
+                             local_damping: ti.template()):
     """As :func:`integrate_nodes`, the force of each node being node_f plus the sum of its slots
     (parallel strategy, no atomic float add)."""
-    _integrate_all(nodes, tris, joints, step, asm, True)
+    _integrate_all(nodes, joints, step, asm, True, local_damping)

@@ -39,16 +39,19 @@ def parabola(r):
 
 
 @ti.func
-def eval_joint(j, joints: ti.template(), mats: ti.template(), nodes: ti.template(), step: ti.template(),
-               scatter: ti.template()):
+def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(), nodes: ti.template(),
+               step: ti.template(), scatter: ti.template()):
     """Forces of intact joint j (added to nodes.node_f when ``scatter``; always kept in
     joints.joint_g, which the parallel strategy gathers); damage, shear strength and breakage
     updated.
 
+    A joint of a removed triangle (tri_intact < 0, an excavation) is skipped.
+
     The nodal forces g0 (on the pair j0/j3) and g1 (on j1/j2) are kept in joints.joint_g[j] so that
     :func:`add_joint_work` can book their work over the step with the new velocities.
     """
-    if joints.joint_state[j] == 0:
+    jt0 = joints.joint_tris[j]
+    if joints.joint_state[j] == 0 and tris.tri_intact[jt0[0]] >= 0 and tris.tri_intact[jt0[1]] >= 0:
         nd = joints.joint_nodes[j]
         x0, x1, x2, x3 = nodes.node_x[nd[0]], nodes.node_x[nd[1]], nodes.node_x[nd[2]], nodes.node_x[nd[3]]
         e = 0.5 * (x1 + x2 - x0 - x3)
@@ -164,7 +167,7 @@ def add_joint_work(j, joints: ti.template(), tris: ti.template(), nodes: ti.temp
     if joints.joint_state[j] != 0 or dm[0] > 0.0 or dm[1] > 0.0 or dm[2] > 0.0:
         jt = joints.joint_tris[j]
         for k in ti.static(range(2)):
-            if tris.tri_intact[jt[k]] != 0:
+            if tris.tri_intact[jt[k]] > 0:         # (< 0: removed by an excavation, stays so)
                 tris.tri_intact[jt[k]] = 0
     g = joints.joint_g[j]
     if g[0] != 0.0 or g[1] != 0.0 or g[2] != 0.0 or g[3] != 0.0:

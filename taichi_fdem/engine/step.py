@@ -7,8 +7,12 @@ A step is a list of phases, each a ``@ti.func`` made of loops over one kind of e
 2. elastic forces of the triangles (:func:`phase_elastic`);
 3. cohesive joint forces, fracture only (:func:`phase_joints`);
 4. contact forces of the couples (:func:`phase_contact`);
-5. integration of the nodes (:func:`phase_integrate`);
-6. the second half of the joints' work, and the end of intact bonds (:func:`phase_joint_work`).
+5. applied loads, absorbing boundaries and curve-driven prescribed velocities, scenes with
+   loads only (:func:`phase_loads`);
+6. integration of the nodes (:func:`phase_integrate`), with the local (quasi-static) damping
+   when asked;
+7. the second half of the joints' and the loads' work, and the end of intact bonds
+   (:func:`phase_joint_work`, :func:`phase_load_work`).
 
 The maths of each phase is one function per entity (``elastic.tri_forces``,
 ``joints.eval_joint``, ``contact.couple_forces``, ``integrate.integrate_node``) shared by
@@ -25,9 +29,13 @@ both strategies:
   so results are bit-identical from run to run and for any thread count.
 
 Every kernel takes the array groups of :mod:`taichi_fdem.engine.groups`.  ``contact``,
-``friction`` and ``fracture`` are compile-time switches (absent features are not compiled);
+``friction``, ``fracture``, ``loads`` and ``local_damping`` (the quasi-static option) are
+compile-time switches, passed together as one :class:`Features` tuple (absent features are not
+compiled);
 damping, contact damping and prescribed velocities are runtime switches in the step group.
 """
+from collections import namedtuple
+
 import taichi as ti
 
 from .tiutil import vec2
@@ -39,11 +47,18 @@ from .groups import (COUPLES, DACC, DETECTIONS, FOUND, INVERTED, NONFINITE, RMAX
                      DetectGroup, JointGroup, MaterialGroup, NodeGroup, StepGroup, TriGroup)
 from .integrate import integrate_nodes, integrate_nodes_gathered
 from .joints import add_joint_work, eval_joint
+from .loads import apply_loads, book_load_work
 
 UNSTABLE_BIT = 1 << 24   # added to run_steps_serial's return value (steps per launch < 2^24)
 
-__all__ = ["UNSTABLE_BIT", "detect_count", "detect_fill", "build_node_slots", "step_parallel", "run_steps_serial",
-           "eval_elastic", "eval_joints", "eval_contact", "integrate", "book_joint_work"]
+#: The compile-time feature switches of a step kernel, passed as one ``ti.template()`` (Taichi
+#: keys a tuple template by its values): a scene without contact, friction, fracture, loads or
+#: the quasi-static damping compiles none of their code.
+Features = namedtuple("Features", "contact friction fracture loads local_damping")
+
+__all__ = ["UNSTABLE_BIT", "Features", "detect_count", "detect_fill", "build_node_slots", "step_parallel", "run_steps_serial",
+           "eval_elastic", "eval_joints", "eval_contact", "eval_loads", "integrate", "book_joint_work",
+           "book_loads_work"]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -115,7 +130,7 @@ def phase_elastic(nodes: ti.template(), tris: ti.template(), mats: ti.template()
 def phase_joints(nodes: ti.template(), tris: ti.template(), mats: ti.template(), joints: ti.template(),
                  step: ti.template()):
     for j in range(joints.joint_nodes.shape[0]):
-        eval_joint(j, joints, mats, nodes, step, True)
+        eval_joint(j, joints, tris, mats, nodes, step, True)
 
 
 @ti.func
@@ -132,8 +147,18 @@ def phase_contact(nodes: ti.template(), tris: ti.template(), mats: ti.template()
 
 
 @ti.func
-def phase_integrate(nodes: ti.template(), step: ti.template()):
-    integrate_nodes(nodes, step)
+def phase_loads(nodes: ti.template(), step: ti.template()):
+    apply_loads(nodes, step)
+
+
+@ti.func
+def phase_load_work(nodes: ti.template(), step: ti.template()):
+    book_load_work(nodes, step)
+
+
+@ti.func
+def phase_integrate(nodes: ti.template(), step: ti.template(), local_damping: ti.template()):
+    integrate_nodes(nodes, step, local_damping)
 
 
 @ti.func
@@ -156,17 +181,20 @@ def status_code(step: ti.template()):
 
 @ti.func
 def phases_forces_integrate(nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
-                            joints: ti.template(), step: ti.template(), contact: ti.template(),
-                            friction: ti.template(), fracture: ti.template()):
-    """Phases 2–6 of a step."""
+                            joints: ti.template(), step: ti.template(), feat: ti.template()):
+    """Phases 2–7 of a step."""
     phase_elastic(nodes, tris, mats, step)
-    if ti.static(fracture):
+    if ti.static(feat.fracture):
         phase_joints(nodes, tris, mats, joints, step)
-    if ti.static(contact):
-        phase_contact(nodes, tris, mats, con, step, friction, fracture)
-    phase_integrate(nodes, step)
-    if ti.static(fracture):
+    if ti.static(feat.contact):
+        phase_contact(nodes, tris, mats, con, step, feat.friction, feat.fracture)
+    if ti.static(feat.loads):
+        phase_loads(nodes, step)
+    phase_integrate(nodes, step, feat.local_damping)
+    if ti.static(feat.fracture):
         phase_joint_work(nodes, tris, joints, step)
+    if ti.static(feat.loads):
+        phase_load_work(nodes, step)
 
 
 @ti.func
@@ -191,7 +219,7 @@ def phase_slots(nodes: ti.template(), tris: ti.template(), mats: ti.template(), 
             asm.asm_force[3 * item + 2] = f2
         elif item < T + J:
             if ti.static(fracture):
-                eval_joint(item - T, joints, mats, nodes, step, False)
+                eval_joint(item - T, joints, tris, mats, nodes, step, False)
         else:
             if ti.static(contact):
                 c = item - T - J
@@ -203,21 +231,25 @@ def phase_slots(nodes: ti.template(), tris: ti.template(), mats: ti.template(), 
 
 
 @ti.func
-def phase_gather_integrate(nodes: ti.template(), tris: ti.template(), joints: ti.template(), step: ti.template(),
-                           asm: ti.template()):
-    """Phase 5 of the parallel strategy: each node sums its slots in list order, then integrates."""
-    integrate_nodes_gathered(nodes, tris, joints, step, asm)
+def phase_gather_integrate(nodes: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
+                           local_damping: ti.template()):
+    """Phase 6 of the parallel strategy: each node sums its slots in list order, then integrates."""
+    integrate_nodes_gathered(nodes, joints, step, asm, local_damping)
 
 
 @ti.func
 def phases_parallel(nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
-                    joints: ti.template(), step: ti.template(), asm: ti.template(), contact: ti.template(),
-                    friction: ti.template(), fracture: ti.template()):
-    """Phases 2–6 of a step in the parallel strategy (no atomic float add)."""
-    phase_slots(nodes, tris, mats, con, joints, step, asm, contact, friction, fracture)
-    phase_gather_integrate(nodes, tris, joints, step, asm)
-    if ti.static(fracture):
+                    joints: ti.template(), step: ti.template(), asm: ti.template(), feat: ti.template()):
+    """Phases 2–7 of a step in the parallel strategy (no atomic float add on the element, joint
+    and couple forces; the few load entries are added to node_f in one serial loop)."""
+    phase_slots(nodes, tris, mats, con, joints, step, asm, feat.contact, feat.friction, feat.fracture)
+    if ti.static(feat.loads):
+        phase_loads(nodes, step)
+    phase_gather_integrate(nodes, joints, step, asm, feat.local_damping)
+    if ti.static(feat.fracture):
         phase_joint_work(nodes, tris, joints, step)
+    if ti.static(feat.loads):
+        phase_load_work(nodes, step)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -306,17 +338,16 @@ def build_node_slots(tris: TriGroup, con: ContactGroup, joints: JointGroup, step
 
 @ti.kernel
 def step_parallel(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: ContactGroup, joints: JointGroup,
-                  step: StepGroup, asm: AssemblyGroup, contact: ti.template(), friction: ti.template(),
-                  fracture: ti.template()) -> ti.i32:
-    """One step in three parallel loops without atomic float adds.  Returns :func:`status_code`."""
-    phases_parallel(nodes, tris, mats, con, joints, step, asm, contact, friction, fracture)
+                  step: StepGroup, asm: AssemblyGroup, feat: ti.template()) -> ti.i32:
+    """One step in parallel loops without atomic float adds on the element, joint and couple
+    forces.  ``feat``: the compile-time :class:`Features`.  Returns :func:`status_code`."""
+    phases_parallel(nodes, tris, mats, con, joints, step, asm, feat)
     return status_code(step)
 
 
 @ti.kernel
 def run_steps_serial(nsteps: ti.i32, nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: ContactGroup,
-                     det: DetectGroup, joints: JointGroup, step: StepGroup, contact: ti.template(),
-                     friction: ti.template(), fracture: ti.template()) -> ti.i32:
+                     det: DetectGroup, joints: JointGroup, step: StepGroup, feat: ti.template()) -> ti.i32:
     """Up to ``nsteps`` whole steps, detection included, in one serial loop (small scenes).
 
     Stops early, before the step that needs it, when the couple buffer is too small (the
@@ -328,15 +359,15 @@ def run_steps_serial(nsteps: ti.i32, nodes: NodeGroup, tris: TriGroup, mats: Mat
     ti.loop_config(serialize=True)
     for _ in range(nsteps):
         stop = 0
-        if ti.static(contact):
+        if ti.static(feat.contact):
             if step.step_real[DACC] >= step.step_buffer[None]:
                 phase_detect_count(nodes, tris, det, con, step)
                 if step.step_int[FOUND] > con.couple_a.shape[0]:
                     stop = 1                    # the host grows the buffer to step_int[FOUND]
                 else:
-                    phase_detect_fill(tris, det, con, step, friction)
+                    phase_detect_fill(tris, det, con, step, feat.friction)
         if stop == 0:
-            phases_forces_integrate(nodes, tris, mats, con, joints, step, contact, friction, fracture)
+            phases_forces_integrate(nodes, tris, mats, con, joints, step, feat)
             done += 1
             if is_unstable(step):
                 stop = 1
@@ -365,9 +396,19 @@ def eval_contact(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: Con
 
 
 @ti.kernel
-def integrate(nodes: NodeGroup, step: StepGroup) -> ti.i32:
-    phase_integrate(nodes, step)
+def integrate(nodes: NodeGroup, step: StepGroup, local_damping: ti.template()) -> ti.i32:
+    phase_integrate(nodes, step, local_damping)
     return status_code(step)
+
+
+@ti.kernel
+def eval_loads(nodes: NodeGroup, step: StepGroup):
+    phase_loads(nodes, step)
+
+
+@ti.kernel
+def book_loads_work(nodes: NodeGroup, step: StepGroup):
+    phase_load_work(nodes, step)
 
 
 @ti.kernel
