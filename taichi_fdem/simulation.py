@@ -219,6 +219,8 @@ class Simulation(SimulationResults):
         grow_couples(self.model, self.state, capacity)
         size_couple_scratch(self.model, self.state, self.scratch)
         self._repack()
+        if self.strategy == "parallel":
+            self._build_node_slots()             # the slot arrays were reallocated
 
     def _build_node_slots(self) -> None:
         p = self._packs
