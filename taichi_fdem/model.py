@@ -583,6 +583,13 @@ def allocate_scratch(md: Model, st: State, parallel: bool = False) -> Scratch:
     return sw
 
 
+def enable_parallel(md: Model, st: State, sw: Scratch) -> None:
+    """Allocate the parallel strategy's force slots and node lists (a simulation switched to it)."""
+    sw.parallel = True
+    sw.asm_node_start = ti.ndarray(ti.i32, shape=md.node_count + 1)
+    size_couple_scratch(md, st, sw)
+
+
 def size_couple_scratch(md: Model, st: State, sw: Scratch) -> None:
     """Scratch sized by the couple buffer: the previous-couple copies that carry friction history
     over and, for the parallel strategy, the force slots (3 per triangle, 6 per couple) and the

@@ -29,8 +29,8 @@ from .engine import step as kernels
 from .engine.diagnostics import overlap_areas
 from .guards import SimulationError
 from .engine.groups import COUPLES, DACC, DACC_FORCE, DETECTIONS, FOUND, SWITCH_BC
-from .model import (allocate_scratch, allocate_state, build_model, counter, grow_couples, pack_groups,
-                    set_counter, size_couple_scratch)
+from .model import (allocate_scratch, allocate_state, build_model, counter, enable_parallel, grow_couples,
+                    pack_groups, set_counter, size_couple_scratch)
 from .results import History, SimulationResults
 from .timestep import CONTACT_LIMIT_FACTOR  # noqa: F401  (re-exported)
 
@@ -118,6 +118,22 @@ class Simulation(SimulationResults):
         # the groups each step kernel takes, in order
         self._groups = {"serial": (p["nodes"], p["tris"], p["mats"], p["contact"], p["detect"], p["joints"], p["step"]),
                         "parallel": (p["nodes"], p["tris"], p["mats"], p["contact"], p["joints"], p["step"], p["asm"])}
+
+    @property
+    def strategy(self) -> str:
+        """"serial" or "parallel" (see the module docstring); may be changed between calls."""
+        return self._strategy
+
+    @strategy.setter
+    def strategy(self, value: str) -> None:
+        if value not in ("serial", "parallel"):
+            raise ValueError(f"strategy must be 'serial' or 'parallel', got {value!r}")
+        self._strategy = value
+        sw = self.__dict__.get("scratch")
+        if value == "parallel" and sw is not None and not sw.parallel:
+            enable_parallel(self.model, self.state, sw)
+            self._repack()
+            self._build_node_slots()
 
     def _after_restore(self) -> None:
         """Re-derive scratch sizes, argpacks and node lists after the state was replaced

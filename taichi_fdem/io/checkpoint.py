@@ -301,7 +301,8 @@ def load(path):
         raise CheckpointError(f"Simulation.load: {path!r}: the saved scene or settings cannot be read "
                               f"({type(exc).__name__}: {exc})") from None
 
-    sim = scene.build(dt=build["dt"], force_dt=True, strategy=driver.get("strategy", "auto"),
+    strategy = driver.get("_strategy", driver.get("strategy", "auto"))
+    sim = scene.build(dt=build["dt"], force_dt=True, strategy=strategy,
                       buffer=build["buffer"], speed_limit=build["speed_limit"], check_overlap=False,
                       quasi_static=build.get("quasi_static", 0.0) or False)
     st = sim.state
