@@ -216,3 +216,29 @@ def test_resume_series_after_checkpoint_restart(tmp_path):
     (tmp_path / "run" / "frame.pvd").write_text("<VTKFile><Collection>")
     with pytest.raises(ValueError, match=r"cannot resume from .*frame\.pvd"):
         ExporterVtu(tmp_path / "run", resume=True)
+
+
+def test_excavated_triangles_are_neither_written_nor_drawn(tmp_path):
+    """After sim.remove(...), the VTU frame lists only the remaining triangles and the renderer
+    leaves the excavated region at the background colour."""
+    import taichi_fdem as fdem
+    from taichi_fdem.io.vtu import frame_fields
+    mat = fdem.Material(density=1000.0, young=1e7, poisson=0.25)
+    scene = fdem.Scene(gravity=(0.0, 0.0))
+    scene.add_body(fdem.mesh.rectangle(0.2, 0.2, 0.02), mat)
+    scene.fix_nodes(lambda x, y: np.abs(x) > 0.099)
+    sim = scene.build()
+    before = frame_fields(sim)
+    r = fdem.render.RendererImage(width=80, height=80, draw_edges=False, stamp=False, colorbar=False,
+                                  view=(-0.11, 0.11, -0.11, 0.11))
+    img0 = r.render_sim(sim)
+    removed = sim.remove(where=lambda x, y: x * x + y * y < 0.05 ** 2)
+    assert removed > 0
+    after = frame_fields(sim)
+    assert len(after["triangles"]) == len(before["triangles"]) - removed
+    assert all(len(v) == len(after["triangles"]) for v in after["cell_data"].values())
+    img1 = r.render_sim(sim)
+    centre0, centre1 = img0[40, 40].astype(int), img1[40, 40].astype(int)
+    background = img1[0, 0].astype(int)
+    assert np.abs(centre0 - background).max() > 10        # drawn before
+    assert np.abs(centre1 - background).max() <= 1        # background where the hole is

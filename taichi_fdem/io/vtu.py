@@ -19,11 +19,11 @@ cell data
     ``stress``: elastic Cauchy stress [Pa] as 3 components (σ_xx, σ_yy, σ_xy), from
     :meth:`Simulation.stresses` (without the viscous part);
     ``von_mises`` [Pa]: √(½[(σ_xx−σ_yy)² + (σ_yy−σ_zz)² + (σ_zz−σ_xx)²] + 3 σ_xy²), with
-    σ_zz = 0 in plane stress and σ_zz = ν(σ_xx + σ_yy) in plane strain (as the renderer); ``strain``: Green–Lagrange strain E = ½(FᵀF − I) (dimensionless) as 3 tensor
-    components (E_xx, E_yy, E_xy) — not engineering shear; it equals the small strain
+    σ_zz = 0 in plane stress and σ_zz = ν(σ_xx + σ_yy) in plane strain (as the renderer);
+    ``strain``: Green–Lagrange strain E = ½(FᵀF − I) (dimensionless) as 3 tensor components (E_xx, E_yy, E_xy) — not engineering shear; it equals the small strain
     sym(∇u) to first order; ``body_id`` and ``material_id`` (int32); ``damage`` in [0, 1]
     (the simulation's ``tri_damage()`` — or ``tri_damage`` array — when it has one, zeros
-    otherwise).
+    otherwise).  Triangles removed by an excavation (``sim.remove``) are not written.
 """
 from __future__ import annotations
 
@@ -83,16 +83,23 @@ def frame_fields(sim) -> dict:
         if damage.shape != (sim.tri_count,):
             raise ValueError(f"ExporterVtu: sim.tri_damage has {damage.size} values for {sim.tri_count} triangles")
 
+    cells = {"stress": np.stack([sxx, syy, sxy], axis=1), "von_mises": von_mises,
+             "strain": np.stack([E[:, 0, 0], E[:, 1, 1], 0.5 * (E[:, 0, 1] + E[:, 1, 0])], axis=1),
+             "body_id": np.asarray(sim._tri_body_np, dtype=np.int32),
+             "material_id": np.asarray(sim._tri_mat_np, dtype=np.int32),
+             "damage": damage}
+    active = getattr(sim, "active_triangles", None)
+    if callable(active):                       # triangles removed by an excavation are not written
+        keep = np.asarray(active(), dtype=bool)
+        if not keep.all():
+            tris = tris[keep]
+            cells = {k: v[keep] for k, v in cells.items()}
     return {
         "points": x,
         "triangles": tris,
         "point_data": {"displacement": sim.node_displacements(), "velocity": sim.node_velocities(),
                        "body_id": node_body},
-        "cell_data": {"stress": np.stack([sxx, syy, sxy], axis=1), "von_mises": von_mises,
-                      "strain": np.stack([E[:, 0, 0], E[:, 1, 1], 0.5 * (E[:, 0, 1] + E[:, 1, 0])], axis=1),
-                      "body_id": np.asarray(sim._tri_body_np, dtype=np.int32),
-                      "material_id": np.asarray(sim._tri_mat_np, dtype=np.int32),
-                      "damage": damage},
+        "cell_data": cells,
     }
 
 

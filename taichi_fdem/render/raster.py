@@ -373,6 +373,25 @@ class RendererImage(_Overlays):
                            sim.mat_mu, sim.mat_lam, int(kid), out)
         return out.to_numpy().astype(np.float64)
 
+    def _drawn_triangles(self, sim, consts):
+        """The simulation's triangles, those removed by an excavation given index −1 (the raster
+        kernels skip them); cached per number of removed triangles."""
+        active = getattr(sim, "active_triangles", None)
+        if not callable(active):
+            return sim.tri_nodes
+        keep = np.asarray(active(), dtype=bool)
+        if keep.all():
+            return sim.tri_nodes
+        key = ("drawn_triangles", int((~keep).sum()))
+        nd = consts.get(key)
+        if nd is None:
+            t = np.array(sim.model.tri_nodes_np, dtype=np.int32)
+            t[~keep] = -1
+            nd = ti.Vector.ndarray(3, ti.i32, shape=(len(t),))
+            nd.from_numpy(t)
+            consts[key] = nd
+        return nd
+
     def _frame_scalars(self, sim, kid):
         """Per-triangle scalars of mode id kid into a per-simulation ndarray (kept on the
         device) and their finite [min, max, count] in a small NumPy array."""
@@ -472,7 +491,8 @@ class RendererImage(_Overlays):
         else:
             box = self._world_box(sim.node_x)
         layout = self._bar_layout() if bar is not None else None
-        img = self._draw(sim.node_x, sim.tri_nodes, c_nd, box, layout["reserve"] if layout else 0,
+        img = self._draw(sim.node_x, self._drawn_triangles(sim, consts), c_nd, box,
+                         layout["reserve"] if layout else 0,
                          scal=None if kid is None else scal, rng=None if kid is None else (vmin, vmax))
         stamp = f"t = {sim.time:.4g} s  step {sim.step_count}" if self.stamp else None
         if bar is not None or stamp is not None:
