@@ -13,7 +13,7 @@ from typing import Sequence
 import numpy as np
 
 from .triangulate import _CDT
-from .trimesh import MAX_GENERATED_TRIANGLES, TriMesh, _guard_size, _nround, _positive, _vec2
+from .trimesh import MAX_COORDINATE, TriMesh, _guard_size, _nround, _positive, _vec2
 
 __all__ = ["rectangle", "disk", "annulus", "polygon"]
 
@@ -54,10 +54,10 @@ def rectangle(width: float, height: float, h: float, pattern: str = "alternating
     h = _positive("h", h, where)
     if pattern not in _PATTERNS:
         raise ValueError(f"{where}: unknown pattern {pattern!r}; choose one of {list(_PATTERNS)}")
-    nx, ny = max(1, _nround(w / h)), max(1, _nround(hh / h))
     per_cell = 4 if pattern == "crossed" else 2
-    if nx * ny * per_cell > 50 * MAX_GENERATED_TRIANGLES:
-        raise ValueError(f"{where}: h={h:g} would create {nx * ny * per_cell} triangles; use a larger h")
+    # guard in floats before rounding to integers: w / h may be far beyond any integer count
+    _guard_size(max(1.0, w / h) * max(1.0, hh / h) * per_cell, where, h)
+    nx, ny = max(1, _nround(w / h)), max(1, _nround(hh / h))
     o = np.array([-0.5 * w, -0.5 * hh]) if origin is None else _vec2("origin", origin, where)
 
     xs = o[0] + w * np.arange(nx + 1) / nx
@@ -316,6 +316,10 @@ def polygon(vertices, h: float | None = None) -> TriMesh:
     bad = np.flatnonzero(~np.isfinite(v).all(axis=1))
     if bad.size:
         raise ValueError(f"{where}: vertex {int(bad[0])} is not finite: {tuple(v[bad[0]].tolist())}")
+    far = np.flatnonzero(np.abs(v).max(axis=1) > MAX_COORDINATE)
+    if far.size:
+        raise ValueError(f"{where}: vertex {int(far[0])} = {tuple(v[far[0]].tolist())} lies beyond {MAX_COORDINATE:g} m "
+                         f"from the origin (coordinates are in metres)")
     if len(v) > 3 and np.array_equal(v[0], v[-1]):
         v = v[:-1]
     if len(v) < 3:
