@@ -24,11 +24,11 @@ from . import mesh
 from .backend import init
 from .guards import SimulationError
 from .material import Material
-from .scene import Body, Scene
+from .scene import Body, Curve, Scene
 from .simulation import Simulation
 
 __version__ = "0.1.0"
-__all__ = ["init", "mesh", "render", "export", "checkpoint", "scenefile", "sweep", "Material", "Scene", "Body",
+__all__ = ["init", "mesh", "render", "export", "checkpoint", "scenefile", "sweep", "Material", "Scene", "Body", "Curve",
            "Simulation", "SimulationError", "__version__"]
 
 # driver modules, loaded on first attribute access (PEP 562)

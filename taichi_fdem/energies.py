@@ -4,8 +4,13 @@ kinetic, strain, contact (penalty potential p∫(φ_c + φ_t)dA plus friction sp
 (−Σ m g·x), damping / friction / contact_damping (work dissipated so far), boundary_work (work
 done on the system by prescribed velocities), joints (work done on intact joints: stored
 elastically, plus any damage so far) and fracture (work done on joints that have broken:
-dissipated in cracking), and total = kinetic + strain + contact + gravity + joints + dissipated
-− boundary_work, which is conserved up to the time-discretisation error.
+dissipated in cracking), load_work (work done on the system by applied pressure, tractions and
+forces, FDEM_SPEC §12), local_damping (work dissipated by the quasi-static damping), absorbed
+(work taken out by absorbing boundaries), excavated (energy the removed triangles took with
+them: strain, kinetic and gravity energy at removal), and
+total = kinetic + strain + contact + gravity + joints + dissipated + excavated − boundary_work
+− load_work, which is conserved up to the time-discretisation error.  The strain energy includes
+the potential S⁰:E of an initial stress.
 """
 from __future__ import annotations
 
@@ -14,7 +19,7 @@ import taichi as ti
 
 from . import backend
 from .engine.diagnostics import energy_terms
-from .engine.groups import WORK_BOUNDARY, WORK_CDAMPING, WORK_FRICTION
+from .engine.groups import WORK_ABSORB, WORK_BOUNDARY, WORK_CDAMPING, WORK_FRICTION, WORK_LOAD, WORK_LOCAL
 
 
 def compute_energies(sim) -> dict:
@@ -31,7 +36,9 @@ def compute_energies(sim) -> dict:
     w = st.step_real.to_numpy().astype(np.float64)
     e = {"kinetic": o[0] * t, "strain": o[1] * t, "contact": o[2] * t, "gravity": o[3] * t,
          "damping": (o[4] if md.damping else 0.0) * t, "friction": w[WORK_FRICTION] * t,
-         "contact_damping": w[WORK_CDAMPING] * t, "boundary_work": w[WORK_BOUNDARY] * t}
+         "contact_damping": w[WORK_CDAMPING] * t, "boundary_work": w[WORK_BOUNDARY] * t,
+         "load_work": w[WORK_LOAD] * t, "local_damping": w[WORK_LOCAL] * t, "absorbed": w[WORK_ABSORB] * t,
+         "excavated": float(getattr(sim, "_excavated_energy", 0.0))}
     e["joints"] = e["fracture"] = 0.0
     if md.fracture:
         work = st.joint_work.to_numpy().astype(np.float64)
@@ -39,5 +46,6 @@ def compute_energies(sim) -> dict:
         e["joints"] = float(work[~broken].sum()) * t
         e["fracture"] = float(work[broken].sum()) * t
     e["total"] = (e["kinetic"] + e["strain"] + e["contact"] + e["gravity"] + e["joints"] + e["damping"]
-                  + e["friction"] + e["contact_damping"] + e["fracture"] - e["boundary_work"])
+                  + e["friction"] + e["contact_damping"] + e["fracture"] + e["local_damping"] + e["absorbed"]
+                  + e["excavated"] - e["boundary_work"] - e["load_work"])
     return e

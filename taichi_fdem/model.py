@@ -25,8 +25,9 @@ import numpy as np
 import taichi as ti
 
 from . import backend, timestep
-from .engine.groups import (COUPLES, DACC, DACC_FORCE, GROUPS, INT_COUNTERS, REAL_COUNTERS, SWITCH_BC, SWITCH_BC_WORK,
-                            SWITCH_CDAMPING, SWITCH_DAMPING)
+from .engine.groups import (COUPLES, DACC, DACC_FORCE, GROUPS, INT_COUNTERS, QS_ALPHA, REAL_COUNTERS, SWITCH_BC,
+                            SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING, SWITCH_PRESTRESS)
+from .engine.loads import LOAD_ABSORB, LOAD_FORCE, LOAD_PRESSURE, LOAD_TRACTION, LOAD_VELOCITY
 
 
 def _ndarray(data: np.ndarray, dtype, vec: int | None = None, mat: tuple | None = None):
@@ -96,7 +97,8 @@ class Scratch(_Arrays):
     """Contact-detection work arrays (rewritten at each detection; never saved)."""
 
 
-def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_limit=None) -> Model:
+def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_limit=None,
+                quasi_static: float = 0.0) -> Model:
     """Compute the :class:`Model` of ``scene`` (validating the time step against its limit)."""
     if not scene.bodies:
         raise ValueError("Scene.build: the scene has no bodies; add one with scene.add_body(...)")
@@ -139,11 +141,16 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     altitude = 2.0 * area0 / edge_len.max(axis=1)       # smallest altitude of each triangle
 
     # ---- boundary conditions -----------------------------------------------------------------
-    free, vbc, body_flags = _boundary_conditions(scene, bodies, X)
-    V = np.where(free == 0.0, vbc, V)
-    md.node_velocity0, md.node_vbc0 = V, vbc
+    curves = _Curves()
+    free, vbc, body_flags, vcurve, groups = _boundary_conditions(scene, bodies, X, curves)
+    md.bc_group_labels = [g[0] for g in groups]          # reactions recorded by the history
+    md.bc_group_masks = np.array([g[1] for g in groups], bool).reshape(len(groups), len(X))
     md.has_bc = bool(np.any(free == 0.0))
     md.has_bc_work = bool(np.any((free == 0.0) & (vbc != 0.0)))
+    vbc_raw = vbc
+    vbc = vbc * curves.at(vcurve, 0.0)          # curve-driven velocities start at A(0)
+    V = np.where(free == 0.0, vbc, V)
+    md.node_velocity0, md.node_vbc0 = V, vbc
 
     # ---- materials and pair table --------------------------------------------------------------
     pair = _pair_table(scene, materials)
@@ -226,6 +233,17 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     if not (md.speed_limit > 0):
         raise ValueError(f"Scene.build: speed_limit must be > 0 m/s, got {speed_limit}")
 
+    # ---- loads, curves, initial stress, local damping (FDEM_SPEC §12) --------------------------
+    load_nodes, load_vals = _load_table(scene, bodies, X, mass, md.dt, curves, free, vbc_raw, vcurve)
+    md.load_count = len(load_nodes)
+    md.loads = md.load_count > 0
+    md.curves = curves.list
+    md.curve_slices = curves.slices
+    prestress = _prestress(scene, bodies, X, tris)
+    md.prestress = prestress is not None
+    md.qs_alpha = float(quasi_static)
+    md.local_damping = md.qs_alpha > 0.0
+
     # ---- Taichi arrays of the model (dummies of size 1 for unused features) --------------------
     v2 = lambda a: _ndarray(np.asarray(a, real), rti, vec=2)
     sc = lambda a: _ndarray(np.asarray(a, real), rti)
@@ -269,20 +287,33 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     md.step_gravity[None] = [float(g) for g in scene.gravity]
     md.step_buffer = _scalar(buffer, rti)
     md.step_vlimit = _scalar(md.speed_limit, rti)
+    md.load_nodes = _ndarray(load_nodes if md.loads else np.zeros((1, 5), np.int32), ti.i32, vec=5)
+    md.load_vals = _ndarray((load_vals if md.loads else np.zeros((1, 4))).astype(real), rti, vec=4)
+    md.curve_points = _ndarray(curves.points().astype(real), rti, vec=2)
+    md.prestress_np = prestress
+    md.tri_prestress = _ndarray((prestress if md.prestress else np.zeros((1, 3))).astype(real), rti, vec=3)
     md.step_switches = _scalar(SWITCH_DAMPING * md.damping + SWITCH_CDAMPING * md.contact_damping
-                               + SWITCH_BC * md.has_bc + SWITCH_BC_WORK * md.has_bc_work, ti.i32)
+                               + SWITCH_BC * md.has_bc + SWITCH_BC_WORK * md.has_bc_work
+                               + SWITCH_PRESTRESS * md.prestress, ti.i32)
     return md
 
 
-def _boundary_conditions(scene, bodies, X):
-    """(free (n, 2), prescribed velocity (n, 2), body_flags (bodies,)) from the scene."""
+def _boundary_conditions(scene, bodies, X, curves):
+    """(free (n, 2), prescribed velocity (n, 2) before curves, body_flags (bodies,), velocity
+    curve of each node component (n, 2; −1: none), groups [(label, node mask)]) from the scene."""
     free = np.ones_like(X)
     vbc = np.zeros_like(X)
+    vcurve = np.full(X.shape, -1, np.int64)
     body_flags = np.zeros(len(bodies), np.int32)
+    groups = []
     for b in bodies:
         if b.fixed or b.prescribed_velocity is not None:
             free[b.nodes] = 0.0
             vbc[b.nodes] = 0.0 if b.fixed else b.prescribed_velocity
+            vcurve[b.nodes] = curves.add(getattr(b, "velocity_curve", None))
+            mask = np.zeros(len(X), bool)
+            mask[b.nodes] = True
+            groups.append((b.name, mask))
         if b.self_contact:
             body_flags[b.index] |= 1
     for k, con in enumerate(scene._constraints):
@@ -295,14 +326,147 @@ def _boundary_conditions(scene, bodies, X):
             sel &= mask
         if not sel.any():
             raise ValueError(f"Scene.fix_nodes #{k}: the predicate selects no node")
+        c = curves.add(getattr(con, "curve", None))
         for comp, v in enumerate(con.velocity):
             if v is not None:
                 free[sel, comp] = 0.0
                 vbc[sel, comp] = v
+                vcurve[sel, comp] = c
+        groups.append((f"fix{k}", sel))
     for b in bodies:
         if np.all(free[b.nodes] == 0.0) and np.all(vbc[b.nodes] == 0.0):
             body_flags[b.index] |= 2
-    return free, vbc, body_flags
+    return free, vbc, body_flags, vcurve, groups
+
+
+class _Curves:
+    """The load curves of a scene, numbered in order of first use, and their table."""
+
+    def __init__(self):
+        self.list, self._index = [], {}
+
+    def add(self, curve) -> int:
+        if curve is None:
+            return -1
+        if id(curve) not in self._index:
+            self._index[id(curve)] = len(self.list)
+            self.list.append(curve)
+        return self._index[id(curve)]
+
+    @property
+    def slices(self) -> list:
+        """(start, count) of each curve in :meth:`points`."""
+        out, start = [], 0
+        for c in self.list:
+            out.append((start, len(c.times)))
+            start += len(c.times)
+        return out
+
+    def points(self) -> np.ndarray:
+        if not self.list:
+            return np.zeros((1, 2))
+        return np.concatenate([np.stack([c.times, c.values], axis=1) for c in self.list])
+
+    def at(self, index: np.ndarray, t: float) -> np.ndarray:
+        """Amplitude of curve ``index`` (−1: none, amplitude 1) at time t, elementwise."""
+        out = np.ones(np.shape(index))
+        for k, c in enumerate(self.list):
+            out[index == k] = float(np.interp(t, c.times, c.values))
+        return out
+
+
+def _boundary_edges(b):
+    """(t, k) of the boundary edges of body b: local triangle t, local edge k (nodes k → k+1);
+    a fracturing body's edges are judged on its unexploded mesh."""
+    tri = b.origin_triangles if (b.fracture and b.origin_triangles is not None) else b.mesh.triangles
+    tri = np.asarray(tri, np.int64)
+    u = tri.ravel()
+    v = tri[:, [1, 2, 0]].ravel()
+    key = np.minimum(u, v) * (int(tri.max()) + 1) + np.maximum(u, v)
+    _, inv, cnt = np.unique(key, return_inverse=True, return_counts=True)
+    e = np.nonzero(cnt[inv] == 1)[0]
+    return e // 3, e % 3
+
+
+def _load_table(scene, bodies, X, mass, dt, curves, free, vbc_raw, vcurve):
+    """(load_nodes (L, 5) i32, load_vals (L, 4)): the load table of :mod:`taichi_fdem.engine.loads`."""
+    rows, vals = [], []
+    kinds = {"pressure": LOAD_PRESSURE, "traction": LOAD_TRACTION, "force": LOAD_FORCE, "absorbing": LOAD_ABSORB}
+    slices = None
+    dash = np.zeros(len(X))                     # Σ ρ c_p L/2 of the dashpots at each node
+    for k, ld in enumerate(getattr(scene, "_loads", [])):
+        what = f"Scene.{'absorbing_boundary' if ld.kind == 'absorbing' else 'apply_' + ld.kind} #{k}"
+        sel = np.asarray(ld.where(X[:, 0].copy(), X[:, 1].copy()), dtype=bool)
+        if sel.shape != (len(X),):
+            raise ValueError(f"{what}: where(x, y) must return a boolean array of shape ({len(X)},)")
+        c = curves.add(ld.curve)
+        kind = kinds[ld.kind]
+        n0 = len(rows)
+        for b in bodies:
+            if ld.body is not None and ld.body.index != b.index:
+                continue
+            if kind == LOAD_FORCE:
+                nodes = np.nonzero(sel[b.nodes])[0] + b.node_start
+                rows += [(kind, int(i), -1, c) for i in nodes]
+                vals += [(ld.value[0], ld.value[1], 0.0, 0.0)] * len(nodes)
+                continue
+            t, e = _boundary_edges(b)
+            tri = b.mesh.triangles
+            ni = tri[t, e] + b.node_start
+            nj = tri[t, (e + 1) % 3] + b.node_start
+            on = sel[ni] & sel[nj]
+            ni, nj = ni[on], nj[on]
+            L0 = np.linalg.norm(X[nj] - X[ni], axis=1)
+            for i, j, l0 in zip(ni, nj, L0):
+                rows.append((kind, int(i), int(j), c))
+                if kind == LOAD_PRESSURE:
+                    vals.append((ld.value[0], 0.0, 0.0, 0.0))
+                elif kind == LOAD_TRACTION:
+                    vals.append((0.5 * l0 * ld.value[0], 0.5 * l0 * ld.value[1], 0.0, 0.0))
+                else:
+                    m = b.material
+                    zp = m.density * m.p_wave_speed(scene.plane)
+                    vals.append((zp, math.sqrt(m.shear_modulus * m.density), 0.0, 0.0))
+                    dash[i] += 0.5 * zp * l0
+                    dash[j] += 0.5 * zp * l0
+        if len(rows) == n0:
+            raise ValueError(f"{what}: the predicate selects no {'node' if kind == LOAD_FORCE else 'boundary edge'}"
+                             f"{' of ' + ld.body.name if ld.body is not None else ''}"
+                             f"{'' if kind == LOAD_FORCE else ' (an edge needs both its nodes selected)'}"
+                             " (initial coordinates)")
+        if not np.all(np.isfinite(vals[n0:])):
+            raise ValueError(f"{what}: the load is not finite")
+    if np.any(dash > 0):
+        ratio = float(np.max(dash * dt / mass))
+        if ratio >= 1.0:
+            raise ValueError(f"absorbing_boundary: the dashpots are unstable at this time step (ρ c_p L/2 · Δt / m = "
+                             f"{ratio:.3g} >= 1, FDEM_SPEC §12.5); use a smaller dt or safety")
+    # prescribed velocities that follow a curve (one row per node component)
+    for i, comp in zip(*np.nonzero((free == 0.0) & (vcurve >= 0))):
+        rows.append((LOAD_VELOCITY, int(i), int(comp), int(vcurve[i, comp])))
+        vals.append((vbc_raw[i, comp], 0.0, 0.0, 0.0))
+    slices = curves.slices
+    table = np.zeros((len(rows), 5), np.int32)
+    for r, (kind, i, j, c) in enumerate(rows):
+        c0, cn = slices[c] if c >= 0 else (0, 0)
+        table[r] = (kind, i, j, c0, cn)
+    return table, np.asarray(vals, np.float64).reshape(-1, 4)
+
+
+def _prestress(scene, bodies, X, tris):
+    """(m, 3) initial stress (xx, yy, xy) of each triangle [Pa], or None without one (§12.4)."""
+    specs = getattr(scene, "_initial_stress", [])
+    if not specs:
+        return None
+    out = np.zeros((len(tris), 3))
+    yc = X[tris].mean(axis=1)[:, 1]
+    for sp in specs:
+        for b in bodies:
+            if sp.body is not None and sp.body.index != b.index:
+                continue
+            sl = b.triangles
+            out[sl] = sp.stress + (yc[sl, None] - sp.y_ref) * sp.gradient
+    return out
 
 
 def _pair_table(scene, materials) -> np.ndarray:
@@ -353,6 +517,8 @@ def allocate_state(md: Model) -> State:
     st.node_v = v2(md.node_velocity0)
     st.node_f = v2(np.zeros_like(md.node_rest))
     st.node_vbc = v2(md.node_vbc0 if md.has_bc else np.zeros((1, 2)))
+    st.node_react = v2(np.zeros_like(md.node_rest) if md.has_bc else np.zeros((1, 2)))
+    st.load_force = _ndarray(np.zeros((max(md.load_count, 1), 4), real), rti, vec=4)
     st.tri_diss = sc(np.zeros(md.tri_count if md.damping else 1))
     # a triangle of a fracturing body starts intact: while it and a mesh neighbour both are, the
     # joint's compression law carries the pair and contact is not evaluated (engine.contact)
@@ -372,6 +538,7 @@ def allocate_state(md: Model) -> State:
     st.step_real.fill(0)
     st.step_int = ti.ndarray(ti.i32, shape=INT_COUNTERS)         # slots: engine.groups.COUPLES, ...
     st.step_int.fill(0)
+    set_counter(st.step_real, QS_ALPHA, md.qs_alpha)
     if md.contact:
         set_counter(st.step_real, DACC, DACC_FORCE)                   # detect at the first step
     return st

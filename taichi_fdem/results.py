@@ -8,9 +8,13 @@ from __future__ import annotations
 
 import numpy as np
 
+import csv
+import os
+
 from .energies import compute_energies
 from .engine.groups import BROKEN
 from .engine.joints import MODE_NAMES
+from .engine.loads import LOAD_ABSORB, LOAD_FORCE, LOAD_VELOCITY
 from .model import counter
 
 
@@ -59,7 +63,8 @@ class SimulationResults:
         self.state.node_v.from_numpy(allv)
 
     def stresses(self, body=None) -> np.ndarray:
-        """Elastic Cauchy stress of each triangle [Pa], shape (m, 2, 2) (§3.2, without the viscous part)."""
+        """Elastic Cauchy stress of each triangle [Pa], shape (m, 2, 2) (§3.2, without the viscous part;
+        with the initial stress, §12.4; zero for removed triangles)."""
         x = self.state.node_x.to_numpy().astype(np.float64)
         t = self.model.tri_nodes_np
         Fx = np.stack([x[t[:, 1]] - x[t[:, 0]], x[t[:, 2]] - x[t[:, 0]]], axis=2)
@@ -69,9 +74,80 @@ class SimulationResults:
         lam = self.model.mat_lam.to_numpy()[self.model.tri_mat_np][:, None, None]
         I = np.eye(2)
         T = (mu / J[:, None, None]) * (F @ F.transpose(0, 2, 1) - I) + lam * (J - 1.0 / J)[:, None, None] * I
+        S0 = self.model.prestress_np
+        if S0 is not None:                  # initial stress: + F S⁰ Fᵀ / J (FDEM_SPEC §12.4)
+            S = np.stack([np.stack([S0[:, 0], S0[:, 2]], 1), np.stack([S0[:, 2], S0[:, 1]], 1)], 1)
+            T = T + F @ S @ F.transpose(0, 2, 1) / J[:, None, None]
+        T[self.state.tri_intact.to_numpy() < 0] = 0.0      # removed by an excavation
         if body is None:
             return T
         return T[self._body_obj(body).triangles]
+
+    # ------------------------------------------------------------------------------------------
+    # loads and reactions (FDEM_SPEC §12)
+    # ------------------------------------------------------------------------------------------
+    def _node_selection(self, body, where, what: str) -> np.ndarray:
+        sel = np.ones(self.model.node_count, bool)
+        if body is not None:
+            mask = np.zeros_like(sel)
+            mask[self._body_obj(body).nodes] = True
+            sel &= mask
+        if where is not None:
+            if not callable(where):
+                raise TypeError(f"{what}: where must be a callable where(x, y) -> bool array (initial coordinates)")
+            X = self.model.node_rest
+            w = np.asarray(where(X[:, 0].copy(), X[:, 1].copy()), dtype=bool)
+            if w.shape != sel.shape:
+                raise ValueError(f"{what}: where(x, y) must return a boolean array of shape ({len(sel)},)")
+            sel &= w
+        return sel
+
+    def reaction(self, body=None, where=None) -> np.ndarray:
+        """Total force (2,) [N, i.e. N/m × the thickness] that the velocity constraints exerted
+        on the selected nodes at the last step (FDEM_SPEC §12.3).
+
+        Per constrained node component R = m (v_b − v_free)/Δt, v_free the velocity the node
+        would have had unconstrained; free components contribute nothing.  Selection: the nodes
+        of ``body`` and/or those whose initial coordinates satisfy ``where(x, y)`` (all
+        constrained nodes when both are None).  For a platen driven by a prescribed velocity,
+        ``reaction(platen)`` is the force it transmits to what it pushes (at equilibrium, minus the
+        load on that side).  Zeros before the first step.
+        """
+        sel = self._node_selection(body, where, "reaction")
+        md = self.model
+        if not md.has_bc:
+            raise ValueError("reaction: the scene has no prescribed velocities (fix_nodes, fixed or "
+                             "prescribed_velocity bodies)")
+        free = md.node_free.to_numpy()
+        sel &= np.any(free == 0.0, axis=1) & ~getattr(self, "_orphans", np.zeros_like(sel))
+        if not sel.any():
+            raise ValueError("reaction: the selection holds no node with a prescribed velocity")
+        r = self.state.node_react.to_numpy().astype(np.float64)
+        return r[sel].sum(axis=0) * self.thickness
+
+    def load_forces(self) -> np.ndarray:
+        """Nodal forces of the applied pressure, tractions and point forces at the last step [N],
+        shape (n, 2) (× the thickness; absorbing dashpots not included)."""
+        out = np.zeros((self.model.node_count, 2))
+        if not self.model.loads:
+            return out
+        ln = self.model.load_nodes.to_numpy()
+        f = self.state.load_force.to_numpy().astype(np.float64)
+        use = (ln[:, 0] != LOAD_ABSORB) & (ln[:, 0] != LOAD_VELOCITY)
+        np.add.at(out, ln[use, 1], f[use, 0:2])
+        two = use & (ln[:, 0] != LOAD_FORCE)
+        np.add.at(out, ln[two, 2], f[two, 2:4])
+        return out * self.thickness
+
+    def load_factors(self) -> dict:
+        """{curve name: amplitude A at the current time} of the scene's curves (named by
+        ``Curve(name=...)``, else ``curve0``, ``curve1``, ... in order of first use)."""
+        return {_curve_name(c, k): float(np.interp(self.time, c.times, c.values))
+                for k, c in enumerate(self.model.curves)}
+
+    def active_triangles(self) -> np.ndarray:
+        """(m,) bool: the triangles not removed by :meth:`remove`."""
+        return self.state.tri_intact.to_numpy() >= 0
 
     def energies(self) -> dict:
         """Energy account [J] (per the scene thickness); see :mod:`taichi_fdem.energies`.
@@ -156,8 +232,57 @@ class SimulationResults:
             labels = labels[b.triangles]
         return int(len(np.unique(labels)))
 
+    def _history_row(self) -> dict:
+        """One row of the history recorder (see :class:`History`)."""
+        row = {"time": self.time, "step": self.step_count}
+        md = self.model
+        if md.has_bc:
+            r = self.state.node_react.to_numpy().astype(np.float64) * self.thickness
+            for label, mask in zip(md.bc_group_labels, md.bc_group_masks):
+                row[f"reaction_{label}_x"], row[f"reaction_{label}_y"] = r[mask].sum(axis=0)
+        for name, a in self.load_factors().items():
+            row[f"factor_{name}"] = a
+        u = self.node_displacements()
+        for b in self.bodies:
+            row[f"ux_{b.name}"], row[f"uy_{b.name}"] = u[b.nodes].mean(axis=0)
+        for k, v in self.energies().items():
+            row[f"E_{k}"] = float(v)
+        return row
+
     def couples(self) -> np.ndarray:
         """Current couple list as (c, 2) triangle indices (first < second in detection order)."""
         n = self.couple_count
         return np.stack([self.state.couple_a.to_numpy()[:n], self.state.couple_b.to_numpy()[:n]], axis=1)
 
+
+
+def _curve_name(curve, k: int) -> str:
+    return getattr(curve, "name", None) or f"curve{k}"
+
+
+class History:
+    """A CSV history of a run, appended row by row and flushed (``Simulation.run(history=...)``).
+
+    Columns: time [s], step, the reaction (x, y) [N] of each prescribed body (by name) and of
+    each ``fix_nodes`` group (fix0, fix1, ...), the amplitude of each curve, the mean
+    displacement (x, y) [m] of each body, and the energy account [J] (``E_load_work`` included).
+    A file that exists is appended to (its header is kept).
+    """
+
+    def __init__(self, sim, path):
+        self.sim, self.path = sim, os.fspath(path)
+        d = os.path.dirname(os.path.abspath(self.path))
+        os.makedirs(d, exist_ok=True)
+        self.fields = list(sim._history_row().keys())
+        new = not os.path.exists(self.path) or os.path.getsize(self.path) == 0
+        self.fh = open(self.path, "a", newline="")
+        self.writer = csv.DictWriter(self.fh, fieldnames=self.fields, extrasaction="ignore")
+        if new:
+            self.writer.writeheader()
+
+    def write(self) -> None:
+        self.writer.writerow(self.sim._history_row())
+        self.fh.flush()
+
+    def close(self) -> None:
+        self.fh.close()

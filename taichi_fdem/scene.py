@@ -31,6 +31,22 @@ def _finite(value, name: str, where: str) -> float:
     return check_finite(name, value, where)
 
 
+#: coefficient α of the local damping of ``build(quasi_static=True)`` (Itasca's default 0.7)
+QUASI_STATIC_ALPHA = 0.7
+
+
+def quasi_static_alpha(value) -> float:
+    """α of ``build(quasi_static=value)``: 0 (off) for False/None, 0.7 for True, else in (0, 1)."""
+    if value is None or value is False:
+        return 0.0
+    if value is True:
+        return QUASI_STATIC_ALPHA
+    a = _finite(value, "quasi_static", "Scene.build")
+    if not (0.0 <= a < 1.0):
+        raise ValueError(f"Scene.build: quasi_static must be True, False or a coefficient in (0, 1), got {value!r}")
+    return a
+
+
 @dataclass
 class Body:
     """A body of a scene: a handle to pass to the Simulation's per-body accessors.
@@ -53,6 +69,7 @@ class Body:
     joint_nodes: Optional[np.ndarray] = None   # (k, 4) local node indices (j0, j1, j2, j3), §7.1
     joint_tris: Optional[np.ndarray] = None    # (k, 2) local triangles (A, B) of each joint
     origin_triangles: Optional[np.ndarray] = None  # (m, 3) node indices before explode_for_fracture
+    velocity_curve: Optional["Curve"] = None   # multiplies prescribed_velocity
 
     @property
     def nodes(self) -> slice:
@@ -98,11 +115,87 @@ def explode_for_fracture(mesh: TriMesh):
     return exploded, joint_nodes, joint_tris
 
 
+class Curve:
+    """A load curve: a piecewise-linear, dimensionless amplitude A(t), constant past its ends.
+
+    ``Curve(times, values)``: times [s] strictly increasing, values dimensionless, both finite
+    and of equal length (at least one point).  A curve multiplies loads
+    (``scene.apply_pressure(..., curve=)`` and the like) and prescribed velocities
+    (``fix_nodes(..., curve=)``, ``add_body(..., velocity_curve=)``); the kernels evaluate it
+    every step (forces at t_n, prescribed velocities at t_n + Δt/2).  ``curve(t)`` evaluates it
+    on the host (``numpy.interp``).  ``Curve.ramp(t_ramp)`` rises linearly from 0 to 1 over
+    ``t_ramp`` seconds and holds.
+    """
+
+    def __init__(self, times, values, name: str | None = None):
+        try:
+            t = np.asarray(times, dtype=np.float64).reshape(-1)
+            v = np.asarray(values, dtype=np.float64).reshape(-1)
+        except (TypeError, ValueError):
+            raise ValueError(f"Curve: times and values must be sequences of numbers, got {times!r}, {values!r}") \
+                from None
+        if len(t) == 0 or len(t) != len(v):
+            raise ValueError(f"Curve: times and values must have the same length >= 1, got {len(t)} and {len(v)}")
+        if not (np.all(np.isfinite(t)) and np.all(np.isfinite(v))):
+            raise ValueError("Curve: times and values must be finite")
+        if np.any(np.diff(t) <= 0):
+            raise ValueError(f"Curve: times must be strictly increasing (sorted, no repeats), got {t.tolist()}")
+        self.times, self.values = t, v
+        self.name = name
+
+    @classmethod
+    def ramp(cls, t_ramp: float, t_start: float = 0.0, name: str | None = None) -> "Curve":
+        """0 until ``t_start``, rising linearly to 1 over ``t_ramp`` seconds, then 1."""
+        t_ramp = _finite(t_ramp, "t_ramp", "Curve.ramp")
+        if t_ramp <= 0:
+            raise ValueError(f"Curve.ramp: t_ramp must be > 0 s, got {t_ramp}")
+        t0 = _finite(t_start, "t_start", "Curve.ramp")
+        return cls([t0, t0 + t_ramp], [0.0, 1.0], name=name)
+
+    def __call__(self, t):
+        return np.interp(t, self.times, self.values)
+
+    def __eq__(self, other):
+        return (isinstance(other, Curve) and self.name == other.name and np.array_equal(self.times, other.times)
+                and np.array_equal(self.values, other.values))
+
+    __hash__ = object.__hash__
+
+    def __repr__(self):
+        return f"Curve({len(self.times)} points, t = {self.times[0]:g}…{self.times[-1]:g} s)"
+
+
+def _curve(curve, where: str):
+    if curve is not None and not isinstance(curve, Curve):
+        raise TypeError(f"{where}: curve must be a taichi_fdem.Curve or None, got {type(curve).__name__}")
+    return curve
+
+
 @dataclass
 class _NodeConstraint:
     where: Callable
     body: Optional[Body]
     velocity: tuple
+    curve: Optional[Curve] = None
+
+
+@dataclass
+class _Load:
+    """A load of the scene (``kind``: "pressure", "traction", "force" or "absorbing"); ``where``
+    selects nodes on their initial coordinates (an edge when both its nodes are selected)."""
+    kind: str
+    where: Callable
+    body: Optional[Body]
+    value: np.ndarray
+    curve: Optional[Curve] = None
+
+
+@dataclass
+class _InitialStress:
+    body: Optional[Body]
+    stress: np.ndarray          # (σxx, σyy, σxy) at y = y_ref [Pa]
+    gradient: np.ndarray        # d(σxx, σyy, σxy)/dy [Pa/m]
+    y_ref: float
 
 
 class Scene:
@@ -127,6 +220,8 @@ class Scene:
         self.bodies: list[Body] = []
         self._constraints: list[_NodeConstraint] = []
         self._interactions: dict = {}
+        self._loads: list[_Load] = []
+        self._initial_stress: list[_InitialStress] = []
         self._node_count = 0
         self._tri_count = 0
 
@@ -134,7 +229,7 @@ class Scene:
     def add_body(self, mesh: TriMesh, material: Material, position=None, velocity=(0.0, 0.0),
                  angular_velocity: float = 0.0, rotation: float = 0.0, fixed: bool = False,
                  prescribed_velocity=None, self_contact: bool = False, fracture: bool = False,
-                 name: str | None = None) -> Body:
+                 name: str | None = None, velocity_curve: Curve | None = None) -> Body:
         """Add a deformable body.
 
         Parameters
@@ -146,6 +241,8 @@ class Scene:
         rotation : rotation [rad, counter-clockwise] applied about the centroid before placing.
         fixed : every node held at zero velocity (walls, floors).
         prescribed_velocity : (v_x, v_y) [m/s]: every node moves at this velocity (platens).
+        velocity_curve : a :class:`Curve` that multiplies ``prescribed_velocity`` (a ramp, a
+            cycle); its reaction is ``sim.reaction(body)``.
         self_contact : let the body's own non-adjacent triangles contact each other (folding).
         fracture : the body may crack: every triangle gets private nodes and every interior edge
             a cohesive joint (FDEM_SPEC §7.1); needs ``material.tensile_strength`` and
@@ -168,6 +265,8 @@ class Scene:
             if fixed:
                 raise ValueError(f"{where}: give either fixed=True or prescribed_velocity, not both")
             pv = _vec2(prescribed_velocity, "prescribed_velocity", where)
+        if _curve(velocity_curve, where) is not None and pv is None:
+            raise ValueError(f"{where}: velocity_curve needs a prescribed_velocity to multiply")
         joint_nodes = joint_tris = origin = None
         if fracture:
             material.joint_properties()            # validates the fracture parameters early
@@ -178,19 +277,24 @@ class Scene:
                     material=material, velocity=v, angular_velocity=w, fixed=bool(fixed),
                     prescribed_velocity=pv, self_contact=bool(self_contact),
                     node_start=self._node_count, tri_start=self._tri_count, fracture=bool(fracture),
-                    joint_nodes=joint_nodes, joint_tris=joint_tris, origin_triangles=origin)
+                    joint_nodes=joint_nodes, joint_tris=joint_tris, origin_triangles=origin,
+                    velocity_curve=velocity_curve)
         self.bodies.append(body)
         self._node_count += mesh.point_count
         self._tri_count += mesh.triangle_count
         return body
 
-    def fix_nodes(self, where: Callable, body: Body | None = None, velocity=(0.0, 0.0)) -> None:
+    def fix_nodes(self, where: Callable, body: Body | None = None, velocity=(0.0, 0.0),
+                  curve: Curve | None = None) -> None:
         """Prescribe the velocity of the nodes selected by a predicate on their initial position.
 
         ``where(x, y)`` receives arrays of initial coordinates [m] and returns a boolean array.
         ``velocity`` = (v_x, v_y) [m/s]; a component given as None stays free (a roller).
+        ``curve``: a :class:`Curve` multiplying the velocity.
         Restricted to ``body`` when given.  At build, a predicate that selects no node is an error.
+        The force the constraint exerts is ``sim.reaction(where=..., body=...)``.
         """
+        _curve(curve, "Scene.fix_nodes")
         if not callable(where):
             raise TypeError("Scene.fix_nodes: where must be a callable where(x, y) -> bool array")
         if body is not None and (not isinstance(body, Body) or body not in self.bodies):
@@ -203,7 +307,86 @@ class Scene:
             raise ValueError(f"Scene.fix_nodes: velocity must be two finite numbers or None, got {velocity!r}")
         if vel == (None, None):
             raise ValueError("Scene.fix_nodes: velocity (None, None) constrains nothing")
-        self._constraints.append(_NodeConstraint(where, body, vel))
+        self._constraints.append(_NodeConstraint(where, body, vel, curve))
+
+    # ---- loads, initial stress and absorbing boundaries (FDEM_SPEC §12) ------------------------
+    def _selector(self, where, body, name: str) -> None:
+        if not callable(where):
+            raise TypeError(f"Scene.{name}: where must be a callable where(x, y) -> bool array (initial coordinates)")
+        if body is not None and (not isinstance(body, Body) or body not in self.bodies):
+            raise ValueError(f"Scene.{name}: body must be a Body of this scene")
+
+    def apply_pressure(self, where: Callable, pressure: float, body: Body | None = None,
+                       curve: Curve | None = None) -> None:
+        """A normal pressure [Pa] on the boundary edges whose two nodes satisfy ``where(x, y)``
+        (initial coordinates), restricted to ``body`` when given.
+
+        Positive pushes into the body.  It follows the deformed edge (a follower load): at each
+        step the edge i→j of current length L and outward normal n̂ gets f_i = f_j = −A(t) p L n̂/2
+        (consistent nodal forces, FDEM_SPEC §12.1), A the ``curve`` (1 without).  Its work is
+        booked in ``sim.energies()["load_work"]``.  Selecting no boundary edge is an error at build.
+        """
+        self._selector(where, body, "apply_pressure")
+        p = _finite(pressure, "pressure", "Scene.apply_pressure")
+        self._loads.append(_Load("pressure", where, body, np.array([p]), _curve(curve, "Scene.apply_pressure")))
+
+    def apply_traction(self, where: Callable, traction, body: Body | None = None,
+                       curve: Curve | None = None) -> None:
+        """A traction (t_x, t_y) [Pa] of fixed direction on the selected boundary edges (a dead load:
+        f_i = f_j = A(t) t⃗ L0/2 with L0 the initial edge length, FDEM_SPEC §12.2).  Selection as
+        :meth:`apply_pressure`."""
+        self._selector(where, body, "apply_traction")
+        t = _vec2(traction, "traction", "Scene.apply_traction")
+        self._loads.append(_Load("traction", where, body, t, _curve(curve, "Scene.apply_traction")))
+
+    def apply_force(self, where: Callable, force, body: Body | None = None, curve: Curve | None = None) -> None:
+        """A force (F_x, F_y) [N per metre of thickness] at each node selected by ``where(x, y)``
+        (initial coordinates), times the ``curve``.  Selecting no node is an error at build."""
+        self._selector(where, body, "apply_force")
+        f = _vec2(force, "force", "Scene.apply_force")
+        self._loads.append(_Load("force", where, body, f, _curve(curve, "Scene.apply_force")))
+
+    def absorbing_boundary(self, where: Callable, body: Body | None = None) -> None:
+        """Viscous (Lysmer–Kuhlemeyer) absorbing boundary on the selected boundary edges.
+
+        Dashpots of the edge's material: traction −ρ c_p (v·n̂) n̂ − ρ c_s (v·ŝ) ŝ (c_p the P-wave
+        speed of the plane problem, c_s = √(μ/ρ)), lumped L/2 per node (FDEM_SPEC §12.5).  Exact
+        for plane waves at normal incidence.  The work they absorb is booked in
+        ``sim.energies()["absorbed"]``.  Selection as :meth:`apply_pressure`.
+        """
+        self._selector(where, body, "absorbing_boundary")
+        self._loads.append(_Load("absorbing", where, body, np.zeros(0)))
+
+    def initial_stress(self, sxx: float, syy: float, sxy: float = 0.0, body: Body | None = None,
+                       gradient=None, y_ref: float = 0.0) -> None:
+        """An initial (in-situ) stress [Pa, tension positive] of the triangles of ``body`` (all
+        bodies when None), carried by the undeformed mesh (FDEM_SPEC §12.4).
+
+        ``gradient`` = (dσxx/dy, dσyy/dy[, dσxy/dy]) [Pa/m]: the stress then varies linearly with
+        height, σ(y) = σ + (y − y_ref)·gradient at each triangle's initial centroid (e.g. a
+        lithostatic σyy = ρ g (y − y_surface) has gradient (k ρ g, ρ g) with y_ref = y_surface
+        and σ = 0).  The prestress is held as a constant second Piola–Kirchhoff stress S⁰, so
+        the Cauchy stress is T_el(F) + F S⁰ Fᵀ / J (objective under rotation).  A balanced start
+        needs matching boundary tractions (:meth:`apply_traction`, :meth:`apply_pressure`) or
+        rollers; then nothing moves.  A later call overrides earlier ones on the bodies it
+        names.  Intact cohesive joints do not carry the prestress: start fracturing bodies
+        unstressed.
+        """
+        where = "Scene.initial_stress"
+        if body is not None and (not isinstance(body, Body) or body not in self.bodies):
+            raise ValueError(f"{where}: body must be a Body of this scene")
+        st = np.array([_finite(sxx, "sxx", where), _finite(syy, "syy", where), _finite(sxy, "sxy", where)])
+        g = np.zeros(3)
+        if gradient is not None:
+            try:
+                gv = np.asarray(gradient, dtype=np.float64).reshape(-1)
+            except (TypeError, ValueError):
+                raise ValueError(f"{where}: gradient must be (dsxx/dy, dsyy/dy[, dsxy/dy]), got {gradient!r}") \
+                    from None
+            if len(gv) not in (2, 3) or not np.all(np.isfinite(gv)):
+                raise ValueError(f"{where}: gradient must be 2 or 3 finite numbers [Pa/m], got {gradient!r}")
+            g[: len(gv)] = gv
+        self._initial_stress.append(_InitialStress(body, st, g, _finite(y_ref, "y_ref", where)))
 
     def set_interaction(self, material_a: Material, material_b: Material, *, friction: float | None = None,
                         penalty: float | None = None, tangential_penalty: float | None = None,
@@ -237,7 +420,7 @@ class Scene:
 
     def build(self, dt: float | None = None, safety: float = 0.2, force_dt: bool = False,
               buffer: float | None = None, strategy: str = "auto", check_overlap: bool = True,
-              speed_limit: float | None = None):
+              speed_limit: float | None = None, quasi_static=False):
         """Allocate everything and return a ready :class:`~taichi_fdem.simulation.Simulation`.
 
         Parameters
@@ -256,6 +439,13 @@ class Scene:
         check_overlap : warn when bodies overlap at the start.
         speed_limit : a node speed [m/s] above which the run stops as unstable (default: 2× the
             largest P-wave speed of the materials, or 10× the fastest initial speed if larger).
+        quasi_static : False (default), True or a coefficient α in (0, 1).  Turns on Cundall's
+            local non-viscous damping for reaching static equilibrium: every free node component
+            gets −α |F| sign(v), F the unbalanced force (:mod:`taichi_fdem.engine.integrate`).
+            True uses α = 0.7 (:data:`QUASI_STATIC_ALPHA`, Itasca's default for static
+            problems).  It damps all modes alike and does not resist steady motion; its work is
+            booked in ``sim.energies()["local_damping"]``.  Not for impacts or waves.
         """
         return Simulation(self, dt=dt, safety=safety, force_dt=force_dt, buffer=buffer, strategy=strategy,
-                          check_overlap=check_overlap, speed_limit=speed_limit)
+                          check_overlap=check_overlap, speed_limit=speed_limit,
+                          quasi_static=quasi_static_alpha(quasi_static))

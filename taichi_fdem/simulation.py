@@ -19,7 +19,7 @@ import math
 import sys
 import time as _time
 import warnings
-from contextlib import nullcontext
+from contextlib import closing as _closing, nullcontext
 
 import numpy as np
 import taichi as ti
@@ -28,10 +28,10 @@ from . import backend, guards
 from .engine import step as kernels
 from .engine.diagnostics import overlap_areas
 from .guards import SimulationError
-from .engine.groups import COUPLES, DACC, DETECTIONS, FOUND
+from .engine.groups import COUPLES, DACC, DACC_FORCE, DETECTIONS, FOUND, SWITCH_BC
 from .model import (allocate_scratch, allocate_state, build_model, counter, grow_couples, pack_groups,
-                    size_old_couples)
-from .results import SimulationResults
+                    set_counter, size_old_couples)
+from .results import History, SimulationResults
 from .timestep import CONTACT_LIMIT_FACTOR  # noqa: F401  (re-exported)
 
 __all__ = ["Simulation", "SimulationError", "SERIAL_MAX_STEPS", "SERIAL_TRI_STEPS"]
@@ -71,14 +71,14 @@ class Simulation(SimulationResults):
         return cls.checkpoint_io
 
     def __init__(self, scene, dt=None, safety=0.2, force_dt=False, buffer=None, strategy="auto",
-                 check_overlap=True, speed_limit=None):
+                 check_overlap=True, speed_limit=None, quasi_static=0.0):
         backend.ensure_init()
         if strategy not in ("auto", "serial", "parallel"):
             raise ValueError(f"Scene.build: strategy must be 'auto', 'serial' or 'parallel', got {strategy!r}")
         self.scene = scene
         self.thickness = scene.thickness
         self.model = build_model(scene, dt=dt, safety=safety, force_dt=force_dt, buffer=buffer,
-                                 speed_limit=speed_limit)
+                                 speed_limit=speed_limit, quasi_static=quasi_static)
         self.bodies = self.model.bodies
         self.state = allocate_state(self.model)
         self.scratch = allocate_scratch(self.model, self.state)
@@ -118,7 +118,95 @@ class Simulation(SimulationResults):
     def _after_restore(self) -> None:
         """Re-derive scratch sizes and argpacks after the state was replaced (checkpoint load)."""
         size_old_couples(self.model, self.state, self.scratch)
+        if np.any(self.state.tri_intact.to_numpy() < 0):
+            self._apply_removal()                 # the rebuilt model lacks the excavations
         self._repack()
+
+    # ------------------------------------------------------------------------------------------
+    # excavation
+    # ------------------------------------------------------------------------------------------
+    def remove(self, body=None, where=None) -> int:
+        """Remove triangles now (an excavation): those of ``body`` and/or whose initial centroid
+        satisfies ``where(x, y)``.  Returns how many were removed.
+
+        A removed triangle exerts no more force (elastic, contact, joints) and its mass leaves
+        its nodes; nodes left without any triangle are held still.  In a stressed mass the new
+        surface is left with the unbalanced initial stress, so the rock relaxes dynamically
+        (FDEM_SPEC §12.4).  The energy the removed triangles held (strain, kinetic, gravity) is
+        booked in ``energies()["excavated"]`` so that the balance still closes.  Loads on edges
+        of removed triangles stay applied.  Selecting no present triangle is an error.
+        """
+        md, st = self.model, self.state
+        if body is None and where is None:
+            raise ValueError("remove: give body= and/or where= (a predicate on initial coordinates)")
+        sel = np.ones(md.tri_count, bool)
+        if body is not None:
+            sel[:] = False
+            sel[self._body_obj(body).triangles] = True
+        if where is not None:
+            if not callable(where):
+                raise TypeError("remove: where must be a callable where(x, y) -> bool array (initial coordinates)")
+            c = md.node_rest[md.tri_nodes_np].mean(axis=1)
+            w = np.asarray(where(c[:, 0].copy(), c[:, 1].copy()), dtype=bool)
+            if w.shape != sel.shape:
+                raise ValueError(f"remove: where(x, y) must return a boolean array of shape ({md.tri_count},) "
+                                 "for the triangle centroids")
+            sel &= w
+        intact = st.tri_intact.to_numpy()
+        sel &= intact >= 0
+        if not sel.any():
+            raise ValueError("remove: the selection holds no triangle that is still present")
+        before = self.energies()["total"]
+        intact[sel] = -1
+        st.tri_intact.from_numpy(intact)
+        self._apply_removal()
+        self._repack()
+        self._excavated_energy = getattr(self, "_excavated_energy", 0.0) + before - self.energies()["total"]
+        return int(sel.sum())
+
+    def _apply_removal(self) -> None:
+        """Masses, held orphan nodes and joints after triangles were removed (tri_intact < 0)."""
+        md, st = self.model, self.state
+        active = st.tri_intact.to_numpy() >= 0
+        tris = md.tri_nodes_np
+        rho = np.array([m.density for m in md.materials])[md.tri_mat_np]
+        mass = np.zeros(md.node_count)
+        np.add.at(mass, tris[active].ravel(), np.repeat(rho[active] * md.tri_area0_np[active] / 3.0, 3))
+        orphans = mass <= 0.0
+        self._orphans = orphans
+        full = getattr(md, "node_mass_full", None)
+        if full is None:
+            full = md.node_mass_full = md.node_mass_np.copy()
+        mass[orphans] = full[orphans]             # held still: any positive mass will do
+        md.node_mass_np = mass
+        md.node_mass.from_numpy(mass.astype(backend.real_np()))
+        real = backend.real_np()
+        n = md.node_count
+        if md.node_free.shape[0] != n:            # the scene had no prescribed velocities
+            md.node_free = ti.Vector.ndarray(2, backend.real_ti(), shape=n)
+            md.node_free.from_numpy(np.ones((n, 2), real))
+            md.has_bc = True
+            md.step_switches[None] = int(md.step_switches[None]) | SWITCH_BC
+        for name in ("node_vbc", "node_react"):
+            if getattr(st, name).shape[0] != n:
+                arr = ti.Vector.ndarray(2, backend.real_ti(), shape=n)
+                arr.fill(0)
+                setattr(st, name, arr)
+        free = md.node_free.to_numpy()
+        free[orphans] = 0.0
+        md.node_free.from_numpy(free)
+        for name in ("node_vbc", "node_v"):
+            a = getattr(st, name).to_numpy()
+            a[orphans] = 0.0
+            getattr(st, name).from_numpy(a)
+        if md.fracture:                           # joints of removed triangles stop (and book nothing)
+            jt = md.joint_tris_np
+            dead = ~(active[jt[:, 0]] & active[jt[:, 1]])
+            g = st.joint_g.to_numpy()
+            g[: len(jt)][dead] = 0.0
+            st.joint_g.from_numpy(g)
+        if md.contact:
+            set_counter(st.step_real, DACC, DACC_FORCE)       # re-detect without the removed triangles
 
     def _grow_couples(self, capacity: int) -> None:
         grow_couples(self.model, self.state, capacity)
@@ -147,11 +235,12 @@ class Simulation(SimulationResults):
         return counter(self.state.step_int, DETECTIONS)
 
     def _switches(self):
-        # contact, friction and fracture are compile-time switches (their code is large: absent
-        # features are not compiled); damping, contact damping and prescribed velocities are
-        # runtime switches in the step group (a branch each), which keeps compiled variants few
+        # contact, friction, fracture, loads and the local damping are compile-time switches
+        # (absent features are not compiled: a scene without them runs the code it always ran);
+        # damping, contact damping, prescribed velocities and initial stress are runtime switches
+        # in the step group (a branch each), which keeps compiled variants few
         md = self.model
-        return md.contact, md.friction, md.fracture
+        return md.contact, md.friction, md.fracture, md.loads, md.local_damping
 
     def steps_per_launch(self) -> int:
         """Steps one serial launch runs (~50 ms of work): the chunk of :meth:`run` without frames."""
@@ -286,9 +375,13 @@ class Simulation(SimulationResults):
                 kernels.eval_contact(p["nodes"], p["tris"], p["mats"], p["contact"], p["step"], md.friction,
                                      md.fracture)
             t2 = pc(); t["contact"] += t2 - t1
-            code = kernels.integrate(p["nodes"], p["step"])
+            if md.loads:
+                kernels.eval_loads(p["nodes"], p["step"])
+            code = kernels.integrate(p["nodes"], p["step"], md.local_damping)
             if md.fracture:
                 kernels.book_joint_work(p["nodes"], p["joints"], p["step"])
+            if md.loads:
+                kernels.book_loads_work(p["nodes"], p["step"])
             t["integration"] += pc() - t2
             self.step_count += 1
             due = md.contact and bool(code & 1)
@@ -328,7 +421,7 @@ class Simulation(SimulationResults):
     def run(self, duration: float, video: str | None = None, fps: int = 30, frame_dt: float | None = None,
             renderer=None, png_dir: str | None = None, progress: bool | None = None, callback=None,
             check_energy: bool = True, energy_tol: float = 0.1, max_penetration: float | None = 0.5,
-            check_every: int | None = None) -> None:
+            check_every: int | None = None, history: str | None = None, history_every: int | None = None) -> None:
         """Advance by ``duration`` seconds of simulated time.
 
         Every step the kernels stop on non-finite values, inverted elements and node speeds above
@@ -357,6 +450,11 @@ class Simulation(SimulationResults):
         png_dir : also write every frame as PNG into this directory.
         progress : show a progress bar (default: when stdout is a terminal).
         callback : ``callback(sim)`` called after every frame interval (or chunk without video).
+        history : path of a CSV file that receives a row at the start, every ``history_every``
+            steps (default: about 200 rows over the run) and at the end: time, reactions of the
+            prescribed bodies and ``fix_nodes`` groups, curve amplitudes, mean displacement of
+            each body, energies (:class:`taichi_fdem.results.History`).  Each row is flushed;
+            an existing file is appended to.
         """
         duration = float(duration)
         if not (math.isfinite(duration) and duration >= 0):
@@ -380,7 +478,15 @@ class Simulation(SimulationResults):
             from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
             bar = Progress(TextColumn("[bold]taichi_fdem[/]"), BarColumn(), TextColumn("t = {task.fields[t]} s"),
                            TextColumn("{task.percentage:>5.1f}%"), TimeRemainingColumn(), transient=True)
-        with (writer if writer is not None else nullcontext()), (bar if bar is not None else nullcontext()):
+        hist = None
+        if history is not None:
+            every = max(1, total // 200) if history_every is None else int(history_every)
+            if every < 1:
+                raise ValueError(f"run: history_every must be >= 1 step, got {history_every}")
+            hist = History(self, history)
+            hist.write()
+        with (writer if writer is not None else nullcontext()), (bar if bar is not None else nullcontext()), \
+                (_closing(hist) if hist is not None else nullcontext()):
             task = bar.add_task("run", total=total, t="0") if bar is not None else None
             if writer is not None:
                 draw()
@@ -388,14 +494,18 @@ class Simulation(SimulationResults):
             guard = guards.RunGuard(self, check_energy, energy_tol, max_penetration, check_every)
             while done < total:
                 k = min(per_frame, total - done)
-                while k > 0:                       # checks on their own schedule inside a frame
+                while k > 0:                       # checks (and history rows) on their own schedule
                     j = min(k, guard.steps_to_next_check())
+                    if hist is not None:
+                        j = min(j, every - done % every)
                     t_step = _time.perf_counter()
                     self.step(j)
                     guard.step_wall = (_time.perf_counter() - t_step) / j
                     k -= j
                     done += j
                     guard.check(j, last=done >= total)
+                    if hist is not None and (done % every == 0 or done >= total):
+                        hist.write()
                 if writer is not None:
                     draw()
                 if callback is not None:

@@ -233,7 +233,7 @@ def is_bonded(A, B, tris: ti.template()):
     over ~10 % of a plate impact's energy at damage onset (measured, benchmarks/fracture.py).
     """
     bonded = False
-    if tris.tri_intact[A] != 0 and tris.tri_intact[B] != 0:
+    if tris.tri_intact[A] > 0 and tris.tri_intact[B] > 0:
         oa = tris.tri_origin[A]
         ob = tris.tri_origin[B]
         shared = 0

@@ -65,7 +65,8 @@ def bin_circle(k, con: ti.template(), step: ti.template()):
 def is_excluded(ta, tb, tris: ti.template(), con: ti.template()):
     """Couples only between triangles that may touch (§2.3.3).
 
-    body_flags[b] bit 0: self-contact allowed; bit 1: every node of the body is fixed.
+    body_flags[b] bit 0: self-contact allowed; bit 1: every node of the body is fixed.  A
+    triangle removed by an excavation (tri_intact < 0) has no couples.
     Triangles joined by an intact joint (fracture) stay couples, as in Y2D (§7.10): in
     compression the joint law and contact act together, so when a joint breaks the contact
     force is already there and no energy appears.  Excluding them (the faster choice) made a
@@ -75,7 +76,9 @@ def is_excluded(ta, tb, tris: ti.template(), con: ti.template()):
     ba = tris.tri_body[ta]
     bb = tris.tri_body[tb]
     excluded = False
-    if ba == bb and (con.body_flags[ba] & 1) == 0:
+    if tris.tri_intact[ta] < 0 or tris.tri_intact[tb] < 0:      # removed by an excavation
+        excluded = True
+    elif ba == bb and (con.body_flags[ba] & 1) == 0:
         excluded = True
     elif (con.body_flags[ba] & 2) != 0 and (con.body_flags[bb] & 2) != 0:
         excluded = True

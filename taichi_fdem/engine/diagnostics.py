@@ -96,7 +96,7 @@ def energy_terms(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: Con
         out[3] -= m * g.dot(nodes.node_x[i])
     damp_on = step.step_switches[None] & SWITCH_DAMPING
     for e in range(tris.tri_nodes.shape[0]):
-        out[1] += tri_strain_energy(e, nodes, tris, mats)
+        out[1] += tri_strain_energy(e, nodes, tris, mats, step)
         if damp_on != 0:
             out[4] += tris.tri_diss[e]
     for c in range(couple_count):

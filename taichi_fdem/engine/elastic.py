@@ -6,7 +6,7 @@ scenes) and inside the serial many-step kernel (small scenes); see :mod:`taichi_
 """
 import taichi as ti
 
-from .groups import INVERTED, SWITCH_DAMPING
+from .groups import INVERTED, SWITCH_DAMPING, SWITCH_PRESTRESS
 from .tiutil import mat2_cols, vec2
 
 
@@ -36,8 +36,18 @@ def strain_energy_density(F, J, mu, lam):
 
 
 @ti.func
+def prestress_matrix(s):
+    """The symmetric 2×2 matrix of a stress stored as (xx, yy, xy)."""
+    return ti.Matrix([[s[0], s[2]], [s[2], s[1]]], dt=float)
+
+
+@ti.func
 def eval_tri_elastic(e, nodes: ti.template(), tris: ti.template(), mats: ti.template(), step: ti.template()):
     """Add the internal nodal forces of triangle e to nodes.node_f (§3.5: f_i += ½ T n_i).
+
+    A removed triangle (tris.tri_intact[e] < 0, an excavation) contributes nothing.  With the
+    prestress switch, the initial stress adds (1/J) F S⁰ Fᵀ to T (§12.4: S⁰ a constant second
+    Piola–Kirchhoff stress, so the undeformed triangle carries σ⁰ = S⁰ and the term is objective).
 
     With the damping switch on, the viscous stress k_s D is added and its dissipated work
     k_s (D:D) A Δt is accumulated in tris.tri_diss[e] [J/m].  A non-positive J flags
@@ -46,11 +56,15 @@ def eval_tri_elastic(e, nodes: ti.template(), tris: ti.template(), mats: ti.temp
     n = tris.tri_nodes[e]
     x0, x1, x2 = nodes.node_x[n[0]], nodes.node_x[n[1]], nodes.node_x[n[2]]
     Fx, F, J = deformation(x0, x1, x2, tris.tri_rest_inv[e])
-    if J <= 0.0:
+    if tris.tri_intact[e] < 0:
+        pass
+    elif J <= 0.0:
         ti.atomic_max(step.step_int[INVERTED], e + 1)
     else:
         m = tris.tri_mat[e]
         T = cauchy_elastic(F, J, mats.mat_mu[m], mats.mat_lam[m])
+        if step.step_switches[None] & SWITCH_PRESTRESS:
+            T += (F @ prestress_matrix(tris.tri_prestress[e]) @ F.transpose()) / J
         if step.step_switches[None] & SWITCH_DAMPING:        # a runtime switch: one compiled variant
             v0, v1, v2 = nodes.node_v[n[0]], nodes.node_v[n[1]], nodes.node_v[n[2]]
             Lx = mat2_cols(v1 - v0, v2 - v0)
@@ -70,13 +84,18 @@ def eval_tri_elastic(e, nodes: ti.template(), tris: ti.template(), mats: ti.temp
 
 
 @ti.func
-def tri_strain_energy(e, nodes: ti.template(), tris: ti.template(), mats: ti.template()):
-    """Strain energy A0·W of triangle e [J/m]."""
+def tri_strain_energy(e, nodes: ti.template(), tris: ti.template(), mats: ti.template(), step: ti.template()):
+    """Strain energy A0·W of triangle e [J/m] (0 once removed); with an initial stress S⁰, plus
+    its potential A0 S⁰:E, E = ½(FᵀF − I) the Green strain."""
     n = tris.tri_nodes[e]
     Fx, F, J = deformation(nodes.node_x[n[0]], nodes.node_x[n[1]], nodes.node_x[n[2]], tris.tri_rest_inv[e])
     W = 0.0
-    if J > 0.0:
+    if J > 0.0 and tris.tri_intact[e] >= 0:
         m = tris.tri_mat[e]
         area0 = 0.5 / tris.tri_rest_inv[e].determinant()      # det F0⁻¹ = 1 / (2 A0)
         W = area0 * strain_energy_density(F, J, mats.mat_mu[m], mats.mat_lam[m])
+        if step.step_switches[None] & SWITCH_PRESTRESS:
+            S = prestress_matrix(tris.tri_prestress[e])
+            E = 0.5 * (F.transpose() @ F - ti.Matrix.identity(float, 2))
+            W += area0 * (S[0, 0] * E[0, 0] + S[1, 1] * E[1, 1] + 2.0 * S[0, 1] * E[0, 1])
     return W

@@ -10,11 +10,18 @@ per scene size; the element type follows the precision chosen by ``fdem.init``);
 group      members
 =========  ====================================================================================
 nodes      x [m], v [m/s], f [N/m] (vec2); mass [kg/m]; free (vec2: 1 free, 0 prescribed per
-           component); vbc (vec2, prescribed velocity [m/s])
+           component); vbc (vec2, prescribed velocity [m/s]); react (vec2: force [N/m] the velocity
+           constraints exerted at the last step, FDEM_SPEC §12.3); the load table (§12.1–12.2,
+           12.5): load_nodes (5 i32: kind, node i, node j or component, curve start, curve
+           count), load_vals (vec4: the load's values, see :mod:`taichi_fdem.engine.loads`),
+           load_force (vec4: forces on i and j at the last step [N/m]); curve_points (vec2:
+           (t [s], amplitude) of every curve, concatenated)
 tris       nodes (vec3 i32); rest_inv (2×2, F0⁻¹ [1/m]; A0 = ½ / det F0⁻¹); mat, body (i32);
            visc (viscous coefficient k_s [Pa·s]); diss (damping work [J/m]); origin (vec3 i32: the
            nodes before a fracturing body was exploded, globally numbered: mesh neighbours share
-           one); intact (1 while every joint of a fracturing triangle is undamaged, else 0)
+           one); intact (1 while every joint of a fracturing triangle is undamaged, else 0; −1 once
+           the triangle is removed by an excavation); prestress (vec3: initial 2nd Piola–Kirchhoff
+           stress S⁰ = (xx, yy, xy) [Pa], §12.4)
 mats       mu, lam (Lamé μ, λ_Y [Pa]); pair ((M, M) vec4: penalty p [Pa], tangential penalty
            k_t [Pa/m], friction μ, normal damping c_n); joint ((M,) vec6: f_t, c, tan φ, G_I,
            G_II, p_f)
@@ -53,9 +60,10 @@ def _group(*names):
     return ti.types.argpack(**{n: _nd for n in names})
 
 
-NODE_MEMBERS = ("node_x", "node_v", "node_f", "node_mass", "node_free", "node_vbc")
+NODE_MEMBERS = ("node_x", "node_v", "node_f", "node_mass", "node_free", "node_vbc", "node_react", "load_nodes",
+                "load_vals", "load_force", "curve_points")
 TRI_MEMBERS = ("tri_nodes", "tri_rest_inv", "tri_mat", "tri_body", "tri_visc", "tri_diss", "tri_origin",
-               "tri_intact")
+               "tri_intact", "tri_prestress")
 MAT_MEMBERS = ("mat_mu", "mat_lam", "mat_pair", "mat_joint")
 CONTACT_MEMBERS = ("contact_tri", "body_flags", "couple_a", "couple_b", "couple_hist", "couple_start", "det_circle",
                    "det_bin", "det_bucket", "det_sorted_k", "det_cnew", "det_old_start", "det_old_b", "det_old_hist")
@@ -87,6 +95,7 @@ SWITCH_DAMPING = 1        # viscous damping of the triangles
 SWITCH_CDAMPING = 2       # normal contact damping
 SWITCH_BC = 4             # prescribed velocities
 SWITCH_BC_WORK = 8        # non-zero prescribed velocities (their work is booked)
+SWITCH_PRESTRESS = 16     # initial stress of the triangles (tri_prestress, FDEM_SPEC §12.4)
 
 # Counters kept by the kernels: two short 1-d arrays, step_real and step_int, whose slots are
 # named here.  (Taichi has no struct ndarrays; one 0-d ndarray per counter would spend the
@@ -100,7 +109,11 @@ VMAX = 3            # largest node speed of the last step [m/s]
 WORK_FRICTION = 4   # work dissipated by friction slip [J/m]
 WORK_CDAMPING = 5   # work dissipated by normal contact damping [J/m]
 WORK_BOUNDARY = 6   # work done on the system by prescribed velocities [J/m]
-REAL_COUNTERS = 8   # length of step_real (spare components for new work terms)
+WORK_LOAD = 7       # work done on the system by applied loads (pressure, traction, force) [J/m]
+WORK_LOCAL = 8      # work dissipated by the local (quasi-static) damping [J/m]
+WORK_ABSORB = 9     # work dissipated by absorbing boundaries [J/m]
+QS_ALPHA = 10       # a parameter, set by the host: coefficient α of the local damping
+REAL_COUNTERS = 12  # length of step_real (spare components for new work terms)
 # step_int:
 COUPLES = 0         # couples in the list
 FOUND = 1           # couples found by the last count pass

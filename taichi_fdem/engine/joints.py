@@ -47,10 +47,13 @@ def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(
     then on contact is evaluated for their couples with mesh neighbours (see
     :func:`taichi_fdem.engine.contact.is_bonded`).
 
+    A joint of a removed triangle (tri_intact < 0, an excavation) is skipped.
+
     The nodal forces g0 (on the pair j0/j3) and g1 (on j1/j2) are kept in joints.joint_g[j] so that
     :func:`add_joint_work` can book their work over the step with the new velocities.
     """
-    if joints.joint_state[j] == 0:
+    jt0 = joints.joint_tris[j]
+    if joints.joint_state[j] == 0 and tris.tri_intact[jt0[0]] >= 0 and tris.tri_intact[jt0[1]] >= 0:
         nd = joints.joint_nodes[j]
         x0, x1, x2, x3 = nodes.node_x[nd[0]], nodes.node_x[nd[1]], nodes.node_x[nd[2]], nodes.node_x[nd[3]]
         e = 0.5 * (x1 + x2 - x0 - x3)
@@ -119,7 +122,7 @@ def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(
             # couples of both triangles (while the overlap is still the small elastic one)
             jt = joints.joint_tris[j]
             for k in ti.static(range(2)):
-                if tris.tri_intact[jt[k]] != 0:
+                if tris.tri_intact[jt[k]] > 0:
                     tris.tri_intact[jt[k]] = 0
         if failed >= 2:
             # broken for good: record when, where and how (§7.8); re-detect contacts at once (§7.10)

@@ -7,8 +7,12 @@ A step is a list of phases, each a ``@ti.func`` made of loops over one kind of e
 2. elastic forces of the triangles (:func:`phase_elastic`);
 3. cohesive joint forces, fracture only (:func:`phase_joints`);
 4. contact forces of the couples (:func:`phase_contact`);
-5. integration of the nodes (:func:`phase_integrate`);
-6. the second half of the joints' work (:func:`phase_joint_work`).
+5. applied loads, absorbing boundaries and curve-driven prescribed velocities, scenes with
+   loads only (:func:`phase_loads`);
+6. integration of the nodes (:func:`phase_integrate`), with the local (quasi-static) damping
+   when asked;
+7. the second half of the joints' and the loads' work (:func:`phase_joint_work`,
+   :func:`phase_load_work`).
 
 Called at the top level of a kernel a phase's loops are parallel; called inside the serialised
 step loop of :func:`run_steps_serial` they run serially.  So one body of maths serves both
@@ -20,7 +24,8 @@ strategies:
   in a serial loop, detection included.
 
 Every kernel takes the array groups of :mod:`taichi_fdem.engine.groups`.  ``contact``,
-``friction`` and ``fracture`` are compile-time switches (absent features are not compiled);
+``friction``, ``fracture``, ``loads`` and ``local_damping`` (the quasi-static option) are
+compile-time switches (absent features are not compiled);
 damping, contact damping and prescribed velocities are runtime switches in the step group.
 """
 import taichi as ti
@@ -32,11 +37,13 @@ from .groups import (COUPLES, DACC, DETECTIONS, FOUND, INVERTED, NONFINITE, RMAX
                      MaterialGroup, NodeGroup, StepGroup, TriGroup)
 from .integrate import integrate_nodes
 from .joints import add_joint_work, eval_joint
+from .loads import apply_loads, book_load_work
 
 UNSTABLE_BIT = 1 << 24   # added to run_steps_serial's return value (steps per launch < 2^24)
 
 __all__ = ["UNSTABLE_BIT", "detect_count", "detect_fill", "step_parallel", "run_steps_serial",
-           "eval_elastic", "eval_joints", "eval_contact", "integrate", "book_joint_work"]
+           "eval_elastic", "eval_joints", "eval_contact", "eval_loads", "integrate", "book_joint_work",
+           "book_loads_work"]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -123,8 +130,18 @@ def phase_contact(nodes: ti.template(), tris: ti.template(), mats: ti.template()
 
 
 @ti.func
-def phase_integrate(nodes: ti.template(), step: ti.template()):
-    integrate_nodes(nodes, step)
+def phase_loads(nodes: ti.template(), step: ti.template()):
+    apply_loads(nodes, step)
+
+
+@ti.func
+def phase_load_work(nodes: ti.template(), step: ti.template()):
+    book_load_work(nodes, step)
+
+
+@ti.func
+def phase_integrate(nodes: ti.template(), step: ti.template(), local_damping: ti.template()):
+    integrate_nodes(nodes, step, local_damping)
 
 
 @ti.func
@@ -148,16 +165,21 @@ def status_code(step: ti.template()):
 @ti.func
 def phases_forces_integrate(nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
                             joints: ti.template(), step: ti.template(), contact: ti.template(),
-                            friction: ti.template(), fracture: ti.template()):
-    """Phases 2–6 of a step."""
+                            friction: ti.template(), fracture: ti.template(), loads: ti.template(),
+                            local_damping: ti.template()):
+    """Phases 2–7 of a step."""
     phase_elastic(nodes, tris, mats, step)
     if ti.static(fracture):
         phase_joints(nodes, tris, mats, joints, step)
     if ti.static(contact):
         phase_contact(nodes, tris, mats, con, step, friction, fracture)
-    phase_integrate(nodes, step)
+    if ti.static(loads):
+        phase_loads(nodes, step)
+    phase_integrate(nodes, step, local_damping)
     if ti.static(fracture):
         phase_joint_work(nodes, joints, step)
+    if ti.static(loads):
+        phase_load_work(nodes, step)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -179,16 +201,16 @@ def detect_fill(tris: TriGroup, con: ContactGroup, step: StepGroup, friction: ti
 @ti.kernel
 def step_parallel(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: ContactGroup, joints: JointGroup,
                   step: StepGroup, contact: ti.template(), friction: ti.template(),
-                  fracture: ti.template()) -> ti.i32:
+                  fracture: ti.template(), loads: ti.template(), local_damping: ti.template()) -> ti.i32:
     """One step, each phase a parallel loop.  Returns :func:`status_code`."""
-    phases_forces_integrate(nodes, tris, mats, con, joints, step, contact, friction, fracture)
+    phases_forces_integrate(nodes, tris, mats, con, joints, step, contact, friction, fracture, loads, local_damping)
     return status_code(step)
 
 
 @ti.kernel
 def run_steps_serial(nsteps: ti.i32, nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: ContactGroup,
                      joints: JointGroup, step: StepGroup, contact: ti.template(), friction: ti.template(),
-                     fracture: ti.template()) -> ti.i32:
+                     fracture: ti.template(), loads: ti.template(), local_damping: ti.template()) -> ti.i32:
     """Up to ``nsteps`` whole steps, detection included, in one serial loop (small scenes).
 
     Stops early, before the step that needs it, when the couple buffer is too small (the
@@ -208,7 +230,8 @@ def run_steps_serial(nsteps: ti.i32, nodes: NodeGroup, tris: TriGroup, mats: Mat
                 else:
                     phase_detect_fill(tris, con, step, friction)
         if stop == 0:
-            phases_forces_integrate(nodes, tris, mats, con, joints, step, contact, friction, fracture)
+            phases_forces_integrate(nodes, tris, mats, con, joints, step, contact, friction, fracture, loads,
+                                    local_damping)
             done += 1
             if is_unstable(step):
                 stop = 1
@@ -237,9 +260,19 @@ def eval_contact(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: Con
 
 
 @ti.kernel
-def integrate(nodes: NodeGroup, step: StepGroup) -> ti.i32:
-    phase_integrate(nodes, step)
+def integrate(nodes: NodeGroup, step: StepGroup, local_damping: ti.template()) -> ti.i32:
+    phase_integrate(nodes, step, local_damping)
     return status_code(step)
+
+
+@ti.kernel
+def eval_loads(nodes: NodeGroup, step: StepGroup):
+    phase_loads(nodes, step)
+
+
+@ti.kernel
+def book_loads_work(nodes: NodeGroup, step: StepGroup):
+    phase_load_work(nodes, step)
 
 
 @ti.kernel

@@ -16,8 +16,8 @@ stored but rebuilt from the scene; the file holds
   state, and anything a user hung on it), pickled, Taichi ndarrays inside tuples, lists and
   dicts included as NumPy data, and the build settings (time step, buffer, speed limit);
 * the :class:`~taichi_fdem.scene.Scene` (meshes, materials, bodies, settings), pickled, with
-  each ``fix_nodes`` predicate replaced by the node mask it selected, so that lambdas need not
-  be picklable.
+  each ``fix_nodes`` and load predicate replaced by the node mask it selected, so that lambdas
+  need not be picklable (curves are plain data).
 
 :func:`load` rebuilds the scene with the saved time step, strategy, buffer and speed limit
 (``force_dt=True``, no overlap check), then overwrites every saved state array — re-allocating
@@ -130,7 +130,7 @@ def _unpack(value):
 
 def _scene_bundle(sim) -> dict:
     """The scene of ``sim`` in a picklable form (a shallow copy; the user's scene is untouched)."""
-    from ..scene import _NodeConstraint
+    from ..scene import _Load, _NodeConstraint
 
     scene = copy.copy(sim.scene)
     scene.bodies = list(sim.bodies)
@@ -140,8 +140,13 @@ def _scene_bundle(sim) -> dict:
     for k, con in enumerate(sim.scene._constraints):
         # the predicate is evaluated on the initial positions, exactly as at build
         mask = np.asarray(con.where(X[:, 0].copy(), X[:, 1].copy()), dtype=bool)
-        constraints.append(_NodeConstraint(_NodeMask(mask), con.body, con.velocity))
+        constraints.append(_NodeConstraint(_NodeMask(mask), con.body, con.velocity, getattr(con, "curve", None)))
     scene._constraints = constraints
+    loads = []
+    for ld in getattr(sim.scene, "_loads", []):       # load selections likewise become node masks
+        mask = np.asarray(ld.where(X[:, 0].copy(), X[:, 1].copy()), dtype=bool)
+        loads.append(_Load(ld.kind, _NodeMask(mask), ld.body, ld.value, ld.curve))
+    scene._loads = loads
     # interactions are keyed by id(material): store the material objects themselves
     by_id = {}
     for b in sim.bodies:
@@ -190,7 +195,8 @@ def save(sim, path) -> None:
         driver[name] = value
     md = sim.model
     plain = {"driver": driver, "state": state_plain,
-             "build": {"dt": md.dt, "buffer": md.buffer, "speed_limit": md.speed_limit}}
+             "build": {"dt": md.dt, "buffer": md.buffer, "speed_limit": md.speed_limit,
+                       "quasi_static": getattr(md, "qs_alpha", 0.0)}}
     try:
         scene_bytes = pickle.dumps(_scene_bundle(sim), protocol=pickle.HIGHEST_PROTOCOL)
     except Exception as exc:
@@ -296,7 +302,8 @@ def load(path):
                               f"({type(exc).__name__}: {exc})") from None
 
     sim = scene.build(dt=build["dt"], force_dt=True, strategy=driver.get("strategy", "auto"),
-                      buffer=build["buffer"], speed_limit=build["speed_limit"], check_overlap=False)
+                      buffer=build["buffer"], speed_limit=build["speed_limit"], check_overlap=False,
+                      quasi_static=build.get("quasi_static", 0.0) or False)
     st = sim.state
     for name, value in state_plain.items():
         setattr(st, name, value)
