@@ -316,7 +316,7 @@ def jointed_specimen_mesh(width: float, height: float, h: float) -> TriMesh:
     return TriMesh(pts, np.array(tris, dtype=np.int32))
 
 
-def triaxial_test(sigma3: float, resolution: int = 10, safety: float = 0.2, material: dict | None = None,
+def triaxial_test(sigma3: float, resolution: int = 6, safety: float = 0.2, material: dict | None = None,
                   strain_rate_transits: float = 60.0, max_strain: float | None = None, samples: int = 150,
                   stop_drop: float = 0.8,
                   video: str | None = None, history: str | None = None, frame=None, quasi_static=True,
@@ -378,7 +378,7 @@ def triaxial_test(sigma3: float, resolution: int = 10, safety: float = 0.2, mate
                 build=build, broken=sim.broken_joint_count, material=mat)
 
 
-def case_triaxial(resolution: int = 10, safety: float = 0.2, penalty_factor: float = 10.0, precision: str = "f64",
+def case_triaxial(resolution: int = 6, safety: float = 0.2, penalty_factor: float = 10.0, precision: str = "f64",
                   confinements=(0.0, 1e5)) -> dict:
     """Peak strength of a jointed specimen (``fracture=True``, joints with c = 0.1 MPa, φ = 30°,
     f_t = c) under confinements σ3 (0 and 0.1 MPa by default), against Mohr–Coulomb of the
