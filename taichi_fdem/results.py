@@ -111,7 +111,8 @@ class SimulationResults:
         of ``body`` and/or those whose initial coordinates satisfy ``where(x, y)`` (all
         constrained nodes when both are None).  For a platen driven by a prescribed velocity,
         ``reaction(platen)`` is the force it transmits to what it pushes (at equilibrium, minus the
-        load on that side).  Zeros before the first step.
+        load on that side), plus what holds the platen itself against gravity.  Zeros before the
+        first step.
         """
         sel = self._node_selection(body, where, "reaction")
         md = self.model

@@ -185,6 +185,25 @@ def test_block_inside_friction_cone_rests_with_quasi_static():
     assert creep < 0.05e-3
 
 
+def test_stack_rests_and_platen_reaction_equals_the_load():
+    g = 9.81
+    mat = _mat(friction=0.5, penalty=10 * E)
+    scene = fdem.Scene(gravity=(0.0, -g), thickness=0.2)
+    floor = scene.add_body(fdem.mesh.rectangle(0.3, 0.05, 0.025, origin=(-0.15, -0.05)), mat, fixed=True)
+    blocks = [scene.add_body(fdem.mesh.rectangle(0.1, 0.05, 0.0125, origin=(-0.05 + 0.01 * k, 0.05 * k)), mat)
+              for k in range(3)]
+    p = 2e3
+    scene.apply_pressure(lambda x, y: y > 0.1499, p, body=blocks[-1], curve=fdem.Curve.ramp(0.05))
+    sim = scene.build(quasi_static=True)
+    sim.run(0.3)
+    weight = sum(sim.node_masses(b).sum() for b in blocks + [floor]) * g    # the floor holds itself up too
+    R = sim.reaction(floor)
+    np.testing.assert_allclose(R, [0.0, weight + p * 0.1 * 0.2], rtol=0, atol=0.01 * (weight + p * 0.02))
+    top = sim.node_positions(blocks[-1]).mean(0)
+    sim.run(0.1)
+    assert np.linalg.norm(sim.node_positions(blocks[-1]).mean(0) - top) < 0.05e-3    # rests
+
+
 def test_local_damping_does_not_resist_steady_motion():
     scene = fdem.Scene(gravity=(0.0, 0.0))
     body = scene.add_body(fdem.mesh.rectangle(0.1, 0.1, 0.05), _mat(), velocity=(0.3, -0.2))
