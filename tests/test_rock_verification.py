@@ -89,27 +89,4 @@ def test_jointed_specimen_lattice_has_straight_60_degree_lines():
     angles = np.round(ang[interior]).astype(int)
     assert set(np.unique(angles)) <= {0, 59, 60, 61, 119, 120, 121}
 
-
-# ---- quasi-static: a stack of blocks rests (the slope and the cantilever are in test_loads.py) ----
-def test_stack_of_blocks_rests_with_quasi_static():
-    """Three blocks dropped-in-place on a floor (touching, under gravity from t = 0) settle with
-    ``quasi_static=True``: after 0.3 s the top block moves less than 0.05 mm per 0.1 s and the
-    kinetic energy is below 1e-6 of the gravity work done."""
-    mat = fdem.Material(density=1000.0, young=1e7, poisson=0.25, friction=0.6)
-    scene = fdem.Scene(gravity=(0.0, -9.81))
-    floor = scene.add_body(fdem.mesh.rectangle(0.4, 0.05, 0.025), mat, position=(0.0, -0.025), fixed=True)
-    blocks = [scene.add_body(fdem.mesh.rectangle(0.1, 0.05, 0.0125), mat, position=(0.01 * k, 0.025 + 0.05 * k))
-              for k in range(3)]
-    sim = scene.build(quasi_static=True)
-    sim.run(0.3)
-    y1 = sim.node_positions(blocks[-1]).mean(axis=0)
-    sim.run(0.1)
-    drift = np.abs(sim.node_positions(blocks[-1]).mean(axis=0) - y1).max()
-    en = sim.energies()
-    print(f"stack: top block drift {drift * 1e3:.5f} mm per 0.1 s, kinetic {en['kinetic']:.3g} J")
-    assert drift < 0.05e-3
-    w = 9.81 * sum(sim.node_masses(b).sum() for b in blocks) * 0.05
-    assert en["kinetic"] < 1e-6 * w
-    # the floor's supports carry the stack's weight and the floor's own
-    weight = 9.81 * (sum(sim.node_masses(b).sum() for b in blocks) + sim.node_masses(floor).sum())
-    assert sim.reaction(floor)[1] == pytest.approx(weight, rel=0.01)
+# the quasi-static scenarios (slope at μ = 1.2 tan θ, stack of blocks, cantilever) are in test_loads.py
