@@ -90,3 +90,19 @@ def test_jointed_specimen_lattice_has_straight_60_degree_lines():
     assert set(np.unique(angles)) <= {0, 59, 60, 61, 119, 120, 121}
 
 # the quasi-static scenarios (slope at μ = 1.2 tan θ, stack of blocks, cantilever) are in test_loads.py
+
+
+def test_readme_loads_example_runs_as_written(tmp_path, monkeypatch, capsys):
+    """The README's loads example runs as written (fdem.init skipped: the session has Taichi)
+    and prints a bore displacement within 2 % of Lamé's 93.75 µm."""
+    import os
+    import re
+    readme = open(os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "README.md")).read()
+    sec = readme[readme.index("### Loads, boundaries and quasi-static runs"):]
+    code = re.search(r"```python\n(.*?)```", sec, re.S).group(1).replace("fdem.init()\n", "")
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code, "README.md", "exec"), {})
+    out = capsys.readouterr().out
+    u = float(re.search(r"u_r = ([0-9.]+) µm", out).group(1))
+    assert u == pytest.approx(93.75, rel=0.02)
+    assert (tmp_path / "out" / "lame.csv").is_file()
