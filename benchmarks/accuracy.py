@@ -59,6 +59,16 @@ CASES = {
                        note="single-joint mode I pull: peak, breakage opening, work (§8.7)"),
     "direct_tension": dict(default=dict(resolution=2), res=([2, 4], [2]), contact=True, penalties=[100.0],
                            order_h=None, order_dt=None, note="direct tension of a jointed strip: peak = f_t (§8.7)"),
+    # loads and rock mechanics (§12.6): resolution = cells along a quarter of the hole (Kirsch),
+    # elements through the wall (Lamé), across the specimen (uniaxial, triaxial)
+    "kirsch": dict(default=dict(resolution=32), res=([16, 24, 32, 48], [24, 32]), contact=False, order_h=None,
+                   order_dt=None, note="Kirsch: hoop stress 3σ and −σ at the hole (§12.6)"),
+    "lame": dict(default=dict(resolution=8), res=([4, 8, 16, 32], [4, 8, 16]), contact=False, order_h=2,
+                 order_dt=None, note="Lamé cylinder: bore and outer displacement, hoop stress (§12.6)"),
+    "uniaxial": dict(default=dict(resolution=8), res=([4, 8, 16], [4, 8]), contact=True, order_h=None,
+                     order_dt=None, note="uniaxial compression between platens: modulus (§12.6)"),
+    "triaxial": dict(default=dict(resolution=6), res=([4, 6, 8], [6]), contact=True, penalties=[10.0],
+                     order_h=None, order_dt=None, note="jointed specimen: peak against Mohr–Coulomb, σ3 = 0, 0.1 MPa (§12.6)"),
 }
 # safety > 0.4 is refused by Scene.build (above sim.dt_limit) unless forced: the sweep stops at 0.4
 SAFETIES = ([0.05, 0.1, 0.2, 0.4], [0.1, 0.2, 0.4])

@@ -16,6 +16,23 @@ def check_finite(name: str, value, where: str) -> float:
     return v
 
 
+#: Sanity bounds of the material parameters (SI).  Beyond them products such as E·ρ (the
+#: viscous damping constant) or p·h² overflow a float64, or the value is a typo by many orders
+#: of magnitude: the stiffest solids have E ~ 1e12 Pa, the densest ρ ~ 2.3e4 kg/m³.
+BOUNDS = {
+    "density": (1e-6, 1e6, "kg/m³"),
+    "young": (1e-6, 1e16, "Pa"),
+    "penalty": (1e-6, 1e18, "Pa"),
+    "tangential_penalty": (1e-6, 1e18, "Pa"),
+    "joint_penalty": (1e-6, 1e18, "Pa"),
+    "tensile_strength": (1e-6, 1e16, "Pa"),
+    "cohesion": (1e-6, 1e16, "Pa"),
+    "fracture_energy": (1e-12, 1e12, "J/m²"),
+    "fracture_energy_shear": (1e-12, 1e12, "J/m²"),
+    "friction": (0.0, 1e6, ""),
+}
+
+
 @dataclass(frozen=True)
 class Material:
     """A bulk material of the deformable triangles and its contact properties.
@@ -100,6 +117,11 @@ class Material:
             raise ValueError(f"{where}: penalty must be > 0 Pa, got {self.penalty}")
         if self.tangential_penalty is not None and self.tangential_penalty <= 0:
             raise ValueError(f"{where}: tangential_penalty must be > 0 Pa, got {self.tangential_penalty}")
+        for key, (lo, hi, unit) in BOUNDS.items():
+            v = getattr(self, key)
+            if v is not None and v != 0.0 and not lo <= v <= hi:
+                raise ValueError(f"{where}: {key}={v:g}{' ' + unit if unit else ''} is outside the accepted range "
+                                 f"[{lo:g}, {hi:g}]{' ' + unit if unit else ''} (SI units; a typo?)")
 
     # --- derived quantities -------------------------------------------------------------------
     @property

@@ -335,3 +335,98 @@ def test_docstring_lists_every_key():
             assert re.search(rf"\b{key}\b", doc), f"{key} is not documented"
             if spec.unit and spec.unit not in ("1/s", "px"):
                 assert spec.unit in doc
+
+
+# ------------------------------------------------------------------------------------------------
+# values no one means: huge, subnormal, out-of-range (issue 12: mutants that crashed)
+# ------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("old,new,key", [
+    ("width = 1.2", "width = 1e308", "width"),
+    ("h = 0.05\nposition = [0.0, -0.025]", "h = 1e-320\nposition = [0.0, -0.025]", "h"),
+    ("young = 1.0e7", "young = 1e308", "young"),
+    ("density = 1000.0", "density = 1e308", "density"),
+    ("gravity = [0.0, -9.81]", "gravity = [1e308, 0.0]", "gravity"),
+    ("velocity = [1.0, 0.0]", "velocity = [1e308, 0.0]", "velocity"),
+    ("position = [-0.45, 0.025]", "position = [1e308, 0.025]", "position"),
+    ("duration = 0.6", "duration = 1e308", "duration"),
+])
+def test_absurd_values_refused(tmp_path, old, new, key):
+    text = open(os.path.join(EXAMPLES, "sliding_block.toml")).read()
+    text = re.sub(r"[ \t]*#[^\n]*", "", text)            # strip comments so that old matches exactly
+    assert old in text, old
+    p = tmp_path / "s.toml"
+    p.write_text(text.replace(old, new, 1))
+    with _no_overflow_warning():
+        with pytest.raises(ValueError, match=key):
+            scenefile.load(p).build()
+
+
+class _no_overflow_warning:
+    """Turn NumPy's overflow / invalid-value RuntimeWarnings into errors inside the block."""
+
+    def __enter__(self):
+        import warnings
+        self._cm = warnings.catch_warnings()
+        self._cm.__enter__()
+        for msg in ("overflow", "invalid value", "divide by zero"):
+            warnings.filterwarnings("error", message=f".*{msg}.*")
+        warnings.filterwarnings("ignore", message="bodies overlap")
+        return self
+
+    def __exit__(self, *exc):
+        return self._cm.__exit__(*exc)
+
+
+_FUZZ_VALUES = ["0", "-1.0", "1e308", "-1e308", "1e-320", "5e-324", "inf", "-inf", "nan", "\"x\"", "true", "[]",
+                "[1.0]", "[1e308, 1e308]", "[[0.0, 0.0], [1e308, 0.0], [0.0, 1e308]]", "{}", "1e30", "1e-30",
+                "12345678901234567890", "-0.0", "2", "0.5", "1e6"]
+
+
+def _mutants(text, rng, n):
+    """n careless edits of a scene file: bad values, dropped, duplicated and unknown keys, truncation."""
+    lines = text.splitlines()
+    kv = [i for i, line in enumerate(lines) if re.match(r"^\s*[A-Za-z_]+\s*=", line)]
+    heads = [i for i, line in enumerate(lines) if line.strip().startswith("[")]
+    for _ in range(n):
+        kind = rng.choice(["value", "value", "value", "drop", "dup", "unknown", "trunc"])
+        out = list(lines)
+        if kind == "value":
+            i = rng.choice(kv)
+            out[i] = f"{out[i].split('=')[0]}= {rng.choice(_FUZZ_VALUES)}"
+        elif kind == "drop":
+            del out[rng.choice(kv)]
+        elif kind == "dup":
+            i = rng.choice(kv + heads)
+            out.insert(i + 1, out[i])
+        elif kind == "unknown":
+            out.insert(rng.choice(heads) + 1, f"{rng.choice(['hh', 'densty', 'foo', 'Young', 'widht'])} = 1.0")
+        else:
+            whole = "\n".join(out)
+            yield kind, whole[:rng.randrange(len(whole))]
+            continue
+        yield kind, "\n".join(out)
+
+
+def test_fuzzed_scene_files_build_or_refuse_clearly(tmp_path):
+    """200 seeded mutants of examples/*.toml: each builds, or is refused with a ValueError
+    (SceneFileError) carrying a message; never another exception, never an overflow warning."""
+    import random
+    rng = random.Random(12)
+    files = [f for f in sorted(os.listdir(EXAMPLES)) if f.endswith(".toml") and not f.startswith("sweep")]
+    outcomes = {"built": 0, "refused": 0}
+    for k in range(200):
+        name = files[k % len(files)]
+        text = open(os.path.join(EXAMPLES, name)).read()
+        kind, mutant = next(_mutants(text, rng, 1))
+        p = tmp_path / f"m{k}.toml"
+        p.write_text(mutant)
+        with _no_overflow_warning():
+            try:
+                scenefile.load(p).build()
+                outcomes["built"] += 1
+            except ValueError as exc:
+                assert str(exc).strip(), f"{name} mutant {k} ({kind}): empty message"
+                outcomes["refused"] += 1
+            except Exception as exc:                    # pragma: no cover - the failure being tested
+                pytest.fail(f"{name} mutant {k} ({kind}) raised {type(exc).__name__}: {exc}\n{mutant}")
+    assert outcomes["refused"] > 100 and outcomes["built"] > 0, outcomes

@@ -231,3 +231,47 @@ def test_forced_huge_dt_raises_simulation_error(strategy):
     assert f"step {e.step}" in str(e)
     assert 0 < e.suggested_dt < sim.dt_limit
     assert e.cause
+
+
+# ------------------------------------------------------------------------------------------------
+# absurd sizes (issue 12): refused before any count overflows, with the usual ValueError
+# ------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("make,name", [
+    (lambda: fdem.mesh.rectangle(1e308, 1.0, 0.1), "width"),
+    (lambda: fdem.mesh.rectangle(1.0, 1.0, 1e-320), "h"),
+    (lambda: fdem.mesh.rectangle(1.0, 1e308, 1e300), "height"),
+    (lambda: fdem.mesh.rectangle(1e6, 0.05, 0.05), "triangles"),
+    (lambda: fdem.mesh.disk(1e308, 0.1), "radius"),
+    (lambda: fdem.mesh.disk(1.0, 1e-320), "h"),
+    (lambda: fdem.mesh.disk(1.0, 0.1, center=(1e308, 0.0)), "center"),
+    (lambda: fdem.mesh.annulus(1.0, 1e308, 0.1), "r_outer"),
+    (lambda: fdem.mesh.annulus(1.0, 2.0, 1e-320), "h"),
+    (lambda: fdem.mesh.polygon([(0, 0), (1e308, 0), (0, 1e308)], 1e-3), "vertex"),
+    (lambda: fdem.mesh.polygon([(0, 0), (1, 0), (0, 1)], 1e-320), "h"),
+    (lambda: fdem.mesh.rectangle(1.0, 1.0, 0.5).translated((1e308, 0.0)), "offset"),
+    (lambda: TriMesh(np.array([[0.0, 0.0], [1e300, 0.0], [0.0, 1e300]]), np.array([[0, 1, 2]])), "point 1"),
+])
+def test_mesh_generators_refuse_absurd_sizes(make, name):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)      # no overflow warning on the way
+        with pytest.raises(ValueError, match=name):
+            make()
+
+
+@pytest.mark.parametrize("key,value", [("young", 1e308), ("density", 1e308), ("penalty", 1e308),
+                                       ("young", 1e-300), ("friction", 1e308), ("tensile_strength", 1e300),
+                                       ("fracture_energy", 1e300), ("joint_penalty", 1e308)])
+def test_material_refuses_absurd_values(key, value):
+    with pytest.raises(ValueError, match=f"{key}=.*outside the accepted range"):
+        fdem.Material(**{key: value})
+
+
+def test_material_extreme_but_sane_values_build_without_overflow():
+    """The largest accepted modulus and density give a finite time step and damping constant."""
+    mat = fdem.Material(density=1e6, young=1e16, poisson=0.25, damping=1.0)
+    scene = fdem.Scene(gravity=(0.0, 0.0))
+    scene.add_body(fdem.mesh.rectangle(1.0, 1.0, 0.5), mat)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        sim = scene.build()
+    assert math.isfinite(sim.dt) and sim.dt > 0

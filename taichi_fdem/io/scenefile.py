@@ -109,6 +109,12 @@ checkpoint     —       file written at the end of the run (needs Simulation.sa
 =============  ======  ===================================================================
 
 A top-level ``description`` string is allowed (free text).
+
+Sanity bounds (a value beyond them is refused as a typo; products of it would overflow):
+lengths (sizes, radii, ``h``, ``thickness``, ``buffer``) within [1e-9, 1e6] m, coordinates
+within ±1e9 m, gravity components within ±1e6 m/s², speeds within ±1e5 m/s, ``duration``
+≤ 1e9 s, video frames ≤ 16384 px and ≤ 1000 fps; material values as
+``taichi_fdem.material.BOUNDS`` (E ≤ 1e16 Pa, 1e-6 ≤ ρ ≤ 1e6 kg/m³, ...).
 """
 from __future__ import annotations
 
@@ -126,11 +132,14 @@ __all__ = ["SceneFileError", "SceneSpec", "RunSettings", "load", "loads", "read_
 # ----------------------------------------------------------------------------------------------
 _F = lambda **kw: _Key("float", **kw)
 _POS = lambda unit, **kw: _Key("float", unit=unit, lo=0.0, lo_open=True, **kw)
+# sanity bounds (SI): beyond them a value is a typo by orders of magnitude, and products of it
+# overflow a float64 (lengths: taichi_fdem.mesh.MAX_LENGTH / MAX_COORDINATE)
+_LEN, _COORD, _SPEED, _ACCEL = 1e6, 1e9, 1e5, 1e6
 
 SCENE_KEYS = {
-    "gravity": _Key("vec2", (0.0, -9.81), "m/s²"),
+    "gravity": _Key("vec2", (0.0, -9.81), "m/s²", hi=_ACCEL),
     "plane": _Key("choice", "strain", choices=("strain", "stress")),
-    "thickness": _POS("m", default=1.0),
+    "thickness": _POS("m", default=1.0, hi=_LEN),
 }
 MATERIAL_KEYS = {
     "density": _F(default=2700.0, unit="kg/m³"),
@@ -156,12 +165,12 @@ BODY_KEYS = {
     "r_outer": _POS("m"),
     "vertices": _Key("vertices", unit="m"),
     "h": _POS("m"),
-    "position": _Key("vec2", unit="m"),
-    "velocity": _Key("vec2", (0.0, 0.0), "m/s"),
-    "angular_velocity": _F(default=0.0, unit="rad/s"),
-    "rotation": _F(default=0.0, unit="rad"),
+    "position": _Key("vec2", unit="m", hi=_COORD),
+    "velocity": _Key("vec2", (0.0, 0.0), "m/s", hi=_SPEED),
+    "angular_velocity": _F(default=0.0, unit="rad/s", lo=-1e7, hi=1e7),
+    "rotation": _F(default=0.0, unit="rad", lo=-1e6, hi=1e6),
     "fixed": _Key("bool", False),
-    "prescribed_velocity": _Key("vec2", unit="m/s"),
+    "prescribed_velocity": _Key("vec2", unit="m/s", hi=_SPEED),
     "self_contact": _Key("bool", False),
 }
 #: mesh parameters of each built-in shape: (required, optional)
@@ -176,25 +185,25 @@ _MESH_KEYS = {k for req, opt in SHAPE_KEYS.values() for k in req + opt}
 CONSTRAINT_KEYS = {
     "xmin": _F(unit="m"), "xmax": _F(unit="m"), "ymin": _F(unit="m"), "ymax": _F(unit="m"),
     "body": _Key("str"),
-    "vx": _F(unit="m/s"), "vy": _F(unit="m/s"),
+    "vx": _F(unit="m/s", lo=-_SPEED, hi=_SPEED), "vy": _F(unit="m/s", lo=-_SPEED, hi=_SPEED),
 }
 SOLVER_KEYS = {
-    "duration": _F(unit="s", lo=0.0, required=True),
+    "duration": _F(unit="s", lo=0.0, hi=1e9, required=True),
     "dt": _POS("s"),
     "safety": _Key("float", 0.2, lo=0.0, lo_open=True, hi=1.0),
     "strategy": _Key("choice", "auto", choices=("auto", "serial", "parallel")),
-    "buffer": _F(unit="m", lo=0.0),
+    "buffer": _F(unit="m", lo=0.0, hi=_LEN),
     "force_dt": _Key("bool", False),
     "check_overlap": _Key("bool", True),
 }
 COLOR_BY = ("body", "material", "speed", "displacement", "von_mises", "max_principal", "min_principal")
 OUTPUT_KEYS = {
     "video": _Key("str"),
-    "fps": _Key("int", 30, "1/s", lo=1),
+    "fps": _Key("int", 30, "1/s", lo=1, hi=1000),
     "frame_dt": _POS("s"),
     "color_by": _Key("choice", "body", choices=COLOR_BY),
-    "width": _Key("int", 960, "px", lo=1),
-    "height": _Key("int", 540, "px", lo=1),
+    "width": _Key("int", 960, "px", lo=1, hi=16384),
+    "height": _Key("int", 540, "px", lo=1, hi=16384),
     "vtu": _Key("str"),
     "vtu_every": _Key("int", 1, lo=1),
     "checkpoint": _Key("str"),

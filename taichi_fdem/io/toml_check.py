@@ -143,7 +143,7 @@ class _Key:
     unit: str = ""
     lo: float | None = None          # inclusive lower bound
     lo_open: bool = False            # lower bound exclusive
-    hi: float | None = None
+    hi: float | None = None          # inclusive upper bound (vec2: of each component's magnitude)
     choices: tuple = ()
     required: bool = False
 
@@ -219,6 +219,8 @@ class _Checker:
                     or any(isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c) for c in v)):
                 raise self.error(kp, f"{key} must be a pair of finite numbers [x, y]{unit}, got {v!r}")
             v = (float(v[0]), float(v[1]))
+            if spec.hi is not None and max(abs(v[0]), abs(v[1])) > spec.hi:
+                raise self.error(kp, f"{key} components must be within ±{spec.hi:g}{unit}, got {list(v)!r}")
         elif spec.kind == "vertices":
             ok = isinstance(v, list) and len(v) >= 3 and all(
                 isinstance(p, list) and len(p) == 2 and all(

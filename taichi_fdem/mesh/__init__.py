@@ -15,6 +15,7 @@ Named constructors (also available as static methods of :class:`TriMesh`)::
     disk(radius, h, center=(0, 0))
     annulus(r_inner, r_outer, h, center=(0, 0))
     polygon(vertices, h=None)
+    plate_with_hole(width, height, radius, h_hole)   # graded O-grid around a central hole
     load(path, cell_block=None)          # any file meshio reads (gmsh .msh, .vtu, ...)
     load_groups(path, key=None)          # one mesh per physical group / cell tag
     merge(meshes)                        # concatenate several meshes into one
@@ -33,11 +34,11 @@ Modules (imports run downwards only, and never into the simulation, scene or ren
 """
 from __future__ import annotations
 
-from .generators import annulus, disk, polygon, rectangle
+from .generators import annulus, disk, plate_with_hole, polygon, rectangle
 from .loaders import GROUP_KEYS, load, load_groups, scene_from_groups
 from .trimesh import DEGENERACY_TOL, MAX_GENERATED_TRIANGLES, TriMesh, merge
 
-__all__ = ["TriMesh", "rectangle", "disk", "annulus", "polygon", "load", "load_groups", "scene_from_groups",
+__all__ = ["TriMesh", "rectangle", "disk", "annulus", "polygon", "plate_with_hole", "load", "load_groups", "scene_from_groups",
            "merge"]
 
 # Pickles (checkpoints hold the scene's meshes) name the class taichi_fdem.mesh.TriMesh, as before
@@ -49,6 +50,7 @@ TriMesh.rectangle = staticmethod(rectangle)
 TriMesh.disk = staticmethod(disk)
 TriMesh.annulus = staticmethod(annulus)
 TriMesh.polygon = staticmethod(polygon)
+TriMesh.plate_with_hole = staticmethod(plate_with_hole)
 TriMesh.load = staticmethod(load)
 TriMesh.load_groups = staticmethod(load_groups)
 TriMesh.merge = staticmethod(merge)

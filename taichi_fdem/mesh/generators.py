@@ -13,9 +13,9 @@ from typing import Sequence
 import numpy as np
 
 from .triangulate import _CDT
-from .trimesh import MAX_GENERATED_TRIANGLES, TriMesh, _guard_size, _nround, _positive, _vec2
+from .trimesh import MAX_COORDINATE, TriMesh, _guard_size, _nround, _positive, _vec2
 
-__all__ = ["rectangle", "disk", "annulus", "polygon"]
+__all__ = ["rectangle", "disk", "annulus", "polygon", "plate_with_hole"]
 
 
 # --------------------------------------------------------------------------- rectangle
@@ -54,10 +54,10 @@ def rectangle(width: float, height: float, h: float, pattern: str = "alternating
     h = _positive("h", h, where)
     if pattern not in _PATTERNS:
         raise ValueError(f"{where}: unknown pattern {pattern!r}; choose one of {list(_PATTERNS)}")
-    nx, ny = max(1, _nround(w / h)), max(1, _nround(hh / h))
     per_cell = 4 if pattern == "crossed" else 2
-    if nx * ny * per_cell > 50 * MAX_GENERATED_TRIANGLES:
-        raise ValueError(f"{where}: h={h:g} would create {nx * ny * per_cell} triangles; use a larger h")
+    # guard in floats before rounding to integers: w / h may be far beyond any integer count
+    _guard_size(max(1.0, w / h) * max(1.0, hh / h) * per_cell, where, h)
+    nx, ny = max(1, _nround(w / h)), max(1, _nround(hh / h))
     o = np.array([-0.5 * w, -0.5 * hh]) if origin is None else _vec2("origin", origin, where)
 
     xs = o[0] + w * np.arange(nx + 1) / nx
@@ -316,6 +316,10 @@ def polygon(vertices, h: float | None = None) -> TriMesh:
     bad = np.flatnonzero(~np.isfinite(v).all(axis=1))
     if bad.size:
         raise ValueError(f"{where}: vertex {int(bad[0])} is not finite: {tuple(v[bad[0]].tolist())}")
+    far = np.flatnonzero(np.abs(v).max(axis=1) > MAX_COORDINATE)
+    if far.size:
+        raise ValueError(f"{where}: vertex {int(far[0])} = {tuple(v[far[0]].tolist())} lies beyond {MAX_COORDINATE:g} m "
+                         f"from the origin (coordinates are in metres)")
     if len(v) > 3 and np.array_equal(v[0], v[-1]):
         v = v[:-1]
     if len(v) < 3:
@@ -385,3 +389,66 @@ def _hex_lattice(v: np.ndarray, h: float) -> np.ndarray:
     p = np.stack([x.ravel(), y.ravel()], axis=1)
     keep = (p[:, 0] > lo[0]) & (p[:, 0] < hi[0]) & (p[:, 1] > lo[1]) & (p[:, 1] < hi[1])
     return p[keep]
+
+
+# --------------------------------------------------------------------------- plate with a hole
+def plate_with_hole(width: float, height: float, radius: float, h_hole: float, center=(0.0, 0.0)) -> TriMesh:
+    """A ``width`` x ``height`` rectangle [m] with a central circular hole of ``radius`` [m],
+    meshed by a graded O-grid: fine (edge ~``h_hole`` [m]) at the hole, coarser outwards.
+
+    Rays from the centre at ``n`` angles (about ``2 pi radius / h_hole``, a multiple of 4; the
+    four corners and the four axis directions are rays, so the mesh is symmetric about both
+    axes and can be cut into quarters along them) carry nodes from the hole (radius ``radius``)
+    to the rectangle at radii ``radius (R_k / radius)^(j / m)``, R_k where ray k meets the
+    rectangle: cells are near-square at the hole and grow geometrically (log-polar grading,
+    ``m`` layers).  Each cell is split along its shorter diagonal.  Built for stress
+    concentration problems (Kirsch, FDEM_SPEC §12.6), where the fine cells are needed at the
+    hole only.
+
+    Raises ValueError for non-positive sizes, a hole that does not fit
+    (``2 radius >= min(width, height)``) or ``h_hole`` larger than the radius.
+    """
+    where = "plate_with_hole"
+    w = _positive("width", width, where)
+    hh = _positive("height", height, where)
+    a = _positive("radius", radius, where)
+    h = _positive("h_hole", h_hole, where)
+    c = _vec2("center", center, where)
+    if 2.0 * a >= min(w, hh) * (1.0 - 1e-9):
+        raise ValueError(f"{where}: the hole (radius {a:g}) does not fit in {w:g} x {hh:g}")
+    if h > a:
+        raise ValueError(f"{where}: h_hole={h:g} is larger than the radius {a:g}; use h_hole <= radius")
+    X, Y = 0.5 * w, 0.5 * hh
+    alpha = math.atan2(Y, X)                          # angle of the upper-right corner
+    # rays: per quadrant, n1 between the x axis and the corner, n2 between the corner and the y axis
+    n1 = max(1, _nround(alpha * a / h))
+    n2 = max(1, _nround((0.5 * math.pi - alpha) * a / h))
+    q1 = np.concatenate([np.linspace(0.0, alpha, n1 + 1)[:-1], np.linspace(alpha, 0.5 * math.pi, n2 + 1)])
+    half = np.concatenate([q1, (math.pi - q1[::-1])[1:]])                 # 0 .. pi, mirrored about the y axis
+    theta = np.concatenate([half[:-1], (2.0 * math.pi - half[::-1])[:-1]])  # 0 .. 2 pi, mirrored about x
+    n = len(theta)
+    ct, st = np.cos(theta), np.sin(theta)
+    with np.errstate(divide="ignore"):
+        R = np.minimum(np.where(np.abs(ct) > 1e-12, X / np.abs(ct), np.inf),
+                       np.where(np.abs(st) > 1e-12, Y / np.abs(st), np.inf))
+    dtheta = 2.0 * math.pi / n
+    m = max(1, _nround(math.log(float(np.mean(R)) / a) / dtheta))
+    _guard_size(2.0 * n * m, where, h)
+    t = np.arange(m + 1) / m
+    r = a * (R[None, :] / a) ** t[:, None]             # (m+1, n)
+    pts = np.stack([c[0] + r * ct[None, :], c[1] + r * st[None, :]], axis=2).reshape(-1, 2)
+    # snap the outer ring exactly onto the rectangle (corners and sides)
+    outer = slice(m * n, (m + 1) * n)
+    pts[outer, 0] = np.clip(pts[outer, 0], c[0] - X, c[0] + X)
+    pts[outer, 1] = np.clip(pts[outer, 1], c[1] - Y, c[1] + Y)
+    j, k = np.meshgrid(np.arange(m), np.arange(n), indexing="ij")
+    j, k = j.ravel(), k.ravel()
+    n00 = j * n + k
+    n10 = j * n + (k + 1) % n                          # next ray, same layer
+    n01, n11 = n00 + n, n10 + n
+    d1 = np.hypot(*(pts[n00] - pts[n11]).T)
+    d2 = np.hypot(*(pts[n10] - pts[n01]).T)
+    short = (d1 <= d2)[:, None]
+    t1 = np.where(short, np.stack([n00, n10, n11], 1), np.stack([n00, n10, n01], 1))
+    t2 = np.where(short, np.stack([n00, n11, n01], 1), np.stack([n10, n11, n01], 1))
+    return TriMesh(pts, np.concatenate([t1, t2]).astype(np.int32))

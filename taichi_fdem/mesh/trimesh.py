@@ -18,12 +18,20 @@ from typing import Iterable
 
 import numpy as np
 
-__all__ = ["TriMesh", "merge", "DEGENERACY_TOL", "MAX_GENERATED_TRIANGLES"]
+__all__ = ["TriMesh", "merge", "DEGENERACY_TOL", "MAX_GENERATED_TRIANGLES", "MAX_LENGTH", "MIN_LENGTH", "MAX_COORDINATE"]
 
 #: A triangle is degenerate when |2A| <= DEGENERACY_TOL * (longest edge)^2.
 DEGENERACY_TOL = 1e-12
 #: Generators refuse to build more triangles than this (a typo in ``h`` would hang).
 MAX_GENERATED_TRIANGLES = 2_000_000
+#: Lengths given to the generators (sizes, radii, h) must lie within these bounds [m]: beyond
+#: them ``size / h`` or ``size**2`` overflow a float64, and no scene of this solver is larger
+#: than a thousand kilometres or finer than a nanometre.
+MAX_LENGTH = 1.0e6
+MIN_LENGTH = 1.0e-9
+#: Coordinates [m] (of every mesh, and the centres and origins given to generators) must be
+#: within this distance of the origin on each axis (map coordinates such as UTM fit).
+MAX_COORDINATE = 1.0e9
 
 
 # --------------------------------------------------------------------------- helpers
@@ -40,6 +48,9 @@ def _positive(name: str, value, where: str) -> float:
         raise ValueError(f"{where}: {name} must be a number, got {value!r}") from None
     if not math.isfinite(v) or v <= 0.0:
         raise ValueError(f"{where}: {name} must be finite and > 0, got {value!r}")
+    if not MIN_LENGTH <= v <= MAX_LENGTH:
+        raise ValueError(f"{where}: {name}={v:g} m is outside [{MIN_LENGTH:g}, {MAX_LENGTH:g}] m "
+                         f"(lengths are in metres)")
     return v
 
 
@@ -53,11 +64,14 @@ def _vec2(name: str, value, where: str) -> np.ndarray:
         raise ValueError(f"{where}: {name} must be a pair (x, y), got shape {v.shape}")
     if not np.all(np.isfinite(v)):
         raise ValueError(f"{where}: {name} must be finite, got {value!r}")
+    if np.abs(v).max() > MAX_COORDINATE:
+        raise ValueError(f"{where}: {name}={tuple(v.tolist())} lies beyond {MAX_COORDINATE:g} m from the origin "
+                         f"(coordinates are in metres)")
     return v
 
 
 def _guard_size(estimate: float, where: str, h: float) -> None:
-    if estimate > MAX_GENERATED_TRIANGLES:
+    if not estimate <= MAX_GENERATED_TRIANGLES:     # also refuses inf and nan
         raise ValueError(f"{where}: h={h:g} would create about {estimate:.3g} triangles "
                          f"(limit {MAX_GENERATED_TRIANGLES}); use a larger h")
 
@@ -129,6 +143,11 @@ class TriMesh:
             i = int(bad[0])
             raise ValueError(f"TriMesh: point {i} has a non-finite coordinate "
                              f"{tuple(pts[i].tolist())}{_more(bad.size)}")
+        far = np.flatnonzero(np.abs(pts).max(axis=1) > MAX_COORDINATE)
+        if far.size:
+            i = int(far[0])
+            raise ValueError(f"TriMesh: point {i} = {tuple(pts[i].tolist())} lies beyond {MAX_COORDINATE:g} m "
+                             f"from the origin{_more(far.size)} (coordinates are in metres)")
 
         if tri_in.dtype.kind in "iu":
             tri64 = tri_in.astype(np.int64, copy=False)

@@ -17,16 +17,21 @@ with that precision (``fdem.init(precision=...)`` resets Taichi, so a sweep over
 runs each in its own process; ``benchmarks/accuracy.py`` does).
 
 Modules: :mod:`.cases` (wave, two bars, Hertz, cantilever, rotation, incline, disks) and
-:mod:`.fracture` (joint pull, direct tension, Brazilian disc, fragmenting plate), sharing
-:mod:`._common`.
+:mod:`.fracture` (joint pull, direct tension, Brazilian disc, fragmenting plate) and :mod:`.rock`
+(loads and rock mechanics, FDEM_SPEC §12.6: Kirsch, Lamé, uniaxial compression, triaxial
+strength), sharing :mod:`._common`.
 """
 from ._common import E, NU, RHO, _build, _centroid_velocity, _crossing, _precision, _result  # noqa: F401
 from .cases import (cantilever_deflection, case_cantilever, case_disks, case_hertz, case_incline,  # noqa: F401
                     case_rotation, case_two_bars, case_wave, two_disks_scene)
 from .fracture import (BRAZILIAN_MATERIAL, JointPair, brazilian_load, brazilian_result, brazilian_scene,  # noqa: F401
                        case_brazilian, case_direct_tension, case_joint_pull, fragment_plate_scene, hondros_factor)
+from .rock import (TRIAXIAL_MATERIAL, axial_record, case_kirsch, case_lame, case_triaxial,  # noqa: F401
+                   case_uniaxial, jointed_specimen_mesh, kirsch_hoop, lame, mohr_coulomb_peak, platen_scene,
+                   triaxial_test)
 
 CASES = {"wave": case_wave, "two_bars": case_two_bars, "hertz": case_hertz, "cantilever": case_cantilever,
          "rotation": case_rotation, "incline": case_incline, "disks": case_disks,
          "joint_pull": case_joint_pull, "direct_tension": case_direct_tension,
-         "brazilian": case_brazilian}
+         "brazilian": case_brazilian, "kirsch": case_kirsch, "lame": case_lame, "uniaxial": case_uniaxial,
+         "triaxial": case_triaxial}
