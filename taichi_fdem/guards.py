@@ -137,7 +137,13 @@ class RunGuard:
             e = sim.energies()
             self.e0, self.scale = e["total"], energy_scale(e)
             eps = 1e3 * float(np.finfo(backend.real_np()).eps)
-            self.floor = eps * (abs(e["total"]) + abs(e["gravity"]) + self.scale)
+            # an absolute floor as well: a rise below the strain energy of a 1e-6 strain over the
+            # whole model is round-off, not instability (a body at rest has energies ~0, and the
+            # relative floor alone would flag contact-energy round-off of 1e-11 J)
+            md = sim.model
+            e_max = max(m.young for m in md.materials)
+            absolute = 0.5 * 1e-12 * e_max * float(np.abs(md.tri_area0_np).sum()) * sim.thickness
+            self.floor = eps * (abs(e["total"]) + abs(e["gravity"]) + self.scale) + absolute
         sim._save_last_good()
 
     def steps_to_next_check(self) -> int:
