@@ -208,24 +208,6 @@ def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, step
 
 
 @ti.func
-def contactor_outside(c0, c1, c2, t0, t1, t2):
-    """Is the whole contactor (c0, c1, c2) outside one edge line of the target (t0, t1, t2)?
-
-    The same test, with the same arithmetic, as the early out of :func:`contact_pass`, which
-    then returns zero forces."""
-    eps = ti.static(_eps())
-    inv2At = 1.0 / (t1 - t0).cross(t2 - t0)
-    b0 = barycentric(c0, t0, t1, t2, inv2At)
-    b1 = barycentric(c1, t0, t1, t2, inv2At)
-    b2 = barycentric(c2, t0, t1, t2, inv2At)
-    outside = False
-    for k in ti.static(range(3)):
-        if b0[k] < eps and b1[k] < eps and b2[k] < eps:
-            outside = True
-    return outside
-
-
-@ti.func
 def boxes_overlap(a0, a1, a2, b0, b1, b2):
     """Cheap pre-check: do the axis-aligned boxes of the two triangles overlap?"""
     amin = ti.min(a0, ti.min(a1, a2))
@@ -282,11 +264,6 @@ def couple_forces(c, nodes: ti.template(), tris: ti.template(), mats: ti.templat
     if ti.static(fracture):
         bonded = is_bonded(A, B, tris)
     hit = not bonded and boxes_overlap(a0, a1, a2, b0, b1, b2)
-    if hit:
-        # both passes would take their exact early out (each contactor outside an edge line of
-        # its target): the couple gives zero forces; skip the pass machinery (FDEM_SPEC §2.3.1)
-        if contactor_outside(b0, b1, b2, a0, a1, a2) and contactor_outside(a0, a1, a2, b0, b1, b2):
-            hit = False
     if hit:
         prop = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]]      # (p, k_t, μ_f, c_n)
         cdamping = step.step_switches[None] & SWITCH_CDAMPING
