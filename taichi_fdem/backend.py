@@ -18,7 +18,7 @@ _state = {"initialised": False, "arch": None, "precision": None}
 
 
 def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, debug: bool = False,
-         cpu_max_num_threads: int | None = None, fast_compile: bool = False) -> None:
+         cpu_max_num_threads: int | None = None, fast_compile: bool | None = None) -> None:
     """Initialise Taichi for taichi_fdem.
 
     Parameters
@@ -32,6 +32,8 @@ def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, 
     fast_compile : skip Taichi's advanced IR optimisations.  Measured on the 1k-triangle pile
         (benchmarks/pile.py): cold start 4.6 s instead of 52 s, stepping ~22 % slower.  For
         short runs on a cold cache; the offline cache makes later starts fast either way.
+        None (default): on when the environment variable TAICHI_FDEM_FAST_COMPILE is "1"
+        (``make test`` sets it: the suite is compile-bound).
 
     Calling ``init`` again re-initialises Taichi: simulations built before become invalid.
     """
@@ -43,6 +45,8 @@ def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, 
                   offline_cache=offline_cache, debug=debug, log_level=ti.WARN)
     if cpu_max_num_threads is not None:
         kwargs["cpu_max_num_threads"] = cpu_max_num_threads
+    if fast_compile is None:
+        fast_compile = os.environ.get("TAICHI_FDEM_FAST_COMPILE", "") == "1"
     if fast_compile:
         kwargs["advanced_optimization"] = False
     cache_dir = os.environ.get("TAICHI_FDEM_CACHE")
