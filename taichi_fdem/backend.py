@@ -32,8 +32,10 @@ def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, 
     fast_compile : skip Taichi's advanced IR optimisations.  Measured on the 1k-triangle pile
         (benchmarks/pile.py): cold start 4.6 s instead of 52 s, stepping ~22 % slower.  For
         short runs on a cold cache; the offline cache makes later starts fast either way.
-        None (default): on when the environment variable TAICHI_FDEM_FAST_COMPILE is "1"
-        (``make test`` sets it: the suite is compile-bound).
+        Round-off differs from the default build, which can shift discrete events (the step at
+        which two bodies separate): the figures of the accuracy benchmark are measured with the
+        default.  None (default): on when the environment variable TAICHI_FDEM_FAST_COMPILE is
+        "1".
 
     Calling ``init`` again re-initialises Taichi: simulations built before become invalid.
     """
