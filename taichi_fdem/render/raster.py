@@ -360,11 +360,7 @@ class RendererImage(_Overlays):
             return np.asarray(sim.tri_damage(), dtype=np.float64)
         backend.ensure_init()
         consts = self._sim_consts(sim)
-        x0 = consts.get("x0")
-        if x0 is None:
-            x0 = ti.Vector.ndarray(2, sim.node_x.dtype, shape=(sim.node_count,))
-            x0.from_numpy(np.ascontiguousarray(sim._X, dtype=_np_dtype(sim.node_x.dtype)))
-            consts["x0"] = x0
+        x0 = self._rest_positions(sim, consts)
         out = consts.get("scalars")
         if out is None:
             out = ti.ndarray(dtype=sim.node_x.dtype, shape=(sim.tri_count,))
@@ -372,6 +368,16 @@ class RendererImage(_Overlays):
         _tri_scalar_kernel(sim.node_x, sim.node_v, x0, sim.tri_nodes, sim.tri_rest_inv, sim.tri_mat,
                            sim.mat_mu, sim.mat_lam, int(kid), out)
         return out.to_numpy().astype(np.float64)
+
+    @staticmethod
+    def _rest_positions(sim, consts):
+        """The simulation's rest positions X [m] as an ndarray, cached per simulation."""
+        x0 = consts.get("x0")
+        if x0 is None:
+            x0 = ti.Vector.ndarray(2, sim.node_x.dtype, shape=(sim.node_count,))
+            x0.from_numpy(np.ascontiguousarray(sim._X, dtype=_np_dtype(sim.node_x.dtype)))
+            consts["x0"] = x0
+        return x0
 
     def _drawn_triangles(self, sim, consts):
         """The simulation's triangles, those removed by an excavation given index −1 (the raster
@@ -396,11 +402,7 @@ class RendererImage(_Overlays):
         """Per-triangle scalars of mode id kid into a per-simulation ndarray (kept on the
         device) and their finite [min, max, count] in a small NumPy array."""
         consts = self._sim_consts(sim)
-        x0 = consts.get("x0")
-        if x0 is None:
-            x0 = ti.Vector.ndarray(2, sim.node_x.dtype, shape=(sim.node_count,))
-            x0.from_numpy(np.ascontiguousarray(sim._X, dtype=_np_dtype(sim.node_x.dtype)))
-            consts["x0"] = x0
+        x0 = self._rest_positions(sim, consts)
         scal = consts.get("frame_scalars")
         if scal is None:
             scal = consts["frame_scalars"] = ti.ndarray(dtype=sim.node_x.dtype, shape=(sim.tri_count,))
