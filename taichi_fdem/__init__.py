@@ -22,6 +22,7 @@ import importlib
 
 from . import mesh
 from .backend import init
+from .discontinuity import NormalStrength, Weibull
 from .guards import SimulationError
 from .material import Material
 from .scene import Body, Curve, Scene
@@ -29,7 +30,7 @@ from .simulation import Simulation
 
 __version__ = "0.1.0"
 __all__ = ["init", "mesh", "render", "export", "checkpoint", "scenefile", "sweep", "Material", "Scene", "Body", "Curve",
-           "Simulation", "SimulationError", "__version__"]
+           "Weibull", "NormalStrength", "Simulation", "SimulationError", "__version__"]
 
 # driver modules, loaded on first attribute access (PEP 562)
 _LAZY = {"render": "taichi_fdem.render", "export": "taichi_fdem.io.vtu", "checkpoint": "taichi_fdem.io.checkpoint",

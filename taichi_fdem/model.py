@@ -83,7 +83,7 @@ class Model(_Arrays):
     ``node_mass_np``, ``tri_nodes_np``, ``tri_body_np``, ``tri_mat_np``, ``tri_area0_np``,
     ``joint_tris_np``.
     Taichi arrays: ``node_mass``, ``node_free``, ``tri_*``, ``mat_*``, ``body_flags``,
-    ``contact_tri``, ``joint_nodes``, ``joint_mat`` and the step parameters ``step_dt``,
+    ``contact_tri``, ``joint_nodes``, ``joint_prop`` and the step parameters ``step_dt``,
     ``step_gravity``, ``step_buffer``, ``step_vlimit``, ``step_switches``.
     """
 
@@ -115,11 +115,13 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     tri_body = np.concatenate([np.full(b.mesh.triangle_count, b.index, np.int32) for b in bodies])
     materials, mat_index = [], {}
     for b in bodies:
-        if id(b.material) not in mat_index:
-            mat_index[id(b.material)] = len(materials)
-            materials.append(b.material)
+        for mt in _body_materials(b):
+            if id(mt) not in mat_index:
+                mat_index[id(mt)] = len(materials)
+                materials.append(mt)
     md.materials = materials
-    tri_mat = np.concatenate([np.full(b.mesh.triangle_count, mat_index[id(b.material)], np.int32) for b in bodies])
+    tri_mat = np.concatenate([np.array([mat_index[id(mt)] for mt in _body_materials(b)], np.int32)[_tri_material(b)]
+                              for b in bodies])
     md.node_count, md.tri_count = len(X), len(tris)
     md.node_rest, md.tri_nodes_np, md.tri_body_np, md.tri_mat_np = X, tris, tri_body, tri_mat
 
@@ -156,26 +158,28 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     pair = _pair_table(scene, materials)
     M = len(materials)
 
-    # ---- joints of fracturing bodies (FDEM_SPEC §7) ---------------------------------------------
-    jn, jt, jm = [], [], []
+    # ---- joints (FDEM_SPEC §7, §13): per-joint properties and joint sets ------------------------
+    jn, jt, jp, js = [], [], [], []
     for b in bodies:
-        if b.fracture and len(b.joint_nodes):
+        if b.fracture and b.joint_count:
             jn.append(b.joint_nodes + b.node_start)
             jt.append(b.joint_tris + b.tri_start)
-            jm.append(np.full(len(b.joint_nodes), mat_index[id(b.material)], np.int32))
+            jp.append(_joint_prop(b))
+            js.append(np.asarray(b.joint_set if b.joint_set is not None else np.zeros(b.joint_count), np.int32))
     md.fracture = bool(jn)
     joint_nodes = np.concatenate(jn).astype(np.int32) if jn else np.zeros((1, 4), np.int32)
     joint_tris = np.concatenate(jt).astype(np.int32) if jt else np.zeros((1, 2), np.int32)
-    joint_mat = np.concatenate(jm) if jm else np.zeros(1, np.int32)
+    joint_prop = np.concatenate(jp) if jp else np.zeros((1, 6))
     md.joint_count = len(joint_nodes) if md.fracture else 0
     md.joint_tris_np = joint_tris[: md.joint_count]
-    mat_joint = np.zeros((M, 6))
-    for i, mat in enumerate(materials):
-        if mat.can_fracture:
-            mat_joint[i] = mat.joint_properties()
+    md.joint_prop_np = joint_prop[: md.joint_count]
+    md.joint_set_np = np.concatenate(js) if js else np.zeros(0, np.int32)
+    md.joint_set_names = list(getattr(scene, "joint_set_names", ["default"]))
     joint_len = np.linalg.norm(X[joint_nodes[:, 1]] - X[joint_nodes[:, 0]], axis=1)
+    md.joint_len0_np = joint_len[: md.joint_count]
     if md.fracture:
-        _warn_joint_parameters(materials, mat_joint, joint_mat, joint_len)
+        _warn_joint_parameters(md.joint_set_names, md.joint_set_np, joint_prop, joint_len,
+                               np.array([m.young for m in materials])[tri_mat[joint_tris[:, 0]]])
 
     # ---- contact participation ---------------------------------------------------------------
     contact = len(bodies) >= 2 or any(b.self_contact for b in bodies)
@@ -209,7 +213,8 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
         # the node mass a joint moves is set by its triangles' size: use their smallest
         # altitude, not the joint length (the length alone was optimistic on slender meshes)
         h_j = np.minimum(np.minimum(altitude[joint_tris[:, 0]], altitude[joint_tris[:, 1]]), joint_len)
-        j_rho, j_pf = rho_all[joint_mat], mat_joint[joint_mat, 5]
+        j_rho = np.minimum(rho_all[tri_mat[joint_tris[:, 0]]], rho_all[tri_mat[joint_tris[:, 1]]])
+        j_pf = joint_prop[:, 5]
     else:
         h_j = j_rho = j_pf = np.zeros(0)
     steps = timestep.estimate_time_steps(
@@ -264,24 +269,24 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     md.mat_mu = sc([m.shear_modulus for m in materials])
     md.mat_lam = sc([m.lambda_y(scene.plane) for m in materials])
     md.mat_pair = _ndarray(pair.astype(real), rti, vec=4)
-    md.mat_joint = _ndarray(mat_joint.astype(real), rti, vec=6)
     md.body_flags = i32(body_flags)
     md.ctri_count = len(ctri) if md.contact else 0
     md.contact_tri = i32(ctri if md.contact else np.zeros(1, np.int32))
     md.joint_nodes = _ndarray(joint_nodes, ti.i32, vec=4)
     md.joint_tris = _ndarray(joint_tris, ti.i32, vec=2)
-    # original (unexploded) nodes of each triangle, numbered apart from every other body's
+    # original (unsplit) nodes of each triangle, numbered apart from every other body's
     origin = tris.copy()
     md.tri_fracturing = np.zeros(len(tris), bool)
     base = len(X)
     for b in bodies:
-        if b.fracture and b.origin_triangles is not None:
+        if b.origin_triangles is not None:
             origin[b.triangles] = b.origin_triangles + base
             base += int(b.origin_triangles.max()) + 1
-            md.tri_fracturing[b.triangles] = True
+        if b.fracture:
+            md.tri_fracturing[b.triangles] = b.tri_bonded if b.tri_bonded is not None else True
     md.tri_origin = _ndarray(origin, ti.i32, vec=3)
-    md.joint_mat = i32(joint_mat)
-    md.joint_fs0 = np.repeat(mat_joint[joint_mat, 1:2], 3, axis=1)     # initial shear strength c [Pa]
+    md.joint_prop = _ndarray(joint_prop.astype(real), rti, vec=6)
+    md.joint_fs0 = np.repeat(joint_prop[:, 1:2], 3, axis=1)       # initial shear strength c [Pa]
     md.step_dt = _scalar(md.dt, rti)
     md.step_gravity = ti.Vector.ndarray(2, rti, shape=())
     md.step_gravity[None] = [float(g) for g in scene.gravity]
@@ -415,16 +420,17 @@ def _load_table(scene, bodies, X, mass, dt, curves, free, vbc_raw, vcurve):
             ni = tri[t, e] + b.node_start
             nj = tri[t, (e + 1) % 3] + b.node_start
             on = sel[ni] & sel[nj]
-            ni, nj = ni[on], nj[on]
+            ni, nj, t = ni[on], nj[on], t[on]
             L0 = np.linalg.norm(X[nj] - X[ni], axis=1)
-            for i, j, l0 in zip(ni, nj, L0):
+            bmats, tmat = _body_materials(b), _tri_material(b)
+            for i, j, l0, te in zip(ni, nj, L0, t):
                 rows.append((kind, int(i), int(j), c))
                 if kind == LOAD_PRESSURE:
                     vals.append((ld.value[0], 0.0, 0.0, 0.0))
                 elif kind == LOAD_TRACTION:
                     vals.append((0.5 * l0 * ld.value[0], 0.5 * l0 * ld.value[1], 0.0, 0.0))
                 else:
-                    m = b.material
+                    m = bmats[tmat[te]]
                     zp = m.density * m.p_wave_speed(scene.plane)
                     vals.append((zp, math.sqrt(m.shear_modulus * m.density), 0.0, 0.0))
                     dash[i] += 0.5 * zp * l0
@@ -475,9 +481,22 @@ def _pair_table(scene, materials) -> np.ndarray:
     values unless ``scene.set_interaction`` overrides them)."""
     M = len(materials)
     pair = np.zeros((M, M, 4))
-    for i, a in enumerate(materials):
-        for j, b in enumerate(materials):
-            ov = scene._interactions.get((id(a), id(b)), {})
+    # crack-face materials (add_body(crack_friction=)): contact as their parent material, but
+    # with the crack's friction against their own body's crack faces and parent material
+    parent, family = {}, {}
+    for b in getattr(scene, "bodies", []):
+        for clone, par in (getattr(b, "crack_clones", None) or []):
+            parent[id(clone)] = par
+            family[id(clone)] = (b.index, clone.friction, id(par))
+    for i, a0 in enumerate(materials):
+        for j, b0 in enumerate(materials):
+            a, b = parent.get(id(a0), a0), parent.get(id(b0), b0)
+            ov = dict(scene._interactions.get((id(a), id(b)), {}))
+            fa, fb = family.get(id(a0)), family.get(id(b0))
+            if fa is not None and (fb is None and id(b0) == fa[2] or fb is not None and fb[0] == fa[0]):
+                ov["friction"] = fa[1]
+            elif fb is not None and fa is None and id(a0) == fb[2]:
+                ov["friction"] = fb[1]
             p = ov.get("penalty", min(a.contact_penalty, b.contact_penalty))
             kt = ov.get("tangential_penalty", min(a.contact_tangential_penalty, b.contact_tangential_penalty))
             mu = ov.get("friction", min(a.friction, b.friction))
@@ -486,21 +505,43 @@ def _pair_table(scene, materials) -> np.ndarray:
     return pair
 
 
-def _warn_joint_parameters(materials, mat_joint, joint_mat, joint_len) -> None:
-    for i in np.unique(joint_mat):
-        mat = materials[i]
-        ft, c, tanphi, gI, gII, pf = mat_joint[i]
-        Lj = joint_len[joint_mat == i]
-        if pf < 10.0 * mat.young:
-            warnings.warn(f"material {mat.name or i}: joint_penalty = {pf / mat.young:.3g}·E; intact joints "
-                          f"make a jointed body about {100 * mat.young / pf:.0f} % softer than E "
+def _warn_joint_parameters(set_names, joint_set, joint_prop, joint_len, young) -> None:
+    """Warn once per joint set about a soft joint penalty or a large pre-peak opening (§7.9)."""
+    for k in np.unique(joint_set):
+        rows = joint_set == k
+        label = f"joint set {set_names[k] if k < len(set_names) else k!r}"
+        ft, c, tanphi, gI, gII, pf = joint_prop[rows].min(axis=0)
+        E = float(young[rows].max())
+        pf = float(joint_prop[rows, 5].min())
+        if pf < 10.0 * E:
+            warnings.warn(f"{label}: joint_penalty = {pf / E:.3g}·E; intact joints "
+                          f"make a jointed body about {100 * E / pf:.0f} % softer than E "
                           "(FDEM_SPEC §7.9: use ≥ 10·E)", RuntimeWarning, stacklevel=5)
-        dp_max = 2.0 * Lj.max() * ft / pf
-        if dp_max > 0.2 * 3.0 * gI / ft:
-            warnings.warn(f"material {mat.name or i}: the opening at peak δ_p = 2 L f_t/p_f = {dp_max:.3g} m "
-                          f"is not small against the softening span 3 G_I/f_t = {3 * gI / ft:.3g} m; "
+        ftr, gIr = joint_prop[rows, 0], joint_prop[rows, 3]
+        ratio = (2.0 * joint_len[rows] * ftr / joint_prop[rows, 5]) / (3.0 * gIr / ftr)
+        if ratio.max() > 0.2:
+            i = int(np.argmax(ratio))
+            warnings.warn(f"{label}: the opening at peak δ_p = 2 L f_t/p_f = "
+                          f"{2.0 * joint_len[rows][i] * ftr[i] / joint_prop[rows, 5][i]:.3g} m "
+                          f"is not small against the softening span 3 G_I/f_t = {3 * gIr[i] / ftr[i]:.3g} m; "
                           "the pre-peak branch will dominate the fracture energy (raise joint_penalty or "
                           "G_I, FDEM_SPEC §7.9)", RuntimeWarning, stacklevel=5)
+
+
+def _body_materials(b) -> list:
+    return b.materials if getattr(b, "materials", None) else [b.material]
+
+
+def _tri_material(b) -> np.ndarray:
+    tm = getattr(b, "tri_material", None)
+    return np.zeros(b.mesh.triangle_count, np.int32) if tm is None else np.asarray(tm, np.int32)
+
+
+def _joint_prop(b) -> np.ndarray:
+    jp = getattr(b, "joint_prop", None)
+    if jp is None or len(jp) != b.joint_count:
+        jp = np.tile(np.asarray(b.material.joint_properties(), float), (b.joint_count, 1))
+    return np.asarray(jp, np.float64)
 
 
 # -------------------------------------------------------------------------------------------------

@@ -6,6 +6,7 @@ the model, :mod:`taichi_fdem.model`, the one place where arrays are allocated).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Callable, Optional
@@ -13,7 +14,9 @@ from typing import Callable, Optional
 import numpy as np
 
 from .material import Material, check_finite
+from .discontinuity import JointSet, check_strength, resolve, split_body
 from .mesh import TriMesh
+from .mesh.split import explode, interior_edge_table
 from .simulation import Simulation
 
 
@@ -52,11 +55,14 @@ class Body:
     """A body of a scene: a handle to pass to the Simulation's per-body accessors.
 
     ``nodes`` and ``triangles`` are the index ranges of the body in the global arrays.
+    ``mesh`` is the mesh the solver uses (split along joints and cracks); ``source_mesh`` the
+    placed mesh before splitting.  ``materials`` lists the body's materials (several with
+    ``add_body(..., groups=)``), ``tri_material`` the index of each triangle's.
     """
 
     index: int
     name: str
-    mesh: TriMesh              # placed (translated / rotated) mesh, positions in m
+    mesh: TriMesh              # placed (translated / rotated) mesh, split along joints and cracks, in m
     material: Material
     velocity: np.ndarray       # (2,) initial translation velocity [m/s]
     angular_velocity: float    # initial spin about the centroid [rad/s]
@@ -65,11 +71,30 @@ class Body:
     self_contact: bool = False
     node_start: int = 0
     tri_start: int = 0
-    fracture: bool = False
+    fracture: bool = False     # the body has cohesive joints
     joint_nodes: Optional[np.ndarray] = None   # (k, 4) local node indices (j0, j1, j2, j3), §7.1
     joint_tris: Optional[np.ndarray] = None    # (k, 2) local triangles (A, B) of each joint
-    origin_triangles: Optional[np.ndarray] = None  # (m, 3) node indices before explode_for_fracture
+    origin_triangles: Optional[np.ndarray] = None  # (m, 3) node indices of source_mesh (when split)
     velocity_curve: Optional["Curve"] = None   # multiplies prescribed_velocity
+    # ---- discontinuities (FDEM_SPEC §13; filled by taichi_fdem.discontinuity.split_body) ----
+    source_mesh: Optional[TriMesh] = None
+    materials: Optional[list] = None           # the body's materials (groups, then crack faces)
+    group_count: int = 1
+    tri_group: Optional[np.ndarray] = None     # (m,) material group of each triangle
+    tri_material: Optional[np.ndarray] = None  # (m,) index into materials
+    group_labels: Optional[list] = None
+    edge_table: Optional[tuple] = None         # interior edges of source_mesh (mesh.split)
+    fracture_mask: Optional[np.ndarray] = None
+    crack_mask: Optional[np.ndarray] = None
+    joint_set_masks: Optional[list] = None     # [(joint-set index, edge mask)]
+    joint_prop: Optional[np.ndarray] = None    # (k, 6) f_t, c, tan φ, G_I, G_II, p_f per joint
+    joint_set: Optional[np.ndarray] = None     # (k,) joint-set index (0: the body's own joints)
+    tri_bonded: Optional[np.ndarray] = None    # (m,) starts intact (no crack node)
+    crack_friction: Optional[float] = None
+    crack_count: int = 0
+    crack_clones: Optional[list] = None        # [(crack-face material, parent material)]
+    strength: object = None
+    self_contact_requested: bool = False
 
     @property
     def nodes(self) -> slice:
@@ -79,9 +104,34 @@ class Body:
     def triangles(self) -> slice:
         return slice(self.tri_start, self.tri_start + self.mesh.triangle_count)
 
+    @property
+    def joint_count(self) -> int:
+        return 0 if self.joint_nodes is None else len(self.joint_nodes)
+
+    def __setstate__(self, state):
+        # checkpoints written before discontinuities (format 2) lack the new fields
+        self.__dict__.update(state)
+        for f in dataclasses.fields(self):
+            if f.name not in self.__dict__:
+                self.__dict__[f.name] = f.default
+        if self.materials is None:
+            self.materials = [self.material]
+        if self.tri_material is None:
+            self.tri_material = np.zeros(self.mesh.triangle_count, np.int32)
+        if self.tri_bonded is None:
+            self.tri_bonded = np.full(self.mesh.triangle_count, bool(self.fracture))
+        if self.joint_prop is None and self.fracture:
+            self.joint_prop = np.tile(np.asarray(self.material.joint_properties(), float), (len(self.joint_nodes), 1))
+            self.joint_set = np.zeros(len(self.joint_nodes), np.int32)
+
     def __repr__(self):
+        extra = ""
+        if self.fracture:
+            extra += f", joints={self.joint_count}"
+        if self.crack_count:
+            extra += f", crack edges={self.crack_count}"
         return (f"Body({self.index}, {self.name!r}, nodes={self.mesh.point_count}, "
-                f"triangles={self.mesh.triangle_count}{', fixed' if self.fixed else ''})")
+                f"triangles={self.mesh.triangle_count}{extra}{', fixed' if self.fixed else ''})")
 
 
 def explode_for_fracture(mesh: TriMesh):
@@ -90,29 +140,10 @@ def explode_for_fracture(mesh: TriMesh):
     Returns (exploded mesh, joint_nodes (k, 4), joint_tris (k, 2)): triangle t of the exploded
     mesh has nodes 3t, 3t+1, 3t+2 (copies of the original, same order); for an interior edge
     u→v of triangle A (its counter-clockwise order) shared with B, the joint is
-    (A's u, A's v, B's v, B's u).
+    (A's u, A's v, B's v, B's u).  The special case of :func:`taichi_fdem.mesh.split.split_mesh`
+    with every interior edge selected.
     """
-    tri = mesh.triangles.astype(np.int64)
-    m = len(tri)
-    points = mesh.points[tri].reshape(-1, 2)
-    exploded = TriMesh(points, np.arange(3 * m, dtype=np.int64).reshape(m, 3))
-    t = np.repeat(np.arange(m), 3)
-    k = np.tile(np.arange(3), m)
-    u = tri[t, k]
-    v = tri[t, (k + 1) % 3]
-    key = np.minimum(u, v) * (tri.max() + 1) + np.maximum(u, v)
-    order = np.argsort(key, kind="stable")
-    ks = key[order]
-    first = np.nonzero(ks[:-1] == ks[1:])[0]        # interior edges: two consecutive entries
-    ia, ib = order[first], order[first + 1]
-    tA, kA, tB, kB = t[ia], k[ia], t[ib], k[ib]
-    j0 = 3 * tA + kA
-    j1 = 3 * tA + (kA + 1) % 3
-    j2 = 3 * tB + kB                                 # B runs v→u: its local k_B is v
-    j3 = 3 * tB + (kB + 1) % 3
-    joint_nodes = np.stack([j0, j1, j2, j3], axis=1).astype(np.int32)
-    joint_tris = np.stack([tA, tB], axis=1).astype(np.int32)
-    return exploded, joint_nodes, joint_tris
+    return explode(mesh)
 
 
 class Curve:
@@ -222,20 +253,26 @@ class Scene:
         self._interactions: dict = {}
         self._loads: list[_Load] = []
         self._initial_stress: list[_InitialStress] = []
+        self.joint_sets: list[JointSet] = []
         self._node_count = 0
         self._tri_count = 0
 
     # ------------------------------------------------------------------------------------------
-    def add_body(self, mesh: TriMesh, material: Material, position=None, velocity=(0.0, 0.0),
+    def add_body(self, mesh: TriMesh, material, position=None, velocity=(0.0, 0.0),
                  angular_velocity: float = 0.0, rotation: float = 0.0, fixed: bool = False,
-                 prescribed_velocity=None, self_contact: bool = False, fracture: bool = False,
-                 name: str | None = None, velocity_curve: Curve | None = None) -> Body:
+                 prescribed_velocity=None, self_contact: bool = False, fracture=False,
+                 name: str | None = None, velocity_curve: Curve | None = None, cracks=None,
+                 crack_friction: float | None = None, strength=None, groups=None) -> Body:
         """Add a deformable body.
 
         Parameters
         ----------
         mesh : :class:`~taichi_fdem.mesh.TriMesh` (coordinates in m).
-        material : :class:`~taichi_fdem.material.Material`.
+        material : :class:`~taichi_fdem.material.Material`; or, with ``groups``, a dict mapping
+            each material-group label to its Material (one body of several materials: a dyke,
+            grains).
+        groups : (m,) label of each triangle's material group (e.g. the ``labels`` of
+            :func:`taichi_fdem.mesh.load_tagged`), with ``material`` a dict of those labels.
         position : where the mesh's (area) centroid is placed [m]; None keeps the mesh's coordinates.
         velocity : initial velocity [m/s]; angular_velocity : initial spin about the centroid [rad/s].
         rotation : rotation [rad, counter-clockwise] applied about the centroid before placing.
@@ -244,15 +281,31 @@ class Scene:
         velocity_curve : a :class:`Curve` that multiplies ``prescribed_velocity`` (a ramp, a
             cycle); its reaction is ``sim.reaction(body)``.
         self_contact : let the body's own non-adjacent triangles contact each other (folding).
-        fracture : the body may crack: every triangle gets private nodes and every interior edge
-            a cohesive joint (FDEM_SPEC §7.1); needs ``material.tensile_strength`` and
-            ``material.fracture_energy``.  Implies self-contact (fragments touch each other).
+        fracture : where the body may crack: cohesive joints (FDEM_SPEC §7) go on the selected
+            interior edges, and the mesh is split there only (§13.1).  An edge selector:
+            ``True`` (every interior edge: every triangle gets private nodes, §7.1),
+            ``False`` (none), a callable ``where(x, y)`` evaluated at the interior-edge
+            midpoints (placed coordinates [m]), an (k, 2) integer array of node pairs of
+            ``mesh`` (an edge group), a :class:`~taichi_fdem.mesh.Polyline` or line group
+            (edges lying along it), ``"interfaces"`` (edges between material groups) or a list
+            of these (their union).  Needs ``tensile_strength`` and ``fracture_energy`` on the
+            material; the joint of an interface takes the weaker material (lower f_t).
+            Implies self-contact (fragments touch each other).
+        cracks : pre-existing open discontinuities along the selected interior edges (same
+            selectors): the mesh is split there with no joint, so the two faces interact only by
+            contact and friction (§2, §5).  A crack ending inside the body keeps one shared node at
+            its tip.  Implies self-contact.
+        crack_friction : friction coefficient of the crack faces (default: the material's
+            ``friction``).  The triangles along a crack get a copy of their material with this
+            friction; their contacts with each other and with their own material use it,
+            with other materials the usual pair rule.
+        strength : ``fdem.Weibull(m, seed=)`` or ``fdem.NormalStrength(cov, seed=)``: a per-joint
+            random factor on the tensile strength and cohesion of this body's joints (§13.3).
         """
         where = f"Scene.add_body({name or 'body ' + str(len(self.bodies))})"
         if not isinstance(mesh, TriMesh):
             raise TypeError(f"{where}: mesh must be a taichi_fdem.mesh.TriMesh, got {type(mesh).__name__}")
-        if not isinstance(material, Material):
-            raise TypeError(f"{where}: material must be a taichi_fdem.Material, got {type(material).__name__}")
+        materials, tri_group, labels = self._material_groups(material, groups, mesh, where)
         rotation = _finite(rotation, "rotation", where)
         if rotation != 0.0:
             mesh = mesh.rotated(rotation)
@@ -267,22 +320,111 @@ class Scene:
             pv = _vec2(prescribed_velocity, "prescribed_velocity", where)
         if _curve(velocity_curve, where) is not None and pv is None:
             raise ValueError(f"{where}: velocity_curve needs a prescribed_velocity to multiply")
-        joint_nodes = joint_tris = origin = None
-        if fracture:
-            material.joint_properties()            # validates the fracture parameters early
-            origin = np.asarray(mesh.triangles, dtype=np.int32).copy()
-            mesh, joint_nodes, joint_tris = explode_for_fracture(mesh)
-            self_contact = True
+        if crack_friction is not None:
+            crack_friction = _finite(crack_friction, "crack_friction", where)
+            if crack_friction < 0:
+                raise ValueError(f"{where}: crack_friction must be >= 0, got {crack_friction}")
         body = Body(index=len(self.bodies), name=name or f"body{len(self.bodies)}", mesh=mesh,
-                    material=material, velocity=v, angular_velocity=w, fixed=bool(fixed),
+                    material=materials[0], velocity=v, angular_velocity=w, fixed=bool(fixed),
                     prescribed_velocity=pv, self_contact=bool(self_contact),
-                    node_start=self._node_count, tri_start=self._tri_count, fracture=bool(fracture),
-                    joint_nodes=joint_nodes, joint_tris=joint_tris, origin_triangles=origin,
-                    velocity_curve=velocity_curve)
+                    node_start=self._node_count, tri_start=self._tri_count,
+                    velocity_curve=velocity_curve, source_mesh=mesh, materials=list(materials),
+                    group_count=len(materials), tri_group=tri_group, group_labels=labels,
+                    edge_table=interior_edge_table(mesh.triangles), crack_friction=crack_friction,
+                    strength=check_strength(strength, where), self_contact_requested=bool(self_contact),
+                    joint_set_masks=[])
+        body.fracture_mask = resolve(body, fracture, f"{where}: fracture")
+        body.crack_mask = resolve(body, cracks, f"{where}: cracks")
+        if cracks is not None and cracks is not False and not body.crack_mask.any():
+            raise ValueError(f"{where}: cracks= selects no interior edge of the mesh (a Polyline must run "
+                             f"along mesh edges: build the mesh with fdem.mesh.polygon(..., lines=[...]))")
+        if fracture is not True and fracture is not False and fracture is not None and not body.fracture_mask.any():
+            raise ValueError(f"{where}: fracture= selects no interior edge of the mesh")
+        split_body(body, self.joint_sets, where)
         self.bodies.append(body)
-        self._node_count += mesh.point_count
-        self._tri_count += mesh.triangle_count
+        self._renumber()
         return body
+
+    def _material_groups(self, material, groups, mesh, where):
+        """(materials, tri_group (m,) int32, labels) of add_body's material / groups."""
+        m = mesh.triangle_count
+        if groups is None:
+            if not isinstance(material, Material):
+                raise TypeError(f"{where}: material must be a taichi_fdem.Material (or a dict of Materials with "
+                                f"groups=), got {type(material).__name__}")
+            return [material], np.zeros(m, np.int32), None
+        g = np.asarray(groups)
+        if g.shape != (m,):
+            raise ValueError(f"{where}: groups must give one label per triangle ({m},), got shape {g.shape}")
+        if not isinstance(material, dict):
+            raise TypeError(f"{where}: with groups=, material must be a dict mapping each group label to a Material")
+        try:
+            uniq, tri_group = np.unique(g, return_inverse=True)
+        except TypeError:
+            raise ValueError(f"{where}: groups labels must be all numbers or all strings") from None
+        labels = uniq.tolist()
+        missing = [lb for lb in labels if lb not in material]
+        if missing:
+            raise ValueError(f"{where}: no material for group(s) {missing} (material has {list(material)})")
+        for lb in labels:
+            if not isinstance(material[lb], Material):
+                raise TypeError(f"{where}: material[{lb!r}] must be a Material, got {type(material[lb]).__name__}")
+        return [material[lb] for lb in labels], np.asarray(tri_group, np.int32), labels
+
+    def _renumber(self) -> None:
+        """Node and triangle offsets of every body (splitting changes node counts)."""
+        n = t = 0
+        for b in self.bodies:
+            b.node_start, b.tri_start = n, t
+            n += b.mesh.point_count
+            t += b.mesh.triangle_count
+        self._node_count, self._tri_count = n, t
+
+    @property
+    def joint_set_names(self) -> list:
+        """Names of the joint sets: index 0 is "default" (each body's own joints from ``fracture=``)."""
+        return ["default"] + [js.name for js in self.joint_sets]
+
+    def add_joint_set(self, name: str, selector, material: Material, body: Body | None = None,
+                      strength=None) -> None:
+        """A set of joints with its own properties (FDEM_SPEC §13.2).
+
+        Cohesive joints go on the interior edges that ``selector`` picks (any edge selector of
+        :meth:`add_body`'s ``fracture``: a callable ``where(x, y)`` on edge midpoints, node
+        pairs, a :class:`~taichi_fdem.mesh.Polyline` or line group, ``"interfaces"`` (grain
+        boundaries, the contact of a dyke), a list), in ``body`` or in every body.  Their
+        properties come from ``material`` (its ``tensile_strength``, ``cohesion``,
+        ``friction_angle``, ``fracture_energy``, ``fracture_energy_shear``, ``joint_penalty``;
+        its elastic constants are not used); ``strength`` spreads them (:class:`Weibull`,
+        :class:`NormalStrength`).  Joints already there (``fracture=``, an earlier set) take
+        the new set's properties; crack edges stay cracks.  The mesh is split along the new
+        joints.  Selecting no edge at all is an error.
+        """
+        where = f"Scene.add_joint_set({name!r})"
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"{where}: name must be a non-empty string")
+        if name in self.joint_set_names:
+            raise ValueError(f"{where}: a joint set named {name!r} exists already")
+        if not isinstance(material, Material):
+            raise TypeError(f"{where}: material must be a taichi_fdem.Material, got {type(material).__name__}")
+        material.joint_properties()                       # validates the fracture parameters now
+        if body is not None and (not isinstance(body, Body) or body not in self.bodies):
+            raise ValueError(f"{where}: body must be a Body of this scene")
+        js = JointSet(name, material, check_strength(strength, where))
+        index = len(self.joint_sets) + 1
+        hits = []
+        for b in ([body] if body is not None else self.bodies):
+            mask = resolve(b, selector, where)
+            if mask.any():
+                hits.append((b, mask))
+        if not hits:
+            raise ValueError(f"{where}: the selector picks no interior edge of "
+                             f"{'body ' + repr(body.name) if body is not None else 'any body'}")
+        self.joint_sets.append(js)
+        for b, mask in hits:
+            b.joint_set_masks.append((index, mask))
+            split_body(b, self.joint_sets, where)
+        self._renumber()
 
     def fix_nodes(self, where: Callable, body: Body | None = None, velocity=(0.0, 0.0),
                   curve: Curve | None = None) -> None:

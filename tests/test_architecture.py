@@ -11,7 +11,7 @@ PKG = pathlib.Path(__file__).resolve().parent.parent / "taichi_fdem"
 
 # lower number = lower layer; a module may import its own layer or any lower one
 LAYERS = [
-    ("backend", "material", "mesh"),
+    ("backend", "material", "mesh", "discontinuity"),
     ("engine",),
     ("timestep", "model"),
     ("guards", "energies", "results", "simulation"),

@@ -23,8 +23,7 @@ tris       nodes (vec3 i32); rest_inv (2×2, F0⁻¹ [1/m]; A0 = ½ / det F0⁻�
            the triangle is removed by an excavation); prestress (vec3: initial 2nd Piola–Kirchhoff
            stress S⁰ = (xx, yy, xy) [Pa], §12.4)
 mats       mu, lam (Lamé μ, λ_Y [Pa]); pair ((M, M) vec4: penalty p [Pa], tangential penalty
-           k_t [Pa/m], friction μ, normal damping c_n); joint ((M,) vec6: f_t, c, tan φ, G_I,
-           G_II, p_f)
+           k_t [Pa/m], friction μ, normal damping c_n)
 contact    the couples: a, b (triangles), hist (6 slip values per couple [m])
 detect     ctri (contact triangles), body_flags (bit 0 self-contact, bit 1 fully fixed), start
            (first couple of each ctri); scratch: circle (vec3: bounding-circle centre [m], radius
@@ -33,7 +32,8 @@ detect     ctri (contact triangles), body_flags (bit 0 self-contact, bit 1 fully
            prefix; cnew[K] = couples found), old_start, old_b, old_hist (the previous couples)
 asm        force slots of the parallel strategy (no atomics): force (vec2: 3 per triangle, then 6
            per couple [N/m]), node_start (N+1) and node_slots (each node's slots, sorted)
-joints     nodes (vec4 i32), tris (ivec2: triangles A, B), mat; state (0 intact, else the failure mode at breakage), dmax
+joints     nodes (vec4 i32), tris (ivec2: triangles A, B), prop (vec6: f_t, c, tan φ, G_I, G_II, p_f
+           of each joint, §13.2–13.3); state (0 intact, else the failure mode at breakage), dmax
            (vec3), fs (vec3 [Pa]), work [J/m], brk (vec3: time, x, y), g (vec4: nodal forces [N/m])
 step       parameters set by the host: dt [s], gravity (vec2 [m/s²]), buffer [m], vlimit [m/s],
            switches (runtime feature bits, :data:`SWITCH_DAMPING` ...: one compiled variant);
@@ -67,12 +67,12 @@ NODE_MEMBERS = ("node_x", "node_v", "node_f", "node_mass", "node_free", "node_vb
                 "load_vals", "load_force", "curve_points")
 TRI_MEMBERS = ("tri_nodes", "tri_rest_inv", "tri_mat", "tri_body", "tri_visc", "tri_diss", "tri_origin",
                "tri_intact", "tri_prestress")
-MAT_MEMBERS = ("mat_mu", "mat_lam", "mat_pair", "mat_joint")
+MAT_MEMBERS = ("mat_mu", "mat_lam", "mat_pair")
 CONTACT_MEMBERS = ("couple_a", "couple_b", "couple_hist")
 DETECT_MEMBERS = ("contact_tri", "body_flags", "couple_start", "det_circle", "det_sort", "det_bucket", "det_cnew",
                   "det_old_start", "det_old_b", "det_old_hist")
 ASSEMBLY_MEMBERS = ("asm_force", "asm_node_start", "asm_node_slots")
-JOINT_MEMBERS = ("joint_nodes", "joint_tris", "joint_mat", "joint_state", "joint_dmax", "joint_fs", "joint_work",
+JOINT_MEMBERS = ("joint_nodes", "joint_tris", "joint_prop", "joint_state", "joint_dmax", "joint_fs", "joint_work",
                  "joint_break", "joint_g")
 STEP_PARAMS = ("step_dt", "step_gravity", "step_buffer", "step_vlimit", "step_switches")
 STEP_COUNTERS = ("step_real", "step_int")

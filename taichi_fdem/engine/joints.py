@@ -61,7 +61,7 @@ def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(
         d0 = x0 - x3
         d1 = x1 - x2
         dm = 0.5 * (d0 + d1)
-        prop = mats.mat_joint[joints.joint_mat[j]]                # (f_t, c, tan φ, G_I, G_II, p_f)
+        prop = joints.joint_prop[j]                   # (f_t, c, tan φ, G_I, G_II, p_f) of this joint
         ft, coh, tanphi, gI, gII, pf = prop[0], prop[1], prop[2], prop[3], prop[4], prop[5]
         dp = 2.0 * L * ft / pf                        # opening at peak (§7.4)
         dn = 3.0 * gI / ft                            # mode I softening span (Y-Geo)

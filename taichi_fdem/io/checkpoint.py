@@ -150,7 +150,8 @@ def _scene_bundle(sim) -> dict:
     # interactions are keyed by id(material): store the material objects themselves
     by_id = {}
     for b in sim.bodies:
-        by_id[id(b.material)] = b.material
+        for m in (getattr(b, "materials", None) or [b.material]):
+            by_id[id(m)] = m
     interactions = [(by_id[a], by_id[b], dict(props)) for (a, b), props in sim.scene._interactions.items()
                     if a in by_id and b in by_id]
     scene._interactions = {}

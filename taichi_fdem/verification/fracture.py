@@ -164,14 +164,15 @@ def hondros_factor(alpha_deg: float) -> float:
 
 
 def brazilian_scene(elements: int = 40, load_time: float = 100.0, D: float = 0.1, alpha_deg: float = 10.0,
-                    safety: float = 0.35):
+                    safety: float = 0.35, strength=None):
     """A jointed rock disc (diameter D, h = D/``elements``, every interior edge a cohesive joint)
     between two stiff platens (FDEM_SPEC §8.8).
 
     The disc's caps are flattened over ±``alpha_deg`` (nodes clipped to |y| ≤ R cos α) so the
     load spreads over a few elements instead of one node.  The platens approach each other at
     ±v, v chosen so that the approach at the expected peak (≈ 0.28 mm for D = 0.1 m, measured)
-    takes ``load_time`` × D/c_p.  Returns (sim, (disc, top, bottom), params) with params =
+    takes ``load_time`` × D/c_p.  ``strength``: a joint-strength distribution (``fdem.Weibull``,
+    ``fdem.NormalStrength``) for a heterogeneous disc.  Returns (sim, (disc, top, bottom), params) with params =
     dict(v, load_time, cp, D, alpha_deg, mat, elements).
     """
     from ..mesh import TriMesh
@@ -183,7 +184,7 @@ def brazilian_scene(elements: int = 40, load_time: float = 100.0, D: float = 0.1
     pts = d0.points.copy()
     pts[:, 1] = np.clip(pts[:, 1], -yc, yc)
     scene = Scene(gravity=(0.0, 0.0), plane="strain")
-    disk = scene.add_body(TriMesh(pts, d0.triangles), mat, fracture=True, name="disc")
+    disk = scene.add_body(TriMesh(pts, d0.triangles), mat, fracture=True, name="disc", strength=strength)
     cp = mat.p_wave_speed("strain")
     v = 0.5 * 2.8e-4 * (D / 0.1) / (load_time * D / cp)
     pm = mesh.rectangle(0.5 * D, 0.1 * D, D / 20)

@@ -1,0 +1,209 @@
+"""Discontinuities and heterogeneity of a body (FDEM_SPEC §13): where its cohesive joints and
+pre-existing cracks go, the joint properties of each joint (joint sets, interfaces) and their
+statistical spread.
+
+A body keeps its unsplit mesh (``body.source_mesh``) and the interior edges selected for
+joints and cracks (boolean masks over :func:`~taichi_fdem.mesh.split.interior_edge_table`, so a
+scene stays picklable); :func:`split_body` turns them into the split mesh, the joints and their
+per-joint properties whenever a selection changes.
+
+Strength distributions (§13.3), one draw per joint from a seeded generator:
+
+* :class:`Weibull` ``(modulus, seed)``: s = s̄ (−ln U)^{1/m} / Γ(1 + 1/m), U uniform in (0, 1];
+* :class:`NormalStrength` ``(cov, seed)``: s = s̄ (1 + v Z), truncated at ``floor`` · s̄.
+
+The factor multiplies the joint's tensile strength f_t and cohesion c (one factor per joint: a
+weak joint is weak in tension and in shear); the fracture energies G_I, G_II stay fixed unless
+``scale_energy=True`` (then they scale with the same factor).
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from .material import Material, check_finite
+from .mesh.split import interior_edge_table, split_mesh
+
+__all__ = ["Weibull", "NormalStrength", "split_body"]
+
+
+@dataclass(frozen=True)
+class Weibull:
+    """Weibull-distributed joint strength with modulus ``modulus`` (m > 0) and mean 1 × the
+    material's value; ``seed`` makes the draws reproducible (FDEM_SPEC §13.3)."""
+
+    modulus: float
+    seed: int = 0
+    scale_energy: bool = False
+
+    def __post_init__(self):
+        m = check_finite("modulus", self.modulus, "Weibull")
+        if m <= 0:
+            raise ValueError(f"Weibull: modulus must be > 0, got {self.modulus}")
+        if int(self.seed) != self.seed:
+            raise ValueError(f"Weibull: seed must be an integer, got {self.seed!r}")
+
+    def factors(self, n: int, rng: np.random.Generator) -> np.ndarray:
+        u = 1.0 - rng.random(n)                     # uniform in (0, 1]
+        return (-np.log(u)) ** (1.0 / self.modulus) / math.gamma(1.0 + 1.0 / self.modulus)
+
+
+@dataclass(frozen=True)
+class NormalStrength:
+    """Normally distributed joint strength: mean 1 × the material's value, coefficient of
+    variation ``cov``, truncated below at ``floor`` (FDEM_SPEC §13.3)."""
+
+    cov: float
+    seed: int = 0
+    floor: float = 0.05
+    scale_energy: bool = False
+
+    def __post_init__(self):
+        v = check_finite("cov", self.cov, "NormalStrength")
+        f = check_finite("floor", self.floor, "NormalStrength")
+        if v < 0:
+            raise ValueError(f"NormalStrength: cov must be >= 0, got {self.cov}")
+        if not 0 < f < 1:
+            raise ValueError(f"NormalStrength: floor must be in (0, 1), got {self.floor}")
+        if int(self.seed) != self.seed:
+            raise ValueError(f"NormalStrength: seed must be an integer, got {self.seed!r}")
+
+    def factors(self, n: int, rng: np.random.Generator) -> np.ndarray:
+        return np.maximum(1.0 + self.cov * rng.standard_normal(n), self.floor)
+
+
+def check_strength(strength, where: str):
+    if strength is not None and not isinstance(strength, (Weibull, NormalStrength)):
+        raise TypeError(f"{where}: strength must be taichi_fdem.Weibull(...), taichi_fdem.NormalStrength(...) "
+                        f"or None, got {type(strength).__name__}")
+    return strength
+
+
+@dataclass
+class JointSet:
+    """A named set of joints with its own properties (``scene.add_joint_set``)."""
+
+    name: str
+    material: Material
+    strength: object = None
+
+
+def _apply_strength(prop: np.ndarray, rows: np.ndarray, strength, seed_key) -> None:
+    if strength is None or not rows.any():
+        return
+    rng = np.random.default_rng([int(strength.seed)] + list(seed_key))
+    f = strength.factors(int(rows.sum()), rng)
+    prop[rows, 0] *= f                             # f_t
+    prop[rows, 1] *= f                             # c
+    if strength.scale_energy:
+        prop[rows, 3] *= f                         # G_I
+        prop[rows, 4] *= f                         # G_II
+
+
+def split_body(body, joint_sets: list, where: str) -> None:
+    """(Re)compute ``body``'s split mesh, joints and per-joint properties from its selections.
+
+    Sets ``mesh``, ``origin_triangles``, ``joint_nodes``, ``joint_tris``, ``joint_prop`` (k, 6),
+    ``joint_set`` (k,), ``tri_bonded`` (m,), ``tri_material`` (crack faces get the crack
+    material when ``crack_friction`` is given), ``fracture`` (has joints) and ``self_contact``.
+    """
+    src = body.source_mesh
+    table = body.edge_table
+    u, v, tA, _, tB, _ = table
+    mats = body.materials[: body.group_count]
+    groups = body.tri_group
+    joint_mask = body.fracture_mask.copy()
+    set_of_edge = np.zeros(len(u), np.int32)              # 0: the body's own joints ("default")
+    for set_index, mask in body.joint_set_masks:
+        joint_mask |= mask
+        set_of_edge[mask] = set_index
+    crack = body.crack_mask
+    joint_mask &= ~crack                                  # a crack edge carries no joint
+    cut = joint_mask | crack
+    body.crack_count = int(crack.sum())
+    m = src.triangle_count
+    tri_material = groups.astype(np.int32).copy()
+    if not cut.any():
+        body.mesh, body.origin_triangles = src, None
+        body.joint_nodes = body.joint_tris = None
+        body.joint_prop, body.joint_set = np.zeros((0, 6)), np.zeros(0, np.int32)
+        body.tri_bonded = np.zeros(m, bool)
+        body.fracture = False
+        body.tri_material = tri_material
+        del body.materials[body.group_count:]
+        body.crack_clones = []
+        body.self_contact = body.self_contact_requested
+        return
+    mesh, origin, split, jn, jt = split_mesh(src, cut, table)
+    joints = joint_mask & split
+    unsplit = int((joint_mask & ~split).sum())
+    if unsplit:
+        warnings.warn(f"{where}: {unsplit} selected joint edge(s) are not split (both their ends are tips "
+                      f"inside the body) and carry no joint", RuntimeWarning, stacklevel=4)
+    # properties of each joint: the body's own joints take the weaker material of their two
+    # triangles (lower tensile strength), joint sets their own material
+    prop = np.zeros((len(u), 6))
+    own = joints & (set_of_edge == 0)
+    if own.any():
+        ft = np.array([mt.tensile_strength if mt.can_fracture else np.inf for mt in mats])
+        ga, gb = groups[tA], groups[tB]
+        weaker = np.where(ft[ga] <= ft[gb], ga, gb)
+        for g in np.unique(weaker[own]):
+            mt = mats[g]
+            if not mt.can_fracture:
+                raise ValueError(f"{where}: joints need tensile_strength [Pa] and fracture_energy [J/m²] on "
+                                 f"material {mt.name or g!r}")
+            prop[own & (weaker == g)] = mt.joint_properties()
+    for k, js in enumerate(joint_sets, start=1):
+        rows = joints & (set_of_edge == k)
+        if rows.any():
+            prop[rows] = js.material.joint_properties()
+    _apply_strength(prop, own, body.strength, (body.index, 0))
+    for k, js in enumerate(joint_sets, start=1):
+        _apply_strength(prop, joints & (set_of_edge == k), js.strength, (body.index, k))
+    # a crack is damage from the start: triangles at a crack node are never "bonded" (contact
+    # with their corner neighbours is evaluated from the first step, engine.contact.is_bonded)
+    crack_nodes = np.zeros(src.point_count, bool)
+    crack_nodes[u[crack]] = True
+    crack_nodes[v[crack]] = True
+    bonded = ~crack_nodes[np.asarray(src.triangles)].any(axis=1)
+    del body.materials[body.group_count:]
+    body.crack_clones = []
+    if body.crack_friction is not None and crack.any():
+        face = np.zeros(m, bool)
+        face[tA[crack]] = True
+        face[tB[crack]] = True
+        # one crack-face material per material group, with the crack's friction
+        clone_of = {}
+        for g in np.unique(groups[face]):
+            clone_of[int(g)] = len(body.materials)
+            clone = mats[g].with_(friction=body.crack_friction)
+            body.materials.append(clone)
+            body.crack_clones.append((clone, mats[g]))
+        lut = np.arange(len(body.materials), dtype=np.int32)
+        for g, c in clone_of.items():
+            lut[g] = c
+        tri_material[face] = lut[groups[face]]
+    body.mesh = mesh
+    body.origin_triangles = origin
+    body.joint_nodes = jn[joints]
+    body.joint_tris = jt[joints]
+    body.joint_prop = prop[joints]
+    body.joint_set = set_of_edge[joints]
+    body.tri_bonded = bonded
+    body.tri_material = tri_material
+    body.fracture = bool(joints.any())
+    body.self_contact = True
+
+
+def resolve(body, selector, where: str) -> np.ndarray:
+    """Mask over ``body``'s interior edges selected by ``selector`` (see mesh.split)."""
+    from .mesh.split import select_interior_edges
+    return select_interior_edges(body.source_mesh, selector, where, body.edge_table, body.tri_group)
+
+
+def edge_table(mesh):
+    return interior_edge_table(mesh.triangles)

@@ -1,0 +1,238 @@
+"""Discontinuities and heterogeneity (FDEM_SPEC §13): selective joints, pre-existing cracks,
+joint sets, interfaces, statistical strength, and the verification problems of issue #11."""
+import math
+
+import numpy as np
+import pytest
+
+import taichi_fdem as fdem
+from taichi_fdem import Material, Scene, mesh
+from taichi_fdem.verification import discontinuities as vd
+
+ROCK = dict(density=2000.0, young=1e8, poisson=0.25, tensile_strength=2e5, fracture_energy=10.0)
+
+
+def _fans(tri: np.ndarray, cut_pairs: set) -> int:
+    """Brute force (§13.1): the number of node copies = Σ over nodes of the sectors of its fan,
+    the fan's triangles linked across the edges at the node that are not cut."""
+    total = 0
+    for n in np.unique(tri):
+        around = [t for t in range(len(tri)) if n in tri[t]]
+        parent = {t: t for t in around}
+
+        def find(a):
+            while parent[a] != a:
+                a = parent[a]
+            return a
+        for i, a in enumerate(around):
+            for b in around[i + 1:]:
+                shared = set(tri[a]) & set(tri[b])
+                if len(shared) == 2:
+                    (p, q) = sorted(shared)
+                    if (p, q) not in cut_pairs:
+                        parent[find(a)] = find(b)
+        total += len({find(t) for t in around})
+    return total
+
+
+def _interior_pairs(m):
+    u, v, *_ = mesh.split.interior_edge_table(m.triangles)
+    return np.stack([np.minimum(u, v), np.maximum(u, v)], axis=1)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_split_matches_brute_force_fans(seed):
+    src = mesh.rectangle(0.1, 0.06, 0.02)
+    pairs = _interior_pairs(src)
+    rng = np.random.default_rng(seed)
+    pick = pairs[rng.random(len(pairs)) < 0.4]
+    scene = Scene(gravity=(0, 0))
+    b = scene.add_body(src, Material(**ROCK), fracture=pick)
+    cut = {tuple(p) for p in pick.tolist()}
+    assert b.mesh.point_count == _fans(np.asarray(src.triangles), cut)
+    # triangles keep their shape and position; every joint's node pairs coincide
+    np.testing.assert_array_equal(b.mesh.points[b.mesh.triangles], src.points[src.triangles])
+    jn = b.joint_nodes
+    np.testing.assert_array_equal(b.mesh.points[jn[:, 0]], b.mesh.points[jn[:, 3]])
+    np.testing.assert_array_equal(b.mesh.points[jn[:, 1]], b.mesh.points[jn[:, 2]])
+    # a joint sits on a selected edge whose triangles no longer share both nodes
+    orig = b.origin_triangles
+    e = np.sort(np.stack([orig[b.joint_tris[:, 0]], orig[b.joint_tris[:, 1]]], 1).reshape(len(jn), -1), axis=1)
+    assert len(jn) <= len(pick)
+    for k in range(len(jn)):
+        ta, tb = b.joint_tris[k]
+        common = set(orig[ta]) & set(orig[tb])
+        assert tuple(sorted(common)) in cut
+        assert len(set(b.mesh.triangles[ta]) & set(b.mesh.triangles[tb])) < 2
+    assert e.shape[0] == len(jn)
+
+
+def test_every_edge_gives_private_nodes_and_one_joint_per_interior_edge():
+    src = mesh.disk(0.05, 0.02)
+    scene = Scene(gravity=(0, 0))
+    b = scene.add_body(src, Material(**ROCK), fracture=True)
+    assert b.mesh.point_count == 3 * src.triangle_count
+    np.testing.assert_array_equal(b.mesh.triangles, np.arange(3 * src.triangle_count).reshape(-1, 3))
+    assert b.joint_count == len(_interior_pairs(src))
+
+
+def test_crack_ending_inside_keeps_its_tip_node():
+    src = mesh.rectangle(1.0, 1.0, 0.25)          # nodes every 0.25 m, x, y in [-0.5, 0.5]
+    scene = Scene(gravity=(0, 0))
+    b = scene.add_body(src, Material(**ROCK), cracks=lambda x, y: (np.abs(y) < 1e-9) & (x < 0.1))
+    # crack along y = 0 from the left boundary (x = −0.5) to the tip (0, 0): nodes −0.5, −0.25
+    # get a second copy, the tip does not
+    assert b.crack_count == 2
+    assert b.mesh.point_count == src.point_count + 2
+    assert b.joint_count == 0 and not b.fracture and b.self_contact
+
+
+def test_interfaces_between_material_groups():
+    src = mesh.rectangle(0.2, 0.1, 0.02)
+    c = src.points[src.triangles].mean(axis=1)
+    labels = np.where(c[:, 0] < 0.0, "host", "dyke")
+    host, dyke = Material(**ROCK, name="host"), Material(**{**ROCK, "tensile_strength": 5e4}, name="dyke")
+    scene = Scene(gravity=(0, 0))
+    b = scene.add_body(src, {"host": host, "dyke": dyke}, groups=labels, fracture="interfaces")
+    # the interface x = 0 has 0.1/0.02 = 5 edges; the joints take the weaker material
+    assert b.joint_count == 5
+    mid = 0.5 * (b.mesh.points[b.joint_nodes[:, 0]] + b.mesh.points[b.joint_nodes[:, 1]])
+    np.testing.assert_allclose(mid[:, 0], 0.0, atol=1e-12)
+    np.testing.assert_allclose(b.joint_prop, np.tile(dyke.joint_properties(), (5, 1)))
+    sim = scene.build()
+    tri_mat = sim.model.tri_mat_np
+    assert {sim.model.materials[i].name for i in tri_mat[c[:, 0] < 0]} == {"host"}
+    assert {sim.model.materials[i].name for i in tri_mat[c[:, 0] > 0]} == {"dyke"}
+
+
+def test_joint_sets_carry_their_own_properties():
+    scene = Scene(gravity=(0, 0))
+    rock = Material(**ROCK, name="rock")
+    weak = Material(**{**ROCK, "tensile_strength": 1e4, "fracture_energy": 2.0, "friction_angle": 20.0})
+    b = scene.add_body(mesh.rectangle(0.2, 0.1, 0.025), rock, fracture=lambda x, y: x < 0.0)
+    n_own = b.joint_count
+    scene.add_joint_set("band", lambda x, y: np.abs(y) < 1e-9, weak)
+    assert scene.joint_set_names == ["default", "band"]
+    in_set = b.joint_set == 1
+    # y = 0 has 0.2/0.025 = 8 edges; the 4 with x < 0 were joints already and change set
+    assert in_set.sum() == 8 and b.joint_count == n_own + 4
+    np.testing.assert_allclose(b.joint_prop[in_set], np.tile(weak.joint_properties(), (8, 1)))
+    np.testing.assert_allclose(b.joint_prop[~in_set], np.tile(rock.joint_properties(), ((~in_set).sum(), 1)))
+    sim = scene.build()
+    np.testing.assert_allclose(sim.model.joint_prop.to_numpy(), b.joint_prop)
+    with pytest.raises(ValueError, match="picks no interior edge"):
+        scene.add_joint_set("none", lambda x, y: x > 10.0, weak)
+    with pytest.raises(ValueError, match="exists already"):
+        scene.add_joint_set("band", lambda x, y: x > 0, weak)
+
+
+def test_weibull_and_normal_strength_statistics():
+    rng = np.random.default_rng(7)
+    for m in (3.0, 8.0):
+        f = fdem.Weibull(m).factors(400_000, rng)
+        cov = math.sqrt(math.gamma(1 + 2 / m) / math.gamma(1 + 1 / m) ** 2 - 1)
+        assert abs(f.mean() - 1.0) < 0.005
+        assert abs(f.std() / f.mean() / cov - 1.0) < 0.01
+    f = fdem.NormalStrength(0.2).factors(400_000, rng)
+    assert abs(f.mean() - 1.0) < 0.005 and abs(f.std() - 0.2) < 0.005 and f.min() >= 0.05
+
+
+def test_strength_is_reproducible_by_seed_and_scales_ft_and_c():
+    def props(seed):
+        scene = Scene(gravity=(0, 0))
+        b = scene.add_body(mesh.rectangle(0.2, 0.1, 0.02), Material(**ROCK), fracture=True,
+                           strength=fdem.Weibull(4.0, seed=seed))
+        return b.joint_prop
+    a, b, c = props(3), props(3), props(4)
+    np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(a, c)
+    ft, coh, tanphi, gI, gII, pf = Material(**ROCK).joint_properties()
+    np.testing.assert_allclose(a[:, 1] / a[:, 0], coh / ft)            # one factor for f_t and c
+    np.testing.assert_array_equal(a[:, 3], gI)                          # energies kept (scale_energy=False)
+    assert abs(a[:, 0].mean() / ft - 1.0) < 0.1 and a[:, 0].std() / ft > 0.15
+    with pytest.raises(ValueError, match="modulus"):
+        fdem.Weibull(0.0)
+    with pytest.raises(TypeError, match="strength"):
+        Scene().add_body(mesh.rectangle(0.2, 0.1, 0.05), Material(**ROCK), fracture=True, strength=0.3)
+
+
+def test_selector_errors_are_clear():
+    scene = Scene(gravity=(0, 0))
+    m = mesh.rectangle(0.2, 0.1, 0.05)
+    with pytest.raises(ValueError, match="not an edge of the mesh"):
+        scene.add_body(m, Material(**ROCK), fracture=np.array([[0, 7]]))
+    with pytest.raises(ValueError, match="selects no interior edge"):
+        scene.add_body(m, Material(**ROCK), cracks=lambda x, y: x > 1.0)
+    with pytest.raises(ValueError, match="unknown edge selector"):
+        scene.add_body(m, Material(**ROCK), fracture="everywhere")
+    with pytest.raises(ValueError, match="tensile_strength"):
+        scene.add_body(m, Material(density=1.0, young=1.0, poisson=0.2), fracture=True)
+
+
+# ---------------------------------------------------------------------------- verification
+def test_block_slides_on_a_preexisting_crack_iff_tan_theta_exceeds_mu():
+    """FDEM_SPEC §13.1 + §8.2: a = g (sin θ − μ cos θ) within 3 % when tan θ > μ; else it sticks."""
+    r = vd.case_crack_slide(theta_deg=30.0, friction=0.3)
+    assert r["slides"] and r["crack_edges"] == 4
+    assert r["error"] < 0.03, r
+    r = vd.case_crack_slide(theta_deg=30.0, friction=0.7)
+    assert not r["slides"] and r["error"] < 0.01, r
+
+
+def test_crack_friction_overrides_the_material():
+    # material μ = 0.7 would stick; the crack's own μ = 0.3 slides at g (sin θ − 0.3 cos θ)
+    r = vd.case_crack_slide(theta_deg=30.0, friction=0.7, crack_friction=0.3)
+    assert r["slides"] and r["error"] < 0.03, r
+
+
+def _components(sim, body) -> int:
+    """Brute force: triangles linked by a shared node or an intact joint (union-find)."""
+    tri = body.mesh.triangles
+    parent = list(range(len(tri)))
+
+    def find(a):
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+    owner = {}
+    for t, nodes in enumerate(tri):
+        for n in nodes:
+            if n in owner:
+                parent[find(t)] = find(owner[n])
+            owner[n] = t
+    state = sim.state.joint_state.to_numpy()
+    for j, (a, b) in enumerate(body.joint_tris):
+        if state[j] == 0:
+            parent[find(a)] = find(b)
+    return len({find(t) for t in range(len(tri))})
+
+
+def test_fracture_confined_to_a_jointed_band():
+    sim, plate = vd.band_plate_scene(band=0.02)
+    assert _components(sim, plate) == 1
+    sim.step(30000)
+    bj = sim.broken_joints()
+    assert len(bj["index"]) > 10
+    X0 = sim.model.node_rest
+    jn = sim.model.joint_nodes.to_numpy()[bj["index"]]
+    mid0 = 0.5 * (X0[jn[:, 0]] + X0[jn[:, 1]])
+    assert np.all(np.abs(mid0[:, 1]) < 0.02)         # every broken joint started in the band
+    assert _components(sim, plate) >= 2             # the plate came apart
+    # outside the band the mesh stays continuous: no node copies there
+    out = np.abs(plate.mesh.points[:, 1]) > 0.02 + 1e-9
+    assert len(np.unique(plate.mesh.points[out].round(12), axis=0)) == out.sum()
+
+
+@pytest.mark.parametrize("notched", [True, False])
+def test_new_crack_starts_at_the_notch_tip(notched):
+    h = 0.01
+    sim, beam, tip = vd.notched_beam_scene(h=h, notched=notched, speed=0.1)
+    first = vd.first_cracks(sim, count=2)
+    p = first["position"][0]
+    if notched:
+        # the first joint to break is the one just above the notch tip
+        assert abs(p[0]) < 0.5 * h and tip[1] < p[1] < tip[1] + 1.5 * h, first
+    else:
+        # without the notch the beam cracks at the bottom, under the load
+        assert abs(p[0]) < 1.5 * h and p[1] < -0.05 + 1.5 * h, first
