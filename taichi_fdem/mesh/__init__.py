@@ -37,16 +37,16 @@ Modules (imports run downwards only, and never into the simulation, scene or ren
 * :mod:`.triangulate` -- the constrained Delaunay triangulator used by :func:`polygon`;
 * :mod:`.generators` -- :func:`rectangle`, :func:`disk`, :func:`annulus`, :func:`polygon`;
 * :mod:`.gmsh_engine` -- ``polygon(..., engine="gmsh")`` (optional: ``pip install "taichi-fdem[mesh]"``);
-* :mod:`.loaders` -- :func:`load`, :func:`load_groups`, :func:`scene_from_groups` (meshio).
+* :mod:`.loaders` -- :func:`load`, :func:`load_groups`, :func:`load_tagged`, :func:`scene_from_groups` (meshio).
 """
 from __future__ import annotations
 
 from .lines import Polyline, Segments
 from .generators import annulus, disk, plate_with_hole, polygon, rectangle
-from .loaders import GROUP_KEYS, load, load_groups, scene_from_groups
+from .loaders import GROUP_KEYS, load, load_groups, load_tagged, scene_from_groups
 from .trimesh import DEGENERACY_TOL, MAX_GENERATED_TRIANGLES, TriMesh, merge
 
-__all__ = ["TriMesh", "rectangle", "disk", "annulus", "polygon", "plate_with_hole", "load", "load_groups", "scene_from_groups",
+__all__ = ["TriMesh", "rectangle", "disk", "annulus", "polygon", "plate_with_hole", "load", "load_groups", "load_tagged", "scene_from_groups",
            "merge", "Segments", "Polyline"]
 
 # Pickles (checkpoints hold the scene's meshes) name the class taichi_fdem.mesh.TriMesh, as before
@@ -61,4 +61,5 @@ TriMesh.polygon = staticmethod(polygon)
 TriMesh.plate_with_hole = staticmethod(plate_with_hole)
 TriMesh.load = staticmethod(load)
 TriMesh.load_groups = staticmethod(load_groups)
+TriMesh.load_tagged = staticmethod(load_tagged)
 TriMesh.merge = staticmethod(merge)
