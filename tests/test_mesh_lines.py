@@ -277,3 +277,53 @@ def test_polygon_engine_argument():
     a, b = M.polygon(SQUARE, 0.1), M.polygon(SQUARE, 0.1, lines=[])
     np.testing.assert_array_equal(a.points, b.points)
     np.testing.assert_array_equal(a.triangles, b.triangles)
+
+
+# --------------------------------------------------------------------------- gmsh engine (optional)
+def test_gmsh_engine_follows_lines():
+    gmsh = pytest.importorskip("gmsh")
+    lines = dfn(5) + [Polyline([(0.05, 0.05), (0.3, 0.12)], name="tip")]   # a crack with two tips inside
+    m = M.polygon(SQUARE, 0.05, lines=lines, engine="gmsh")
+    check_lines(m, lines, 1.0)
+    assert not gmsh.isInitialized()                          # finalised after use
+    # the smallest angle is the input's (16.47 deg between two lines, as with the built-in engine)
+    assert math.degrees(m.min_angle()) > 16.0
+    comb = [(0, 0), (5, 0), (5, 3), (4, 3), (4, 1), (3, 1), (3, 3), (2, 3), (2, 1), (1, 1), (1, 3), (0, 3)]
+    teeth = [Polyline([(0, 0.5), (5, 0.5)]), Polyline([(0.5, 0.5), (0.5, 3.0)])]
+    mc = M.polygon(comb, 0.2, lines=teeth, engine="gmsh")
+    check_lines(mc, teeth, 11.0)
+    plain = M.polygon(SQUARE, 0.1, engine="gmsh")            # no lines
+    check_valid(plain)
+    assert plain.area == pytest.approx(1.0, rel=1e-12) and math.degrees(plain.min_angle()) > 30.0
+
+
+def test_gmsh_engine_keeps_a_session_it_did_not_open():
+    gmsh = pytest.importorskip("gmsh")
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("users_model")
+        m = M.polygon(SQUARE, 0.2, lines=[Polyline([(0, 0), (1, 1)])], engine="gmsh")
+        assert gmsh.isInitialized() and "users_model" in gmsh.model.list()
+        assert "taichi_fdem_polygon" not in gmsh.model.list()
+    finally:
+        gmsh.finalize()
+    check_lines(m, [Polyline([(0, 0), (1, 1)])], 1.0)
+
+
+def test_gmsh_engine_errors():
+    with pytest.raises(ValueError, match="needs a target edge length h"):
+        M.polygon(SQUARE, None, engine="gmsh")
+    # line checks happen before gmsh is called
+    with pytest.raises(ValueError, match="leaves the polygon"):
+        M.polygon(SQUARE, 0.1, lines=[[(0.5, 0.5), (2.0, 0.5)]], engine="gmsh")
+
+
+def test_gmsh_engine_missing(monkeypatch):
+    import sys
+    monkeypatch.setitem(sys.modules, "gmsh", None)           # "import gmsh" raises ImportError
+    with pytest.raises(ImportError, match=r'pip install "taichi-fdem\[mesh\]"'):
+        M.polygon(SQUARE, 0.1, engine="gmsh")
+    # "auto" falls back to the built-in engine when gmsh cannot be imported
+    a, b = M.polygon(SQUARE, 0.1, engine="auto"), M.polygon(SQUARE, 0.1)
+    np.testing.assert_array_equal(a.triangles, b.triangles)

@@ -380,16 +380,38 @@ def polygon(vertices, h: float | None = None, lines=None, engine: str = "builtin
         engine = "gmsh" if _gmsh_importable() else "builtin"
     if engine == "gmsh":
         from .gmsh_engine import polygon_gmsh
-        return polygon_gmsh(v, h, arr, abs(signed), where)
+        mesh = polygon_gmsh(v, h, arr, where)
+        _check_mesh(mesh, v, arr, abs(signed), "gmsh", where)
+        return mesh
     return _polygon_builtin(v, h, arr, abs(signed), where)
+
+
+def _check_mesh(mesh: TriMesh, v: np.ndarray, arr, area: float, engine: str, where: str) -> None:
+    """RuntimeError unless ``mesh`` covers the polygon and its edges follow every line piece."""
+    if not math.isclose(mesh.area, area, rel_tol=1e-9):
+        raise RuntimeError(f"{where}: the {engine} mesh does not cover the polygon (area {mesh.area:.12g} "
+                           f"vs {area:.12g})")
+    if arr is None or not len(arr.pieces):
+        return
+    e = mesh.edges()
+    for k in range(len(arr.pieces)):   # one piece at a time: a loop over the (few) line pieces
+        piece = Segments(arr.nodes[arr.pieces[k]][None])
+        got = float(mesh.edge_lengths(e[piece.select_edges(mesh.points, e, tol=arr.tol)]).sum())
+        if not math.isclose(got, piece.length, rel_tol=1e-9):
+            raise RuntimeError(f"{where}: the {engine} mesh does not follow line {int(arr.piece_line[k])} from "
+                               f"{tuple(arr.nodes[arr.pieces[k, 0]].tolist())} to "
+                               f"{tuple(arr.nodes[arr.pieces[k, 1]].tolist())}")
 
 
 _ENGINES = ("builtin", "gmsh", "auto")
 
 
 def _gmsh_importable() -> bool:
-    import importlib.util
-    return importlib.util.find_spec("gmsh") is not None
+    try:
+        import gmsh  # noqa: F401
+    except (ImportError, OSError):   # OSError: the wheel is there but a system library is not
+        return False
+    return True
 
 
 def _line_list(lines, where: str) -> list:
