@@ -327,3 +327,24 @@ def test_gmsh_engine_missing(monkeypatch):
     # "auto" falls back to the built-in engine when gmsh cannot be imported
     a, b = M.polygon(SQUARE, 0.1, engine="auto"), M.polygon(SQUARE, 0.1)
     np.testing.assert_array_equal(a.triangles, b.triangles)
+
+
+def test_readme_fracture_lines_example_runs_as_written(capsys):
+    """README "Meshes with fracture lines": the example runs as written and the edges it
+    selects add up to the fault's length sqrt(2) m."""
+    import os
+    import re
+    readme = open(os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "README.md")).read()
+    sec = readme[readme.index("### Meshes with fracture lines"):]
+    code = re.search(r"```python\n(.*?)```", sec, re.S).group(1)
+    scope: dict = {}
+    exec(compile(code, "README.md", "exec"), scope)
+    out = capsys.readouterr().out
+    count, length = re.search(r"(\d+) edges along the fault, ([0-9.]+) m", out).groups()
+    assert float(length) == pytest.approx(math.sqrt(2.0), rel=1e-11)
+    assert int(count) == int(scope["on_fault"].sum()) > 20
+    # the crack's second segment (0.4, 0.55)-(0.62, 0.5) crosses the fault y = x at t = 0.15 / 0.27:
+    # the crossing is a node of the mesh
+    t = 0.15 / 0.27
+    x = np.array([0.4 + 0.22 * t, 0.55 - 0.05 * t])
+    assert np.min(np.hypot(*(scope["mesh"].points - x).T)) <= 1e-12
