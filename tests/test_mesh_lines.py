@@ -78,6 +78,13 @@ def test_segments_and_polyline_basics():
     c = Polyline([(0, 0), (1, 0), (1, 1), (0, 0)], closed=True)   # repeated closing point dropped
     assert len(c) == 3 and c.length == pytest.approx(2.0 + math.sqrt(2.0)) and c.closed
     assert fdem.mesh.Polyline is Polyline and fdem.mesh.Segments is Segments
+    import pickle
+    for obj in (s, c):
+        back = pickle.loads(pickle.dumps(obj))
+        assert type(back) is type(obj) and back.name == obj.name and len(back) == len(obj)
+        np.testing.assert_array_equal(back.segments, obj.segments)
+        assert not back.segments.flags.writeable
+    assert pickle.loads(pickle.dumps(c)).closed
 
 
 @pytest.mark.parametrize("make, match", [

@@ -109,6 +109,10 @@ class Segments:
     def __len__(self) -> int:
         return int(self._segments.shape[0])
 
+    def __reduce__(self):
+        # pickles (checkpoints) rebuild through the constructor: validated, read-only again
+        return (Segments, (np.array(self._segments), self._name))
+
     def __repr__(self) -> str:
         label = f", name={self._name!r}" if self._name is not None else ""
         return f"{type(self).__name__}({len(self)} segments, length={self.length:.6g} m{label})"
@@ -224,6 +228,9 @@ class Polyline(Segments):
         p.flags.writeable = False
         self._points = p
         self._closed = closed
+
+    def __reduce__(self):
+        return (Polyline, (np.array(self._points), self._closed, self._name))
 
     @property
     def points(self) -> np.ndarray:
