@@ -355,3 +355,14 @@ def test_readme_fracture_lines_example_runs_as_written(capsys):
     t = 0.15 / 0.27
     x = np.array([0.4 + 0.22 * t, 0.55 - 0.05 * t])
     assert np.min(np.hypot(*(scope["mesh"].points - x).T)) <= 1e-12
+
+
+def test_nearly_coincident_points_are_merged():
+    # two lines meeting at (0.5, 0.5) up to 1e-12 m, and a line ending 1e-12 m off the boundary
+    lines = [Polyline([(0.2, 0.2), (0.5, 0.5)]), Polyline([(0.5 + 1e-12, 0.5), (0.8, 0.3)]),
+             Polyline([(0.5, 0.5), (0.5, 1.0 - 1e-12)])]
+    m = M.polygon(SQUARE, 0.1, lines=lines)
+    check_lines(m, lines, 1.0)
+    assert np.sum(np.hypot(*(m.points - (0.5, 0.5)).T) < 1e-9) == 1
+    top = np.flatnonzero(np.hypot(*(m.points - (0.5, 1.0)).T) < 1e-9)
+    assert len(top) == 1 and top[0] in m.boundary_nodes()

@@ -279,3 +279,15 @@ def test_load_tagged_missing_tags(tmp_path):
         M.load_tagged(tagged, key="material")
     with pytest.raises(ValueError, match=r"load_groups: .* has no cell-data array 'material'"):
         M.load_groups(tagged, key="material", lines=True)
+
+
+def test_degenerate_line_group_named(tmp_path):
+    path = tmp_path / "bad_line.msh"
+    m = meshio.Mesh(np.c_[PTS, np.zeros(len(PTS))], [("line", np.array([[0, 1], [2, 2]])), ("triangle", TRI_RIGHT)],
+                    cell_data={"gmsh:physical": [np.array([4, 4]), np.array([2, 2])],
+                               "gmsh:geometrical": [np.array([1, 1]), np.array([2, 2])]},
+                    field_data={"crack": np.array([4, 1])})
+    meshio.write(path, m, file_format="gmsh22")
+    with pytest.raises(ValueError, match=r"line group 'crack' \(gmsh:physical = 4\): Segments: segment 1 has zero length"):
+        M.load_groups(path, lines=True)
+    assert list(M.load_groups(path)) == [2]                 # lines=False never reads the line cells
