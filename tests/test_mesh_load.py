@@ -182,3 +182,112 @@ def test_pickled_mesh_stays_immutable():
     m = pickle.loads(pickle.dumps(M.rectangle(1.0, 1.0, 0.5)))
     assert m.triangle_count == 8 and m.area == pytest.approx(1.0)
     assert not m.points.flags.writeable and not m.triangles.flags.writeable and not m.areas.flags.writeable
+
+
+# --------------------------------------------------------------------------- line groups (issue #11)
+# the strip again, with two physical line groups: "bottom" (tag 1, the edges 0-1-2 along y = 0)
+# and "dyke" (tag 3, the interface edge 1-4 at x = 1, shared by both surface groups)
+LINE_BOTTOM = np.array([[0, 1], [1, 2]])
+LINE_DYKE = np.array([[1, 4]])
+FIELD_LINES = {**FIELD, "dyke": np.array([3, 1])}
+
+
+def write_with_lines(path, fmt, binary=False, field_data=FIELD_LINES):
+    # gmsh 4.1 assigns every node to one entity: nodes on curves to the curve (dim 1), the
+    # node where the two curves meet to a geometry point (dim 0)
+    dim_tags = np.array([[1, 1], [0, 1], [1, 1], [2, 1], [1, 2], [2, 2]])
+    m = meshio.Mesh(np.c_[PTS, np.zeros(len(PTS))],
+                    [("line", LINE_BOTTOM), ("line", LINE_DYKE), ("triangle", TRI_LEFT), ("triangle", TRI_RIGHT)],
+                    point_data={"gmsh:dim_tags": dim_tags} if fmt == "gmsh" else {},
+                    cell_data={"gmsh:physical": [np.array([1, 1]), np.array([3]), np.array([1, 1]), np.array([2, 2])],
+                               "gmsh:geometrical": [np.array([1, 1]), np.array([2]), np.array([1, 1]), np.array([2, 2])]},
+                    field_data=field_data)
+    meshio.write(path, m, file_format=fmt, binary=binary)
+
+
+def sorted_segments(s):
+    """Segments as a canonical set: each segment's ends in lexicographic order, rows sorted."""
+    seg = np.asarray(s)
+    flip = (seg[:, 0, 0] > seg[:, 1, 0]) | ((seg[:, 0, 0] == seg[:, 1, 0]) & (seg[:, 0, 1] > seg[:, 1, 1]))
+    seg = np.where(flip[:, None, None], seg[:, ::-1], seg)
+    return seg[np.lexsort((seg[:, 1, 1], seg[:, 1, 0], seg[:, 0, 1], seg[:, 0, 0]))]
+
+
+@pytest.mark.parametrize("fmt", ["gmsh22", "gmsh"], ids=["gmsh22", "gmsh41"])
+@pytest.mark.parametrize("binary", [False, True], ids=["ascii", "binary"])
+def test_load_groups_with_line_groups(tmp_path, fmt, binary):
+    path = tmp_path / "strip_lines.msh"
+    write_with_lines(path, fmt, binary)
+    groups, lines = M.load_groups(path, lines=True)
+    check_split(groups)                                     # the surfaces as before
+    assert isinstance(M.load_groups(path), dict)            # lines=False: unchanged, a dict
+    assert list(lines) == ["bottom", "dyke"]
+    bottom, dyke = lines["bottom"], lines["dyke"]
+    assert isinstance(bottom, M.Segments) and bottom.name == "bottom" and dyke.name == "dyke"
+    np.testing.assert_array_equal(sorted_segments(bottom.segments), sorted_segments(PTS[LINE_BOTTOM]))
+    np.testing.assert_array_equal(sorted_segments(dyke.segments), sorted_segments(PTS[LINE_DYKE]))
+    assert bottom.length == 2.0 and dyke.length == 1.0
+    # as edge selectors on the whole mesh: the dyke is the one interior edge 1-4
+    whole = M.load(path)
+    inner, _ = whole.interior_edges()
+    sel = dyke.select_edges(whole.points, inner)
+    assert sel.sum() == 1 and whole.edge_lengths(inner[sel]).sum() == 1.0
+    assert bottom.select_edges(whole.points, whole.boundary_edges()).sum() == 2
+
+
+@pytest.mark.parametrize("fmt", ["gmsh22", "gmsh"], ids=["gmsh22", "gmsh41"])
+def test_load_tagged(tmp_path, fmt):
+    path = tmp_path / "strip_lines.msh"
+    write_with_lines(path, fmt)
+    mesh, labels, lines = M.load_tagged(path)
+    assert mesh.point_count == 6 and mesh.triangle_count == 4          # one body, shared nodes
+    assert mesh.area == pytest.approx(2.0, rel=1e-14)
+    assert labels.shape == (4,) and labels.tolist() == ["left", "left", "right", "right"]
+    # each label covers its half of the strip
+    cx = mesh.points[mesh.triangles].mean(axis=1)[:, 0]
+    assert np.all((cx < 1.0) == (labels == "left"))
+    assert list(lines) == ["bottom", "dyke"] and lines["dyke"].length == 1.0
+    assert M.TriMesh.load_tagged is M.load_tagged and fdem.mesh.load_tagged is M.load_tagged
+
+
+def test_unnamed_line_groups_and_int_labels(tmp_path):
+    path = tmp_path / "unnamed.msh"
+    write_with_lines(path, "gmsh22", field_data={})
+    groups, lines = M.load_groups(path, lines=True)
+    assert list(groups) == [1, 2] and list(lines) == [1, 3]
+    assert lines[3].name == "3" and lines[3].length == 1.0
+    mesh, labels, _ = M.load_tagged(path)
+    assert labels.dtype == np.int64 and labels.tolist() == [1, 1, 2, 2]
+    # a file without line cells has no line groups
+    plain = tmp_path / "plain.msh"
+    write_gmsh22(plain)
+    _, lines_plain = M.load_groups(plain, lines=True)
+    assert set(lines_plain) == {"bottom"}                   # write_gmsh22's line cells are tag 1
+    vtu = tmp_path / "tri.vtu"
+    meshio.write(vtu, meshio.Mesh(PTS, [("triangle", TRI_RIGHT)], cell_data={"region": [np.array([5, 5])]}))
+    assert M.load_groups(vtu, lines=True)[1] == {}
+
+
+def test_load_tagged_missing_tags(tmp_path):
+    path = tmp_path / "plain.vtu"
+    meshio.write(path, meshio.Mesh(PTS, [("triangle", TRI_RIGHT)]))
+    with pytest.raises(ValueError, match=r"load_tagged: .*plain\.vtu.* has no cell tags"):
+        M.load_tagged(path)
+    tagged = tmp_path / "strip_lines.msh"
+    write_with_lines(tagged, "gmsh22")
+    with pytest.raises(ValueError, match=r"load_tagged: .* has no cell-data array 'material'"):
+        M.load_tagged(tagged, key="material")
+    with pytest.raises(ValueError, match=r"load_groups: .* has no cell-data array 'material'"):
+        M.load_groups(tagged, key="material", lines=True)
+
+
+def test_degenerate_line_group_named(tmp_path):
+    path = tmp_path / "bad_line.msh"
+    m = meshio.Mesh(np.c_[PTS, np.zeros(len(PTS))], [("line", np.array([[0, 1], [2, 2]])), ("triangle", TRI_RIGHT)],
+                    cell_data={"gmsh:physical": [np.array([4, 4]), np.array([2, 2])],
+                               "gmsh:geometrical": [np.array([1, 1]), np.array([2, 2])]},
+                    field_data={"crack": np.array([4, 1])})
+    meshio.write(path, m, file_format="gmsh22")
+    with pytest.raises(ValueError, match=r"line group 'crack' \(gmsh:physical = 4\): Segments: segment 1 has zero length"):
+        M.load_groups(path, lines=True)
+    assert list(M.load_groups(path)) == [2]                 # lines=False never reads the line cells

@@ -12,6 +12,8 @@ from typing import Sequence
 
 import numpy as np
 
+from .arrangement import arrange, distance_to_segments
+from .lines import Segments, as_segments
 from .triangulate import _CDT
 from .trimesh import MAX_COORDINATE, TriMesh, _guard_size, _nround, _positive, _vec2
 
@@ -283,7 +285,7 @@ def _distance_to_polygon(p: np.ndarray, v: np.ndarray) -> np.ndarray:
     return dist
 
 
-def polygon(vertices, h: float | None = None) -> TriMesh:
+def polygon(vertices, h: float | None = None, lines=None, engine: str = "builtin") -> TriMesh:
     """A triangle mesh of the simple polygon ``vertices`` [(x, y), ...] [m].
 
     The vertices may be given in either orientation, optionally with the first vertex
@@ -302,9 +304,36 @@ def polygon(vertices, h: float | None = None) -> TriMesh:
       done there), and so do polygon edges much shorter than ``h`` (the vertices are
       kept); otherwise the smallest angle is typically above 25 degrees.
 
+    Embedded lines (``lines``): a list of :class:`~taichi_fdem.mesh.Polyline`,
+    :class:`~taichi_fdem.mesh.Segments` or ``(n, 2)`` point arrays (each an open polyline)
+    -- faults, joints, cracks -- that the mesh edges must follow.
+
+    * Every line lies inside the polygon or on its boundary.  An end point may lie on the
+      boundary (the boundary gets a node there) or inside (a crack tip inside the body).
+    * Crossings of lines with each other (a discrete fracture network), T-junctions and
+      meetings with the boundary become nodes; points closer than ``1e-9`` times the
+      polygon's size are merged into one node.
+    * Collinear overlapping parts are refused (ValueError), not merged: two lines running
+      along each other, or a line running along the boundary (boundary edges are mesh
+      edges already).  Give the common part once.
+    * With ``h``, each line piece between nodes is divided into ``ceil(length / h)``
+      equal pieces and lattice nodes closer than ``0.55 h`` to a line are dropped.  The
+      line pieces are constrained edges of the triangulation, so that
+      ``Polyline(...).select_edges(mesh.points, mesh.edges())`` selects edges whose total
+      length is the line's length.  Input features smaller than ``h`` (a line end a
+      little off another line or the boundary, lines crossing at a small angle, pieces
+      much shorter than ``h``) give correspondingly small angles: no node is moved.
+
+    engine : ``"builtin"`` (default: the triangulator above, no dependency, the same
+        result everywhere), ``"gmsh"`` (gmsh's Python API, ``pip install
+        "taichi-fdem[mesh]"``; needs ``h``; ImportError without gmsh) or ``"auto"``
+        (gmsh when importable, else builtin).
+
     Raises ValueError for fewer than 3 distinct vertices, non-finite coordinates, repeated
-    consecutive vertices, zero area, a self-intersecting (non-simple) polygon, or a
-    non-positive h.
+    consecutive vertices, zero area, a self-intersecting (non-simple) polygon, a
+    non-positive h, a line leaving the polygon (naming the line and the point outside)
+    or overlapping lines.  RuntimeError if the built-in triangulator cannot make every
+    line piece an edge (it then never returns a mesh that does not follow the lines).
     """
     where = "polygon"
     try:
@@ -340,36 +369,151 @@ def polygon(vertices, h: float | None = None) -> TriMesh:
     if signed < 0:
         v = v[::-1].copy()
 
-    if h is None:
-        boundary = v
-        interior = np.empty((0, 2))
-    else:
+    if engine not in _ENGINES:
+        raise ValueError(f"{where}: unknown engine {engine!r}; choose one of {list(_ENGINES)}")
+    if h is not None:
         h = _positive("h", h, where)
         _guard_size(2.4 * abs(signed) / (h * h), where, h)
-        pieces = []
-        for i in range(len(v)):
-            a, b = v[i], v[(i + 1) % len(v)]
-            count = max(1, math.ceil(float(np.hypot(*(b - a))) / h - 1e-9))
-            t = np.arange(count)[:, None] / count
-            pieces.append(a + t * (b - a))
-        boundary = np.vstack(pieces)
+    line_list = _line_list(lines, where)
+    arr = arrange(v, line_list, where) if line_list else None
+    if engine == "auto":
+        engine = "gmsh" if _gmsh_importable() else "builtin"
+    if engine == "gmsh":
+        from .gmsh_engine import polygon_gmsh
+        mesh = polygon_gmsh(v, h, arr, where)
+        _check_mesh(mesh, v, arr, abs(signed), "gmsh", where)
+        return mesh
+    return _polygon_builtin(v, h, arr, abs(signed), where)
+
+
+def _check_mesh(mesh: TriMesh, v: np.ndarray, arr, area: float, engine: str, where: str) -> None:
+    """RuntimeError unless ``mesh`` covers the polygon and its edges follow every line piece."""
+    if not math.isclose(mesh.area, area, rel_tol=1e-9):
+        raise RuntimeError(f"{where}: the {engine} mesh does not cover the polygon (area {mesh.area:.12g} "
+                           f"vs {area:.12g})")
+    if arr is None or not len(arr.pieces):
+        return
+    e = mesh.edges()
+    for k in range(len(arr.pieces)):   # one piece at a time: a loop over the (few) line pieces
+        piece = Segments(arr.nodes[arr.pieces[k]][None])
+        got = float(mesh.edge_lengths(e[piece.select_edges(mesh.points, e, tol=arr.tol)]).sum())
+        if not math.isclose(got, piece.length, rel_tol=1e-9):
+            raise RuntimeError(f"{where}: the {engine} mesh does not follow line {int(arr.piece_line[k])} from "
+                               f"{tuple(arr.nodes[arr.pieces[k, 0]].tolist())} to "
+                               f"{tuple(arr.nodes[arr.pieces[k, 1]].tolist())}")
+
+
+_ENGINES = ("builtin", "gmsh", "auto")
+
+
+def _gmsh_importable() -> bool:
+    try:
+        import gmsh  # noqa: F401
+    except (ImportError, OSError):   # OSError: the wheel is there but a system library is not
+        return False
+    return True
+
+
+def _line_list(lines, where: str) -> list:
+    """``lines`` as a list of :class:`Segments` (None or empty: no lines)."""
+    if lines is None:
+        return []
+    if isinstance(lines, (Segments, np.ndarray)):
+        raise ValueError(f"{where}: lines must be a list of Polyline / Segments / (n, 2) point arrays; "
+                         f"wrap a single line in a list: lines=[line]")
+    try:
+        items = list(lines)
+    except TypeError:
+        raise ValueError(f"{where}: lines must be a list, got {type(lines).__name__}") from None
+    out = [as_segments(line, where, i) for i, line in enumerate(items)]
+    for i, seg in enumerate(out):
+        far = np.abs(seg.segments).max()
+        if far > MAX_COORDINATE:
+            raise ValueError(f"{where}: line {i} has a point beyond {MAX_COORDINATE:g} m from the origin")
+    return out
+
+
+def _divide(p: np.ndarray, q: np.ndarray, h: float | None) -> np.ndarray:
+    """Points dividing p-q into ceil(|pq| / h) equal pieces, p included, q excluded, (c, 2)."""
+    count = 1 if h is None else max(1, math.ceil(float(np.hypot(*(q - p))) / h - 1e-9))
+    t = np.arange(count)[:, None] / count
+    return p + t * (q - p)
+
+
+def _polygon_builtin(v: np.ndarray, h, arr, area: float, where: str) -> TriMesh:
+    """The built-in engine: boundary (and line) nodes every ~h, a hexagonal lattice inside,
+    constrained Delaunay triangulation with the outline and the line pieces as constraints."""
+    if arr is None:
+        ring_pts, ring_nodes = v, None
+    else:
+        ring_nodes = arr.nodes[arr.ring]
+        ring_pts = ring_nodes
+    if h is None:
+        boundary = ring_pts
+    else:
+        boundary = np.vstack([_divide(ring_pts[i], ring_pts[(i + 1) % len(ring_pts)], h)
+                              for i in range(len(ring_pts))])
+    nb = len(boundary)
+    blocks = [boundary]
+    line_edges: list = []
+    line_of_edge: list = []
+    if arr is not None:
+        # ids of the arrangement nodes in the point list: ring nodes are boundary points
+        # (found by position), the others follow the boundary
+        node_id = np.full(len(arr.nodes), -1, dtype=np.int64)
+        if h is None:
+            node_id[arr.ring] = np.arange(len(arr.ring))
+        else:
+            counts = [len(_divide(ring_pts[i], ring_pts[(i + 1) % len(ring_pts)], h)) for i in range(len(ring_pts))]
+            node_id[arr.ring] = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        free = np.flatnonzero(node_id < 0)
+        node_id[free] = nb + np.arange(len(free))
+        blocks.append(arr.nodes[free])
+        nxt = nb + len(free)
+        for (a, b), line in zip(arr.pieces.tolist(), arr.piece_line.tolist()):
+            inner = _divide(arr.nodes[a], arr.nodes[b], h)[1:]
+            ids = [int(node_id[a])] + list(range(nxt, nxt + len(inner))) + [int(node_id[b])]
+            nxt += len(inner)
+            blocks.append(inner)
+            line_edges.extend(zip(ids[:-1], ids[1:]))
+            line_of_edge.extend([line] * (len(ids) - 1))
+    if h is not None:
         interior = _hex_lattice(v, h)
         if len(interior):
             interior = interior[_inside_polygon(interior, v)]
             interior = interior[_distance_to_polygon(interior, v) > 0.55 * h]
-    pts = np.vstack([boundary, interior])
-    nb = len(boundary)
+            if arr is not None and len(arr.pieces):
+                piece_segs = arr.nodes[arr.pieces]
+                interior = interior[distance_to_segments(interior, piece_segs) > 0.55 * h]
+        blocks.append(interior)
+    pts = np.vstack(blocks)
     segments = [(i, (i + 1) % nb) for i in range(nb)]
     cdt = _CDT(pts)
     cdt.insert_all()
     cdt.recover(segments)
+    if line_edges:
+        try:
+            cdt.recover(line_edges)
+        except (ValueError, RuntimeError) as exc:
+            raise RuntimeError(f"{where}: the built-in triangulator could not make the lines mesh edges "
+                               f"({exc}); try another h, or engine='gmsh'") from None
     tri = cdt.triangles()
     cent = pts[tri].mean(axis=1)
     tri = tri[_inside_polygon(cent, boundary)]
     mesh = TriMesh(pts, tri)
-    if not math.isclose(mesh.area, abs(signed), rel_tol=1e-9) or len(mesh.boundary_edges()) != nb:
+    if not math.isclose(mesh.area, area, rel_tol=1e-9) or len(mesh.boundary_edges()) != nb:
         raise RuntimeError(f"{where}: internal error: triangulation does not cover the polygon "
-                           f"(area {mesh.area:.12g} vs {abs(signed):.12g})")
+                           f"(area {mesh.area:.12g} vs {area:.12g})")
+    if line_edges:
+        n = mesh.point_count
+        have = mesh.edges().astype(np.int64)
+        want = np.sort(np.array(line_edges, dtype=np.int64), axis=1)
+        missing = ~np.isin(want[:, 0] * n + want[:, 1], have[:, 0] * n + have[:, 1])
+        if missing.any():
+            j = int(np.flatnonzero(missing)[0])
+            raise RuntimeError(f"{where}: the built-in triangulator lost a piece of line {line_of_edge[j]} "
+                               f"from {tuple(pts[want[j, 0]].tolist())} to {tuple(pts[want[j, 1]].tolist())}; "
+                               f"try another h, or engine='gmsh'")
     return mesh.compact()
 
 

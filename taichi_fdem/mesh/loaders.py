@@ -1,5 +1,7 @@
 """Reading meshes from files with meshio: :func:`load` (one mesh), :func:`load_groups` (one mesh
-per physical group / cell tag) and :func:`scene_from_groups` (one body per group).
+per physical group / cell tag, and optionally the physical line groups as
+:class:`~taichi_fdem.mesh.Segments`), :func:`load_tagged` (one mesh with a group label per
+triangle, and the line groups) and :func:`scene_from_groups` (one body per group).
 
 meshio is imported on first use only; the module does not import Taichi.
 """
@@ -9,7 +11,7 @@ import numpy as np
 
 from .trimesh import TriMesh
 
-__all__ = ["load", "load_groups", "scene_from_groups", "GROUP_KEYS"]
+__all__ = ["load", "load_groups", "load_tagged", "scene_from_groups", "GROUP_KEYS"]
 
 # --------------------------------------------------------------------------- load / merge
 _IGNORED_CELLS = {"vertex", "line", "line3", "line4", "line5", "line6"}
@@ -125,32 +127,8 @@ def load(path, cell_block: int | None = None) -> TriMesh:
 GROUP_KEYS = ("gmsh:physical", "cell_tags", "medit:ref", "tag", "tags", "region", "regions")
 
 
-def load_groups(path, key: str | None = None) -> dict:
-    """Read a triangle mesh and split it into one :class:`TriMesh` per physical group / cell tag.
-
-    Parameters
-    ----------
-    path : str or os.PathLike, any file meshio reads (gmsh ``.msh`` 2.2 and 4.1, ``.vtu``, ...).
-    key : name of the integer cell-data array holding the group tag of every cell.  Default:
-        the first of :data:`GROUP_KEYS` present in the file (``"gmsh:physical"`` for gmsh
-        files, i.e. the physical groups).
-
-    Returns
-    -------
-    dict mapping each group to its mesh, in increasing tag order.  A group is keyed by its
-    name when the file names it (gmsh ``$PhysicalNames`` of dimension 2, meshio
-    ``field_data``), otherwise by its integer tag.
-
-    Each group becomes a separate mesh with its own nodes: nodes on the interface of two
-    groups are duplicated (each group compacted with :meth:`TriMesh.compact`), so groups
-    added as bodies touch along the interface and interact by contact.  The checks of
-    :func:`load` apply (planar mesh, linear triangles only, clockwise triangles
-    reoriented, degenerate ones refused); point and line cells (boundary groups) are
-    ignored.  ValueError names the file and the key when the tags are missing or invalid.
-    """
-    where = "load_groups"
-    name, m, pts = _read_planar(path, where)
-    selected = _triangle_block_indices(m, name, where)
+def _group_key(m, name: str, key, where: str) -> str:
+    """The cell-data array holding the group tags (``key`` or the first of GROUP_KEYS)."""
     cell_data = dict(m.cell_data)
     if key is None:
         key = next((k for k in GROUP_KEYS if k in cell_data), None)
@@ -163,37 +141,115 @@ def load_groups(path, key: str | None = None) -> dict:
     elif key not in cell_data:
         raise ValueError(f"{where}: {name!r} has no cell-data array {key!r} "
                          f"(found {sorted(cell_data) or 'no cell data'})")
-    data = cell_data[key]
-    if len(data) != len(m.cells):
+    if len(cell_data[key]) != len(m.cells):
         # meshio's gmsh 4.1 reader lists tags only for the entities that have a physical group
-        raise ValueError(f"{where}: {name!r}: cell data {key!r} covers {len(data)} of {len(m.cells)} cell "
-                         f"blocks; in gmsh, put every surface in a physical group (or none of them)")
-    tris, tags = [], []
-    for k in selected:
-        t = np.asarray(m.cells[k].data, dtype=np.int64).reshape(-1, 3)
-        g = np.asarray(data[k])
-        if g.ndim == 2 and g.shape[1] == 1:
-            g = g[:, 0]
-        if g.shape != (len(t),):
-            raise ValueError(f"{where}: {name!r}: cell data {key!r} of block {k} has shape {g.shape}, "
-                             f"expected one tag per triangle ({len(t)},)")
-        if g.dtype.kind == "f":
-            if not (np.all(np.isfinite(g)) and np.all(g == np.round(g))):
-                raise ValueError(f"{where}: {name!r}: cell data {key!r} of block {k} is not integer-valued")
-        elif g.dtype.kind not in "iu":
-            raise ValueError(f"{where}: {name!r}: cell data {key!r} of block {k} has dtype {g.dtype}, "
-                             f"expected integer tags")
-        tris.append(t)
-        tags.append(g.astype(np.int64))
-    tri = np.concatenate(tris)
-    tag = np.concatenate(tags)
-    # names of the 2D physical groups: field_data[name] = [tag, dim] (gmsh) or [tag]
+        raise ValueError(f"{where}: {name!r}: cell data {key!r} covers {len(cell_data[key])} of {len(m.cells)} "
+                         f"cell blocks; in gmsh, put every surface and curve in a physical group (or none of them)")
+    return key
+
+
+def _block_tags(m, k: int, count: int, key: str, name: str, where: str) -> np.ndarray:
+    """The integer tags of cell block ``k`` (``count`` cells), int64 (count,)."""
+    g = np.asarray(m.cell_data[key][k])
+    if g.ndim == 2 and g.shape[1] == 1:
+        g = g[:, 0]
+    if g.shape != (count,):
+        raise ValueError(f"{where}: {name!r}: cell data {key!r} of block {k} has shape {g.shape}, "
+                         f"expected one tag per cell ({count},)")
+    if g.dtype.kind == "f":
+        if not (np.all(np.isfinite(g)) and np.all(g == np.round(g))):
+            raise ValueError(f"{where}: {name!r}: cell data {key!r} of block {k} is not integer-valued")
+    elif g.dtype.kind not in "iu":
+        raise ValueError(f"{where}: {name!r}: cell data {key!r} of block {k} has dtype {g.dtype}, "
+                         f"expected integer tags")
+    return g.astype(np.int64)
+
+
+def _group_names(m, dim: int) -> dict:
+    """Names of the physical groups of dimension ``dim``: field_data[name] = [tag, dim] (gmsh)
+    or [tag] (taken as any dimension)."""
     names = {}
     for group_name, fd in (m.field_data or {}).items():
         fd = np.asarray(fd).ravel()
-        if fd.size == 0 or (fd.size >= 2 and int(fd[1]) != 2):
+        if fd.size == 0 or (fd.size >= 2 and int(fd[1]) != dim):
             continue
         names.setdefault(int(fd[0]), str(group_name))
+    return names
+
+
+def _triangle_tags(m, selected, key: str, name: str, where: str):
+    """Concatenated triangles (t, 3) and their tags (t,) of the blocks ``selected``."""
+    tris, tags = [], []
+    for k in selected:
+        t = np.asarray(m.cells[k].data, dtype=np.int64).reshape(-1, 3)
+        tris.append(t)
+        tags.append(_block_tags(m, k, len(t), key, name, where))
+    return np.concatenate(tris), np.concatenate(tags)
+
+
+def _line_groups(m, pts: np.ndarray, key: str, name: str, where: str) -> dict:
+    """Physical line groups ("line" cells): group -> :class:`Segments` named after the group."""
+    from .lines import Segments
+
+    segs, tags = [], []
+    for k, block in enumerate(m.cells):
+        if block.type != "line":
+            continue
+        c = np.asarray(block.data, dtype=np.int64).reshape(-1, 2)
+        segs.append(c)
+        tags.append(_block_tags(m, k, len(c), key, name, where))
+    if not segs:
+        return {}
+    seg, tag = np.concatenate(segs), np.concatenate(tags)
+    names = _group_names(m, 1)
+    out = {}
+    for value in np.unique(tag).tolist():
+        label = names.get(int(value), int(value))
+        try:
+            out[label] = Segments(pts[seg[tag == value]], name=str(label))
+        except ValueError as exc:
+            raise ValueError(f"{where}: {name!r}: line group {label!r} ({key} = {value}): {exc}") from None
+    return out
+
+
+def load_groups(path, key: str | None = None, lines: bool = False):
+    """Read a triangle mesh and split it into one :class:`TriMesh` per physical group / cell tag.
+
+    Parameters
+    ----------
+    path : str or os.PathLike, any file meshio reads (gmsh ``.msh`` 2.2 and 4.1, ``.vtu``, ...).
+    key : name of the integer cell-data array holding the group tag of every cell.  Default:
+        the first of :data:`GROUP_KEYS` present in the file (``"gmsh:physical"`` for gmsh
+        files, i.e. the physical groups).
+    lines : when True, also return the physical line groups (see below).
+
+    Returns
+    -------
+    ``groups``, or ``(groups, line_groups)`` when ``lines=True``.
+
+    groups : dict mapping each group to its mesh, in increasing tag order.  A group is keyed
+        by its name when the file names it (gmsh ``$PhysicalNames`` of dimension 2, meshio
+        ``field_data``), otherwise by its integer tag.
+    line_groups : dict mapping each physical line group (gmsh physical curves: "line" cells
+        tagged by ``key``) to a :class:`~taichi_fdem.mesh.Segments` of its segments [m],
+        named after the group (``$PhysicalNames`` of dimension 1), else keyed by the integer
+        tag (and named ``str(tag)``); empty when the file has no line cells.  Use them as
+        edge selectors (:meth:`Segments.select_edges`) on any mesh having those edges.
+
+    Each group becomes a separate mesh with its own nodes: nodes on the interface of two
+    groups are duplicated (each group compacted with :meth:`TriMesh.compact`), so groups
+    added as bodies touch along the interface and interact by contact.  To keep the nodes
+    shared (one body of several materials), use :func:`load_tagged`.  The checks of
+    :func:`load` apply (planar mesh, linear triangles only, clockwise triangles
+    reoriented, degenerate ones refused); point cells are ignored.  ValueError names the
+    file and the key when the tags are missing or invalid.
+    """
+    where = "load_groups"
+    name, m, pts = _read_planar(path, where)
+    selected = _triangle_block_indices(m, name, where)
+    key = _group_key(m, name, key, where)
+    tri, tag = _triangle_tags(m, selected, key, name, where)
+    names = _group_names(m, 2)
     out = {}
     for value in np.unique(tag).tolist():
         label = names.get(int(value), int(value))
@@ -201,7 +257,49 @@ def load_groups(path, key: str | None = None) -> dict:
             out[label] = _mesh_of(pts, tri[tag == value], name, where)
         except ValueError as exc:
             raise ValueError(f"{exc} (group {label!r}, {key} = {value})") from None
+    if lines:
+        return out, _line_groups(m, pts, key, name, where)
     return out
+
+
+def load_tagged(path, key: str | None = None):
+    """Read one triangle mesh with a group label per triangle, and its line groups.
+
+    For one body made of several material groups (a dyke in a host rock, grains): unlike
+    :func:`load_groups`, the nodes on the interfaces of groups stay shared.
+
+    Parameters
+    ----------
+    path : any file meshio reads (gmsh ``.msh`` 2.2 and 4.1, ``.vtu``, ...).
+    key : the integer cell-data array of the group tags (default: the first of
+        :data:`GROUP_KEYS` present, ``"gmsh:physical"`` for gmsh files).
+
+    Returns
+    -------
+    mesh : :class:`TriMesh`, all triangles of the file (as :func:`load`; triangle order
+        kept, unused points dropped).
+    labels : (m,) array, the group of each triangle of ``mesh``: the group name (object
+        array of str) when the file names every group (``$PhysicalNames`` of dimension 2),
+        else the integer tag (int64 array); with some groups named, an object array mixing
+        names and integer tags.
+    line_groups : dict, the physical line groups as :class:`~taichi_fdem.mesh.Segments`
+        (see :func:`load_groups`).
+    """
+    where = "load_tagged"
+    name, m, pts = _read_planar(path, where)
+    selected = _triangle_block_indices(m, name, where)
+    key = _group_key(m, name, key, where)
+    tri, tag = _triangle_tags(m, selected, key, name, where)
+    mesh = _mesh_of(pts, tri, name, where)
+    names = _group_names(m, 2)
+    values = np.unique(tag)
+    if any(int(v) in names for v in values.tolist()):
+        labels = np.empty(len(tag), dtype=object)
+        for v in values.tolist():
+            labels[tag == v] = names.get(int(v), int(v))
+    else:
+        labels = tag
+    return mesh, labels, _line_groups(m, pts, key, name, where)
 
 
 def scene_from_groups(scene, path, materials, key: str | None = None, **add_body_kwargs) -> dict:

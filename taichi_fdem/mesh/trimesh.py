@@ -267,6 +267,46 @@ class TriMesh:
         _, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
         return d[counts[inverse.ravel()] == 1].astype(np.int32)
 
+    def interior_edges(self) -> tuple[np.ndarray, np.ndarray]:
+        """Edges shared by two triangles, and those two triangles.
+
+        Returns
+        -------
+        edges : (k, 2) int32 node pairs, each row ``i < j``, rows sorted (the order of
+            :meth:`edges` restricted to interior edges).
+        tris : (k, 2) int32 triangle indices: ``tris[:, 0]`` is the triangle on the left of
+            ``i -> j`` (the one traversing it as ``i -> j``), ``tris[:, 1]`` the one on its right.
+        """
+        d = self._directed_edges()
+        n = self.point_count
+        owner = np.repeat(np.arange(self.triangle_count, dtype=np.int64), 3)
+        lo, hi = np.minimum(d[:, 0], d[:, 1]), np.maximum(d[:, 0], d[:, 1])
+        keys = lo * n + hi
+        order = np.argsort(keys, kind="stable")
+        ks = keys[order]
+        first = np.flatnonzero(ks[1:] == ks[:-1])       # a key occurs at most twice (validated)
+        e0, e1 = order[first], order[first + 1]
+        forward = d[e0, 0] < d[e0, 1]                      # e0 traverses lo -> hi: it is the left one
+        left = np.where(forward, owner[e0], owner[e1])
+        right = np.where(forward, owner[e1], owner[e0])
+        edges = np.stack([lo[e0], hi[e0]], axis=1).astype(np.int32)
+        return edges, np.stack([left, right], axis=1).astype(np.int32)
+
+    def edge_midpoints(self, edges=None) -> np.ndarray:
+        """Midpoints of ``edges`` (node pairs, (k, 2); default :meth:`edges`), shape (k, 2) [m]."""
+        e = self.edges() if edges is None else np.asarray(edges)
+        if e.ndim != 2 or e.shape[1] != 2 or (e.size and (e.min() < 0 or e.max() >= self.point_count)):
+            raise ValueError(f"TriMesh.edge_midpoints: edges must be (k, 2) node indices in 0..{self.point_count - 1}")
+        return 0.5 * (self.points[e[:, 0]] + self.points[e[:, 1]])
+
+    def edge_lengths(self, edges=None) -> np.ndarray:
+        """Lengths of ``edges`` (node pairs, (k, 2); default :meth:`edges`), shape (k,) [m]."""
+        e = self.edges() if edges is None else np.asarray(edges)
+        if e.ndim != 2 or e.shape[1] != 2 or (e.size and (e.min() < 0 or e.max() >= self.point_count)):
+            raise ValueError(f"TriMesh.edge_lengths: edges must be (k, 2) node indices in 0..{self.point_count - 1}")
+        v = self.points[e[:, 1]] - self.points[e[:, 0]]
+        return np.sqrt((v * v).sum(1))
+
     def boundary_nodes(self) -> np.ndarray:
         """Sorted unique indices of the nodes on the boundary, shape (k,) int32."""
         return np.unique(self.boundary_edges()).astype(np.int32)
