@@ -151,35 +151,39 @@ class CrackResults:
     def _fragment_roots(self) -> np.ndarray:
         """Per triangle the smallest index of a triangle of its fragment (−1 for removed
         triangles).  Connected: sharing a node, or an intact joint (joint_state == 0) between
-        two present triangles.  Min-label propagation with pointer jumping, vectorised."""
+        two present triangles.  Vectorised hooking and pointer jumping over the triangle pairs
+        (each triangle to the first triangle of each of its nodes, and the intact joints):
+        parent[t] ≤ t always, so each component ends at its smallest triangle."""
         md = self.model
         m = md.tri_count
         active = self.state.tri_intact.to_numpy()[:m] >= 0
         ta = np.nonzero(active)[0]
-        tn = md.tri_nodes_np[ta]
-        flat = tn.ravel()
-        labels = np.arange(m)
-        a = c = np.zeros(0, np.int64)
+        flat = md.tri_nodes_np[ta].ravel()
+        first = np.full(md.node_count, m, np.int64)       # first present triangle at each node
+        np.minimum.at(first, flat, np.repeat(ta, 3))
+        u, v = [np.repeat(ta, 3)], [first[flat]]
         if md.fracture and md.joint_count:
             jt = md.joint_tris_np
             keep = (self.state.joint_state.to_numpy()[: len(jt)] == 0) & active[jt[:, 0]] & active[jt[:, 1]]
-            a, c = jt[keep, 0], jt[keep, 1]
-        node_lab = np.empty(md.node_count, np.int64)
+            u.append(jt[keep, 0])
+            v.append(jt[keep, 1])
+        u, v = np.concatenate(u), np.concatenate(v)
+        parent = np.arange(m)
         while True:
-            new = labels.copy()
-            node_lab.fill(m)                             # through shared nodes
-            np.minimum.at(node_lab, flat, np.repeat(labels[ta], 3))
-            new[ta] = np.minimum(new[ta], node_lab[tn].min(axis=1))
-            if len(a):                                   # through intact joints
-                lo = np.minimum(new[a], new[c])
-                np.minimum.at(new, a, lo)
-                np.minimum.at(new, c, lo)
-            new = new[new]                               # pointer jumping
-            if np.array_equal(new, labels):
+            while True:                                  # pointer jumping to the roots
+                p2 = parent[parent]
+                if np.array_equal(p2, parent):
+                    break
+                parent = p2
+            ru, rv = parent[u], parent[v]
+            differ = ru != rv
+            if not differ.any():
                 break
-            labels = new
-        labels[~active] = -1
-        return labels
+            u, v = u[differ], v[differ]                  # pairs already joined stay joined
+            lo, hi = np.minimum(ru[differ], rv[differ]), np.maximum(ru[differ], rv[differ])
+            np.minimum.at(parent, hi, lo)                # hook the larger root under the smaller
+        parent[~active] = -1
+        return parent
 
     def _fragment_labels(self, body=None):
         """(triangle indices, fragment id per triangle (−1 removed), fragment count) of all

@@ -154,6 +154,17 @@ def test_run_video_cracks(tmp_path):
     assert counts[True] > 50 and counts[False] == 0
     with pytest.raises(ValueError, match="video_cracks"):
         p.sim.run(p.dt, video_cracks=True, progress=False)
+    with pytest.raises(ValueError, match="video_cracks"):
+        p.sim.run(p.dt, video=str(tmp_path / "x"), renderer=RendererImage(), video_cracks=True, progress=False)
+
+
+def test_crack_events_file_must_be_a_crack_event_csv(tmp_path):
+    path = tmp_path / "other.csv"
+    path.write_text("time,step\n0.0,0\n")
+    sim = V.JointPair().sim
+    with pytest.raises(ValueError, match="not a crack-event file"):
+        sim.run(sim.dt, crack_events=str(path), progress=False)
+    assert path.read_text() == "time,step\n0.0,0\n"                  # left untouched
 
 
 # ------------------------------------------------------------------------------------------------
@@ -400,3 +411,16 @@ duration = 0.0001
     p.write_text(base + "\n[output]\ncracks = true\n")
     with pytest.raises(SceneFileError, match="cracks"):
         scenefile.load(str(p))
+
+
+def test_joint_set_names_from_the_model():
+    """With joint sets (model.joint_set_np / joint_set_names), events carry their set's name."""
+    p = V.JointPair()
+    sim = p.sim
+    sim.model.joint_set_np = np.array([1], np.int32)
+    sim.model.joint_set_names = ["bedding", "fault"]
+    st = sim.state.joint_state.to_numpy()
+    st[0] = 2
+    sim.state.joint_state.from_numpy(st)
+    ev = sim.crack_events()
+    assert list(ev["set"]) == ["fault"] and list(ev["set_id"]) == [1] and list(ev["mode"]) == ["II"]
