@@ -458,7 +458,7 @@ class Simulation(SimulationResults):
             renderer=None, png_dir: str | None = None, progress: bool | None = None, callback=None,
             check_energy: bool = True, energy_tol: float = 0.1, max_penetration: float | None = 0.5,
             check_every: int | None = None, history: str | None = None, history_every: int | None = None,
-            crack_events: str | None = None, video_cracks: bool | None = None) -> None:
+            crack_events: str | None = None, video_cracks: bool = False) -> None:
         """Advance by ``duration`` seconds of simulated time.
 
         Every step the kernels stop on non-finite values, inverted elements and node speeds above
@@ -497,7 +497,8 @@ class Simulation(SimulationResults):
             far are written at the start, new ones after every chunk of steps (at least as
             often as the history rows and checks) and at the end, also when the run stops
             with an error; each write is flushed.  An existing file is appended to, without
-            repeating the joints it lists (:class:`taichi_fdem.cracks.CrackEventLog`).
+            repeating the joints it lists (:class:`taichi_fdem.cracks.CrackEventLog`).  After
+            :meth:`restore_last_good` the file may list joints that broke after the restored state.
         video_cracks : draw the broken joints (their current midlines) on the video frames of
             the default renderer; with ``renderer=``, set its ``cracks`` option instead.
         """
@@ -515,13 +516,13 @@ class Simulation(SimulationResults):
         if video is not None:
             if Simulation.video_sink_factory is None:
                 raise RuntimeError("run(video=...): no video writer installed (import taichi_fdem installs one)")
-            if renderer is not None and video_cracks is not None:
+            if renderer is not None and video_cracks:
                 raise ValueError("run: video_cracks= applies to the default renderer; give cracks= to the "
                                  "RendererImage passed as renderer=")
             writer, draw = Simulation.video_sink_factory(self, video, fps, png_dir, renderer,
                                                          cracks=bool(video_cracks))
-        elif video_cracks is not None:
-            raise ValueError("run: video_cracks= needs video=")
+        elif video_cracks:
+            raise ValueError("run: video_cracks=True needs video=")
         if progress is None:
             progress = sys.stdout.isatty()
         bar = None
