@@ -47,10 +47,11 @@ def __getattr__(name):
     raise AttributeError(f"module 'taichi_fdem' has no attribute {name!r}")
 
 
-def _video_sink(sim, video, fps, png_dir, renderer):
-    """The frame sink of ``Simulation.run(video=...)``: (writer context, draw())."""
+def _video_sink(sim, video, fps, png_dir, renderer, cracks=False):
+    """The frame sink of ``Simulation.run(video=...)``: (writer context, draw()); ``cracks``:
+    draw the broken joints with the default renderer."""
     from .render import RendererImage, VideoWriter, body_colors
-    renderer = renderer or RendererImage()
+    renderer = renderer or RendererImage(cracks=bool(cracks))
     writer = VideoWriter(video, fps=fps, png_dir=png_dir)
     if hasattr(renderer, "render_sim"):
         return writer, lambda: writer.append(renderer.render_sim(sim))

@@ -93,7 +93,8 @@ def cmd_run(args) -> int:
     drift = e1["total"] - e0["total"]
     scale = max(abs(e0["kinetic"]) + abs(e0["strain"]) + abs(e0["gravity"]), 1e-300)
     print(f"  total energy change {drift:+.3e} J ({100 * drift / scale:+.3f} % of the initial |energy|)")
-    for label, path in (("video", settings.video), ("VTU series", settings.vtu), ("checkpoint", settings.checkpoint)):
+    for label, path in (("video", settings.video), ("VTU series", settings.vtu), ("checkpoint", settings.checkpoint),
+                        ("crack events", getattr(settings, "crack_events", None))):
         if path:
             print(f"  wrote {label}: {path}")
     return EXIT_OK

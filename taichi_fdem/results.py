@@ -11,15 +11,16 @@ import numpy as np
 import csv
 import os
 
+from .cracks import CrackResults
 from .energies import compute_energies
 from .engine.groups import BROKEN
-from .engine.joints import MODE_NAMES
 from .engine.loads import LOAD_ABSORB, LOAD_FORCE, LOAD_VELOCITY
 from .model import counter
 
 
-class SimulationResults:
-    """Read-only views of a simulation's state as NumPy arrays."""
+class SimulationResults(CrackResults):
+    """Read-only views of a simulation's state as NumPy arrays (crack and fragment results from
+    :class:`~taichi_fdem.cracks.CrackResults`)."""
 
     def _body_obj(self, body):
         """The Body of this simulation that ``body`` (a Body, or its index) names.
@@ -172,22 +173,14 @@ class SimulationResults:
         return counter(self.state.step_int, BROKEN) if self.fracture else 0
 
     def broken_joints(self) -> dict:
-        """The joints broken so far (FDEM_SPEC §7.8).
+        """The joints broken so far (FDEM_SPEC §7.8); see :meth:`crack_events` for more.
 
         Returns {"index": (k,) joint indices, "position": (k, 2) mean of the joint's 4 nodes at
         breakage [m], "time": (k,) [s], "mode": (k,) "I", "II", "I+II" or "mixed"}, in time order.
         """
-        if not self.fracture:
-            return {"index": np.zeros(0, int), "position": np.zeros((0, 2)), "time": np.zeros(0),
-                    "mode": np.zeros(0, dtype=object)}
-        state = self.state.joint_state.to_numpy()
-        idx = np.nonzero(state)[0]
-        brk = self.state.joint_break.to_numpy().astype(np.float64)[idx]
-        order = np.argsort(brk[:, 0], kind="stable")
-        idx, brk = idx[order], brk[order]
-        modes = state[idx]                 # a broken joint's state is its failure mode
-        return {"index": idx, "position": brk[:, 1:3], "time": brk[:, 0],
-                "mode": np.array([MODE_NAMES.get(int(m), "?") for m in modes], dtype=object)}
+        ev = self.crack_events()
+        return {"index": ev["index"], "position": np.stack([ev["x"], ev["y"]], axis=1), "time": ev["time"],
+                "mode": ev["mode"]}
 
     def joint_damage(self) -> np.ndarray:
         """Damage of each joint in [0, 1]: the largest stored D of its points, 1 when broken."""
@@ -208,30 +201,11 @@ class SimulationResults:
         return out
 
     def fragment_count(self, body=None) -> int:
-        """Number of fragments: triangles connected through intact joints (FDEM_SPEC §7.10).
-
-        A body without fracture counts as one fragment.  With ``body``, only that body's.
+        """Number of fragments: groups of triangles connected by shared nodes or intact joints
+        (FDEM_SPEC §7.10; the labelling of :meth:`fragments`).  Triangles removed by
+        :meth:`remove` count for nothing.  With ``body``, only that body's.
         """
-        labels = np.arange(self.tri_count)
-        for b in self.bodies:
-            if not b.fracture:
-                labels[b.triangles] = b.tri_start
-        if self.fracture:
-            intact = self.state.joint_state.to_numpy()[: self.joint_count] == 0
-            a, c = self.model.joint_tris_np[intact, 0], self.model.joint_tris_np[intact, 1]
-            while True:                      # min-label propagation with pointer jumping
-                lo = np.minimum(labels[a], labels[c])
-                new = labels.copy()
-                np.minimum.at(new, a, lo)
-                np.minimum.at(new, c, lo)
-                new = new[new]
-                if np.array_equal(new, labels):
-                    break
-                labels = new
-        if body is not None:
-            b = self._body_obj(body)
-            labels = labels[b.triangles]
-        return int(len(np.unique(labels)))
+        return self._fragment_labels(body)[2]
 
     def _history_row(self) -> dict:
         """One row of the history recorder (see :class:`History`)."""
@@ -246,6 +220,9 @@ class SimulationResults:
         u = self.node_displacements()
         for b in self.bodies:
             row[f"ux_{b.name}"], row[f"uy_{b.name}"] = u[b.nodes].mean(axis=0)
+        if self.fracture:
+            row["broken_joints"] = self.broken_joint_count
+            row["crack_length"] = self.crack_length()
         for k, v in self.energies().items():
             row[f"E_{k}"] = float(v)
         return row
@@ -266,7 +243,9 @@ class History:
 
     Columns: time [s], step, the reaction (x, y) [N] of each prescribed body (by name) and of
     each ``fix_nodes`` group (fix0, fix1, ...), the amplitude of each curve, the mean
-    displacement (x, y) [m] of each body, and the energy account [J] (``E_load_work`` included).
+    displacement (x, y) [m] of each body, with fracture the number of broken joints
+    (``broken_joints``) and their total initial length (``crack_length`` [m]), and the energy
+    account [J] (``E_load_work`` included).
     A file that exists is appended to (its header is kept).
     """
 

@@ -31,6 +31,7 @@ from .guards import SimulationError
 from .engine.groups import COUPLES, DACC, DACC_FORCE, DETECTIONS, FOUND, SWITCH_BC
 from .model import (allocate_scratch, allocate_state, build_model, counter, enable_parallel, grow_couples,
                     pack_groups, set_counter, size_couple_scratch)
+from .cracks import CrackEventLog
 from .results import History, SimulationResults
 from .timestep import CONTACT_LIMIT_FACTOR  # noqa: F401  (re-exported)
 
@@ -57,7 +58,7 @@ class Simulation(SimulationResults):
     ``sim.dt_limit``, ``sim.tri_count``, ``sim.contact``, ...).
     """
 
-    #: ``factory(sim, video, fps, png_dir, renderer) -> (writer, draw)`` used by :meth:`run`
+    #: ``factory(sim, video, fps, png_dir, renderer, cracks=False) -> (writer, draw)`` used by :meth:`run`
     #: for ``video=``; installed by the package (the renderer sits above the simulation).
     video_sink_factory = None
     #: the checkpoint module (``save(sim, path)``, ``load(path)``); installed by the package,
@@ -456,7 +457,8 @@ class Simulation(SimulationResults):
     def run(self, duration: float, video: str | None = None, fps: int = 30, frame_dt: float | None = None,
             renderer=None, png_dir: str | None = None, progress: bool | None = None, callback=None,
             check_energy: bool = True, energy_tol: float = 0.1, max_penetration: float | None = 0.5,
-            check_every: int | None = None, history: str | None = None, history_every: int | None = None) -> None:
+            check_every: int | None = None, history: str | None = None, history_every: int | None = None,
+            crack_events: str | None = None, video_cracks: bool = False) -> None:
         """Advance by ``duration`` seconds of simulated time.
 
         Every step the kernels stop on non-finite values, inverted elements and node speeds above
@@ -490,6 +492,15 @@ class Simulation(SimulationResults):
             prescribed bodies and ``fix_nodes`` groups, curve amplitudes, mean displacement of
             each body, energies (:class:`taichi_fdem.results.History`).  Each row is flushed;
             an existing file is appended to.
+        crack_events : path of a CSV file of crack events (:meth:`crack_events`, columns
+            ``joint, time_s, x_m, y_m, mode, energy_J, length_m, set``): the joints broken so
+            far are written at the start, new ones after every chunk of steps (at least as
+            often as the history rows and checks) and at the end, also when the run stops
+            with an error; each write is flushed.  An existing file is appended to, without
+            repeating the joints it lists (:class:`taichi_fdem.cracks.CrackEventLog`).  After
+            :meth:`restore_last_good` the file may list joints that broke after the restored state.
+        video_cracks : draw the broken joints (their current midlines) on the video frames of
+            the default renderer; with ``renderer=``, set its ``cracks`` option instead.
         """
         duration = float(duration)
         if not (math.isfinite(duration) and duration >= 0):
@@ -505,7 +516,13 @@ class Simulation(SimulationResults):
         if video is not None:
             if Simulation.video_sink_factory is None:
                 raise RuntimeError("run(video=...): no video writer installed (import taichi_fdem installs one)")
-            writer, draw = Simulation.video_sink_factory(self, video, fps, png_dir, renderer)
+            if renderer is not None and video_cracks:
+                raise ValueError("run: video_cracks= applies to the default renderer; give cracks= to the "
+                                 "RendererImage passed as renderer=")
+            writer, draw = Simulation.video_sink_factory(self, video, fps, png_dir, renderer,
+                                                         cracks=bool(video_cracks))
+        elif video_cracks:
+            raise ValueError("run: video_cracks=True needs video=")
         if progress is None:
             progress = sys.stdout.isatty()
         bar = None
@@ -520,8 +537,13 @@ class Simulation(SimulationResults):
                 raise ValueError(f"run: history_every must be >= 1 step, got {history_every}")
             hist = History(self, history)
             hist.write()
+        cracks = None
+        if crack_events is not None:
+            cracks = CrackEventLog(self, crack_events)
+            cracks.write()
         with (writer if writer is not None else nullcontext()), (bar if bar is not None else nullcontext()), \
-                (_closing(hist) if hist is not None else nullcontext()):
+                (_closing(hist) if hist is not None else nullcontext()), \
+                (_closing(cracks) if cracks is not None else nullcontext()):
             task = bar.add_task("run", total=total, t="0") if bar is not None else None
             if writer is not None:
                 draw()
@@ -538,6 +560,8 @@ class Simulation(SimulationResults):
                     guard.step_wall = (_time.perf_counter() - t_step) / j
                     k -= j
                     done += j
+                    if cracks is not None:
+                        cracks.write()
                     guard.check(j, last=done >= total)
                     if hist is not None and (done % every == 0 or done >= total):
                         hist.write()

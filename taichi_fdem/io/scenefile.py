@@ -18,7 +18,8 @@ reader, the line locator and the key checker are in :mod:`.toml_check`; :class:`
 All of them are importable from here.
 
 Paths: files the scene *reads* (``bodies.file``) are relative to the scene file's folder;
-files it *writes* (``output.video``, ``output.vtu``, ``output.checkpoint``) are relative to
+files it *writes* (``output.video``, ``output.vtu``, ``output.checkpoint``,
+``output.crack_events``) are relative to
 the working directory.
 
 Reference (all values SI; "—" = dimensionless; defaults in brackets)
@@ -103,6 +104,8 @@ frame_dt       s       simulated time between frames [duration / (5 s × fps)]
 color_by       —       "body", "material", "speed", "displacement", "von_mises",
                        "max_principal" or "min_principal" ["body"]
 width, height  px      video frame size [960, 540]
+cracks         —       draw the broken joints on the video frames [false]
+crack_events   —       CSV file of crack events, appended as joints break [none]
 vtu            —       folder of a VTU series with a .pvd index (needs taichi_fdem.io.vtu)
 vtu_every      —       write one VTU file every this many frames [1]
 checkpoint     —       file written at the end of the run (needs Simulation.save)
@@ -204,6 +207,8 @@ OUTPUT_KEYS = {
     "color_by": _Key("choice", "body", choices=COLOR_BY),
     "width": _Key("int", 960, "px", lo=1, hi=16384),
     "height": _Key("int", 540, "px", lo=1, hi=16384),
+    "cracks": _Key("bool", False),
+    "crack_events": _Key("str"),
     "vtu": _Key("str"),
     "vtu_every": _Key("int", 1, lo=1),
     "checkpoint": _Key("str"),
@@ -394,6 +399,8 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
         from ..simulation import Simulation
         if not hasattr(Simulation, "save"):
             raise ck.error(("output", "checkpoint"), "checkpoints need Simulation.save, which this version does not have")
+    if "cracks" in output_t and output["cracks"] and output["video"] is None:
+        raise ck.error(("output", "cracks"), "cracks = true draws the broken joints on the video: it needs video = \"...\"")
     if "vtu_every" in output_t and output["vtu"] is None:
         raise ck.error(("output", "vtu_every"), "vtu_every needs vtu = \"folder\"")
 

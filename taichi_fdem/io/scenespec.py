@@ -31,6 +31,8 @@ class RunSettings:
     color_by: str = "body"
     width: int = 960
     height: int = 540
+    cracks: bool = False
+    crack_events: str | None = None
     vtu: str | None = None
     vtu_every: int = 1
     checkpoint: str | None = None
@@ -41,7 +43,7 @@ class RunSettings:
         renderer = None
         if self.video:
             from ..render import RendererImage
-            renderer = RendererImage(self.width, self.height, color_by=self.color_by)
+            renderer = RendererImage(self.width, self.height, color_by=self.color_by, cracks=self.cracks)
             folder = os.path.dirname(os.path.abspath(self.video))
             os.makedirs(folder, exist_ok=True)
         exporter = None
@@ -51,7 +53,8 @@ class RunSettings:
             exporter.write(sim)                       # the initial state
         try:
             sim.run(duration, video=self.video or None, fps=self.fps, frame_dt=self.frame_dt, renderer=renderer,
-                    progress=progress, callback=exporter.callback if exporter is not None else None)
+                    progress=progress, callback=exporter.callback if exporter is not None else None,
+                    crack_events=self.crack_events or None)
         finally:
             if exporter is not None:
                 exporter.close()
@@ -157,7 +160,8 @@ class SceneSpec:
     def run_settings(self) -> RunSettings:
         o = self.output
         return RunSettings(duration=self.solver["duration"], video=o["video"], fps=o["fps"], frame_dt=o["frame_dt"],
-                           color_by=o["color_by"], width=o["width"], height=o["height"], vtu=o["vtu"],
+                           color_by=o["color_by"], width=o["width"], height=o["height"], cracks=o["cracks"],
+                           crack_events=o["crack_events"], vtu=o["vtu"],
                            vtu_every=o["vtu_every"], checkpoint=o["checkpoint"])
 
     def __getstate__(self):

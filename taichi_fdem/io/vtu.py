@@ -24,6 +24,9 @@ cell data
     sym(∇u) to first order; ``body_id`` and ``material_id`` (int32); ``damage`` in [0, 1]
     (the simulation's ``tri_damage()`` — or ``tri_damage`` array — when it has one, zeros
     otherwise).  Triangles removed by an excavation (``sim.remove``) are not written.
+
+Cracks: :func:`write_cracks_vtu` writes the broken joints as a separate VTU file of line cells
+(their current midlines) with the crack events' data (time, mode, energy, length, set).
 """
 from __future__ import annotations
 
@@ -32,7 +35,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-__all__ = ["ExporterVtu", "frame_fields"]
+__all__ = ["ExporterVtu", "frame_fields", "write_cracks_vtu"]
 
 
 def _to_numpy(a) -> np.ndarray:
@@ -236,3 +239,58 @@ class ExporterVtu:
 
     def __repr__(self):
         return f"ExporterVtu({self.directory!r}, every={self.every}, prefix={self.prefix!r}, frames={self.frame_count})"
+
+
+def write_cracks_vtu(path, sim, binary: bool = True) -> str:
+    """Write the broken joints of ``sim`` as VTU polylines; returns the path.
+
+    One ``line`` cell per broken joint, in the order of ``sim.crack_events()``: from
+    ½(x_j0 + x_j3) to ½(x_j1 + x_j2) at the current node positions (``sim.crack_segments()``;
+    two points per cell, z = 0).  Cell data: ``joint`` (int32, its index), ``time`` [s] of
+    breakage, ``mode`` (int32: 1 = I, 2 = II, 3 = I+II, 4 = mixed), ``energy`` [J] released,
+    ``length`` [m] (initial, L0) and ``set`` (int32 joint-set index).  With no broken joint the
+    file holds an empty piece (0 points, 0 cells; VTK reads it, meshio cannot).  Written to a temporary file and moved into place.
+    """
+    import meshio
+
+    path = os.fspath(path)
+    if not path.endswith(".vtu"):
+        raise ValueError(f"write_cracks_vtu: path must end with .vtu, got {path!r}")
+    ev = sim.crack_events()
+    seg = np.asarray(sim.crack_segments(), dtype=np.float64).reshape(-1, 4)
+    k = len(seg)
+    points = _pad3(seg.reshape(2 * k, 2))
+    lines = np.arange(2 * k, dtype=np.int64).reshape(k, 2)
+    data = {"joint": ev["index"].astype(np.int32), "time": ev["time"].astype(np.float64),
+            "mode": ev["mode_id"].astype(np.int32), "energy": ev["energy"].astype(np.float64),
+            "length": ev["length"].astype(np.float64), "set": ev["set_id"].astype(np.int32)}
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    tmp = path + ".tmp"
+    try:
+        if k:
+            mesh = meshio.Mesh(points, [("line", lines)], cell_data={name: [v] for name, v in data.items()})
+            meshio.write(tmp, mesh, file_format="vtu", binary=binary)
+        else:                   # meshio writes no readable empty grid: an empty piece by hand
+            with open(tmp, "w") as fh:
+                fh.write(_EMPTY_VTU)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+    return path
+
+
+_EMPTY_VTU = """<?xml version="1.0"?>
+<VTKFile type="UnstructuredGrid" version="0.1" byte_order="LittleEndian">
+<UnstructuredGrid>
+<Piece NumberOfPoints="0" NumberOfCells="0">
+<Points><DataArray type="Float64" NumberOfComponents="3" format="ascii"></DataArray></Points>
+<Cells>
+<DataArray type="Int64" Name="connectivity" format="ascii"></DataArray>
+<DataArray type="Int64" Name="offsets" format="ascii"></DataArray>
+<DataArray type="UInt8" Name="types" format="ascii"></DataArray>
+</Cells>
+</Piece>
+</UnstructuredGrid>
+</VTKFile>
+"""

@@ -18,8 +18,8 @@ from taichi_fdem import backend
 from ._util import (_check_color, _check_pos_int, _check_range, _check_real, _check_view, _is_ndarray,
                     _np_dtype, _to_np)
 from .colors import COLOR_MODES, COLORMAPS, _check_color_by, body_colors, colormap
-from .kernels import (_bbox_kernel, _centroid_kernel, _clear_kernel, _clear_u8_kernel, _raster_kernel,
-                      _raster_u8_kernel, _resolve_kernel, _sim_scalar_kernel, _to_pixels_kernel,
+from .kernels import (_bbox_kernel, _centroid_kernel, _clear_kernel, _clear_u8_kernel, _cracks_u8_kernel,
+                      _raster_kernel, _raster_u8_kernel, _resolve_kernel, _sim_scalar_kernel, _to_pixels_kernel,
                       _tri_scalar_kernel, _vec3f)
 from .labels import _Overlays
 
@@ -73,6 +73,10 @@ class RendererImage(_Overlays):
         ``view``).
     follow_width : width of the followed view [m] (default: 4 x the body's initial extent).
     text_size : font height of the labels in pixels (default ~ height / 30, at least 10).
+    cracks : draw the broken joints (FDEM_SPEC §7.8) on top of the triangles, each as its
+        current midline, from ½(x_j0 + x_j3) to ½(x_j1 + x_j2): the pixels whose centres lie
+        within ``crack_width`` / 2 output pixels of it take ``crack_color`` (RGB in [0, 1]).
+        Drawn by a Taichi kernel, one thread per joint, at the output resolution.
 
     ``render(node_x, tri_nodes, tri_color)`` accepts Taichi vector ndarrays (as held by the
     simulation) or NumPy arrays of shape (n, 2), (m, 3) and (m, 3) (``tri_color`` may also be
@@ -83,7 +87,8 @@ class RendererImage(_Overlays):
     def __init__(self, width=960, height=540, view="fit", background=(1.0, 1.0, 1.0),
                  edge_color=(0.1, 0.1, 0.1), edge_width=1.0, draw_edges=True, supersample=1,
                  margin=0.05, color_by="body", vmin=None, vmax=None, cmap="viridis",
-                 colorbar=True, stamp=True, follow=None, follow_width=None, text_size=None):
+                 colorbar=True, stamp=True, follow=None, follow_width=None, text_size=None,
+                 cracks=False, crack_color=(1.0, 0.0, 0.0), crack_width=2.0):
         self.width = _check_pos_int("width", width)
         self.height = _check_pos_int("height", height)
         self.supersample = _check_pos_int("supersample", supersample, 1, 4)
@@ -111,6 +116,11 @@ class RendererImage(_Overlays):
         if self.follow_width is not None and self.follow_width <= 0.0:
             raise ValueError(f"follow_width must be > 0 m, got {follow_width}")
         self.text_size = None if text_size is None else _check_pos_int("text_size", text_size, 4, 1000)
+        if not isinstance(cracks, (bool, np.bool_)):
+            raise ValueError(f"cracks must be True or False, got {cracks!r}")
+        self.cracks = bool(cracks)
+        self.crack_color = _check_color("crack_color", crack_color)
+        self.crack_width = _check_real("crack_width", crack_width, 1.0, 100.0)
         self._last_scalars = None  # (m,) float64 per-triangle values of the last scalar frame
         self._last_scal_nd = None  # ... or the ndarray holding them (converted on access)
         self._sprites = {}         # (text, anchor, font px) -> label sprite (see _label_sprite)
@@ -439,6 +449,16 @@ class RendererImage(_Overlays):
         hh = 0.5 * width * self.height / self.width
         return (cx - 0.5 * width, cx + 0.5 * width, cy - hh, cy + hh)
 
+    def _draw_cracks(self, sim, img) -> None:
+        """The crack overlay (see ``cracks``) into the u8 image, in the view of the last frame."""
+        nj = int(getattr(sim, "joint_count", 0) or 0) if getattr(sim, "fracture", False) else 0
+        if nj == 0:
+            return
+        xmin, xmax, _, ymax = self.last_view
+        params = np.array([xmin, ymax, self.width / (xmax - xmin)], dtype=_np_dtype(sim.node_x.dtype))
+        _cracks_u8_kernel(sim.node_x, sim.joint_nodes, sim.joint_state, nj, params, img,
+                          ti.Vector(self.crack_color, dt=ti.f32), float(0.5 * self.crack_width))
+
     def render_sim(self, sim, color_by=None) -> np.ndarray:
         """Draw a :class:`~taichi_fdem.simulation.Simulation`; returns ``(height, width, 3)`` uint8.
 
@@ -496,6 +516,8 @@ class RendererImage(_Overlays):
         img = self._draw(sim.node_x, self._drawn_triangles(sim, consts), c_nd, box,
                          layout["reserve"] if layout else 0,
                          scal=None if kid is None else scal, rng=None if kid is None else (vmin, vmax))
+        if self.cracks:
+            self._draw_cracks(sim, img)
         stamp = f"t = {sim.time:.4g} s  step {sim.step_count}" if self.stamp else None
         if bar is not None or stamp is not None:
             img = self._overlay(img, bar, layout, stamp)
