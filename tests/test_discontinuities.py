@@ -303,3 +303,25 @@ def test_heterogeneous_brazilian_mean_and_scatter():
     assert r["mean"] == pytest.approx(0.85, abs=0.01)
     assert r["std"] == pytest.approx(0.06, abs=0.01)
     assert r["mean"] < r["homogeneous"]             # the weakest joints start the split
+
+
+def test_serial_and_parallel_agree_on_a_partly_jointed_body_with_a_crack_tip():
+    """A line of joints ending inside the body (a shared tip node: a joint whose j0 = j3 or
+    j1 = j2) and an open crack ending inside it, sheared and pulled apart: both strategies give
+    the same run to round-off."""
+    def build(strategy):
+        mat = Material(**ROCK, damping=0.1, friction=0.4)
+        scene = Scene(gravity=(0.0, 0.0))
+        scene.add_body(mesh.rectangle(0.2, 0.1, 0.01), mat, fracture=lambda x, y: (np.abs(y) < 1e-9) & (x < 0.05),
+                       cracks=lambda x, y: (np.abs(x) < 1e-9) & (y < -0.01))
+        scene.fix_nodes(lambda x, y: y > 0.05 - 1e-9, velocity=(0.3, 1.0))
+        scene.fix_nodes(lambda x, y: y < -0.05 + 1e-9, velocity=(0.0, -1.0))
+        return scene.build(strategy=strategy)
+    a, b = build("serial"), build("parallel")
+    jn = a.model.joint_nodes.to_numpy()
+    assert np.any((jn[:, 0] == jn[:, 3]) | (jn[:, 1] == jn[:, 2]))         # a tip joint
+    a.step(6000)
+    b.step(6000)
+    assert a.broken_joint_count == b.broken_joint_count > 5
+    np.testing.assert_allclose(a.node_positions(), b.node_positions(), rtol=0, atol=1e-11)
+    assert a.energies()["total"] == pytest.approx(b.energies()["total"], rel=1e-9)
