@@ -585,6 +585,9 @@ class Simulation(SimulationResults):
                 "strategy": self.strategy, "contact": md.contact, "friction": md.friction,
                 "damping": md.damping, "contact_damping": md.contact_damping, "buffer": md.buffer,
                 "fracture": md.fracture, "joints": md.joint_count, "dt_joint": md.dt_joint,
+                "joint_sets": {name: int((md.joint_set_np == k).sum())
+                               for k, name in enumerate(getattr(md, "joint_set_names", ["default"]))},
+                "crack_edges": sum(getattr(b, "crack_count", 0) for b in self.bodies),
                 "precision": backend.precision()}
 
     def save(self, path) -> None:
