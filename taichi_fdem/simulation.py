@@ -499,7 +499,7 @@ class Simulation(SimulationResults):
             with an error; each write is flushed.  An existing file is appended to, without
             repeating the joints it lists (:class:`taichi_fdem.cracks.CrackEventLog`).  After
             :meth:`restore_last_good` the file may list joints that broke after the restored state.
-        video_cracks : draw the broken joints (their current midlines) on the video frames of
+        video_cracks : draw the broken joints (both crack faces) on the video frames of
             the default renderer; with ``renderer=``, set its ``cracks`` option instead.
         """
         duration = float(duration)

@@ -96,7 +96,7 @@ def test_single_joint_fragments(pulled):
         assert np.allclose(f["centroid"][k], x[tn[t[0]]].mean(axis=0), atol=1e-12)
 
 
-def test_crack_overlay_draws_exactly_the_midline(pulled):
+def test_crack_overlay_draws_exactly_the_crack_faces(pulled):
     from taichi_fdem.render import RendererImage
     sim = pulled.sim
     kw = dict(width=160, height=160, view=(-0.2, 1.2, -0.2, 1.2), stamp=False, draw_edges=False)
@@ -105,20 +105,23 @@ def test_crack_overlay_draws_exactly_the_midline(pulled):
     img = r.render_sim(sim)
     seg = sim.crack_segments()
     assert seg.shape == (1, 4)
-    # the midline from ½(x_j0 + x_j3) to ½(x_j1 + x_j2), from the nodes themselves
+    # crack_segments: the midline from ½(x_j0 + x_j3) to ½(x_j1 + x_j2), from the nodes themselves
     x = sim.node_positions()
     j = sim.model.joint_nodes.to_numpy()[0]
     assert np.allclose(seg[0], np.r_[0.5 * (x[j[0]] + x[j[3]]), 0.5 * (x[j[1]] + x[j[2]])], atol=1e-15)
-    a, b = r.world_to_pixel(seg[0, :2])[0], r.world_to_pixel(seg[0, 2:])[0]
+    # the overlay: both faces, x_j0 → x_j1 and x_j3 → x_j2 (the pulled pair has opened)
     rows, cols = np.mgrid[0:160, 0:160]
     pc = np.stack([cols + 0.5, rows + 0.5], axis=-1)
-    ab = b - a
-    t = np.clip(((pc - a) @ ab) / (ab @ ab), 0.0, 1.0)
-    dist = np.linalg.norm(pc - (a + t[..., None] * ab), axis=-1)
+    dist = np.full((160, 160), np.inf)
+    for p, q in ((j[0], j[1]), (j[3], j[2])):
+        a, b = r.world_to_pixel(x[p])[0], r.world_to_pixel(x[q])[0]
+        ab = b - a
+        t = np.clip(((pc - a) @ ab) / (ab @ ab), 0.0, 1.0)
+        dist = np.minimum(dist, np.linalg.norm(pc - (a + t[..., None] * ab), axis=-1))
     crack = _u8(r.crack_color)
     changed = np.any(img != plain, axis=-1)
-    assert changed.sum() > 100                                       # ~2 px × ~145 px of segment
-    assert np.all(dist[changed] <= 1.0 + 1e-3)                       # only pixels on the crack change
+    assert changed.sum() > 100                                       # ~2 px × ~145 px per face
+    assert np.all(dist[changed] <= 1.0 + 1e-3)                       # only pixels on the faces change
     assert np.all(img[dist <= 0.99] == crack)                        # ... and those take its colour
     assert np.array_equal(img[dist > 1.01], plain[dist > 1.01])      # the rest is untouched
     # nothing broken: the overlay draws nothing

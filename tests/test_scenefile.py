@@ -430,3 +430,56 @@ def test_fuzzed_scene_files_build_or_refuse_clearly(tmp_path):
             except Exception as exc:                    # pragma: no cover - the failure being tested
                 pytest.fail(f"{name} mutant {k} ({kind}) raised {type(exc).__name__}: {exc}\n{mutant}")
     assert outcomes["refused"] > 100 and outcomes["built"] > 0, outcomes
+
+
+# ------------------------------------------------------------------------------------------------
+FRACTURE = """\
+[scene]
+gravity = [0.0, -9.81]
+
+[materials.rock]
+density = 2500.0
+young = 1e8
+friction = 0.5
+tensile_strength = 1e5
+fracture_energy = 10.0
+cohesion = 2e5
+
+[[bodies]]
+name = "slab"
+material = "rock"
+shape = "polygon"
+vertices = [[0.0, 0.0], [0.4, 0.0], [0.4, 0.2], [0.0, 0.2]]
+h = 0.05
+position = [1.0, 0.5]
+fracture = true
+cracks = [[[0.0, 0.05], [0.4, 0.15]]]
+crack_friction = 0.3
+weibull_modulus = 5.0
+strength_seed = 3
+
+[solver]
+duration = 0.001
+"""
+
+
+def test_fracture_cracks_and_strength_from_a_scene_file(tmp_path):
+    import math
+    spec = scenefile.load(write(tmp_path, FRACTURE))
+    scene, bodies = spec.build_scene()
+    slab = bodies["slab"]
+    # the crack runs corner to corner of the polygon's sides (length √(0.4² + 0.1²)), moved with the body
+    u, v, *_ = slab.edge_table
+    pts = slab.source_mesh.points
+    L = np.linalg.norm(pts[u[slab.crack_mask]] - pts[v[slab.crack_mask]], axis=1).sum()
+    assert L == pytest.approx(math.hypot(0.4, 0.1), rel=1e-9)
+    assert slab.crack_count > 0 and slab.fracture and slab.crack_friction == 0.3
+    # joint strengths: Weibull draws around f_t, c scaled by the same factor, reproducible by seed
+    ft = slab.joint_prop[:, 0]
+    np.testing.assert_allclose(slab.joint_prop[:, 1] / ft, 2.0)
+    assert ft.std() > 0.05 * 1e5
+    again = scenefile.load(write(tmp_path, FRACTURE, "again.toml")).build_scene()[1]["slab"]
+    np.testing.assert_array_equal(again.joint_prop, slab.joint_prop)
+    refused(tmp_path, FRACTURE.replace("tensile_strength = 1e5\n", ""), r"joints need tensile_strength")
+    refused(tmp_path, FRACTURE.replace("strength_seed = 3", "strength_cov = 0.2"), r"either weibull_modulus or")
+    refused(tmp_path, FRACTURE.replace("[[[0.0, 0.05], [0.4, 0.15]]]", "[[0.0, 0.05]]"), r"cracks must be a list of polylines")

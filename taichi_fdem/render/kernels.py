@@ -7,7 +7,7 @@
   :func:`_resolve_kernel` -- the supersampled path through a float image, box-filtered down;
 * :func:`_tri_scalar_kernel` / :func:`_sim_scalar_kernel` -- per-triangle colouring scalars
   (speed, displacement, von Mises and principal stresses), the latter with their finite range;
-* :func:`_cracks_u8_kernel` -- the broken joints of a simulation as line segments (crack
+* :func:`_cracks_u8_kernel` -- the broken joints of a simulation as their two crack faces (crack
   overlay), one thread per joint, straight into a uint8 image;
 * :func:`_bbox_kernel`, :func:`_centroid_kernel`, :func:`_clear_u8_kernel` -- small helpers.
 
@@ -379,10 +379,12 @@ def _fill_tri(a, b, c, fill8, edge8, half_w, draw_edges, img: ti.template(), H, 
 @ti.kernel
 def _cracks_u8_kernel(x: ti.types.ndarray(), jn: ti.types.ndarray(), js: ti.types.ndarray(), nj: ti.i32,
                       params: ti.types.ndarray(), img: ti.types.ndarray(), col: _vec3f, half_w: ti.f32):
-    """Draw every broken joint j < nj (js[j] != 0) as the segment of its current midline, from
-    ½(x_j0 + x_j3) to ½(x_j1 + x_j2): the pixels of the (H, W, 3) u8 image whose centres lie
-    within half_w pixels of it get colour col.  params = [x_left, y_top, pixels_per_metre].
-    One thread per joint; segments with a non-finite end are skipped."""
+    """Draw every broken joint j < nj (js[j] != 0) as its two crack faces, the segments
+    x_j0 → x_j1 (triangle A's edge) and x_j3 → x_j2 (B's): the pixels of the (H, W, 3) u8 image
+    whose centres lie within half_w pixels of either get colour col (the faces coincide while
+    the crack is closed; once it opens each fragment shows its own cracked edge).
+    params = [x_left, y_top, pixels_per_metre].  One thread per joint; segments with a
+    non-finite end are skipped."""
     H = img.shape[0]
     W = img.shape[1]
     n = x.shape[0]
@@ -390,23 +392,24 @@ def _cracks_u8_kernel(x: ti.types.ndarray(), jn: ti.types.ndarray(), js: ti.type
     for j in range(nj):
         nd = jn[j]
         if js[j] != 0 and 0 <= nd[0] < n and 0 <= nd[1] < n and 0 <= nd[2] < n and 0 <= nd[3] < n:
-            wa = 0.5 * (x[nd[0]] + x[nd[3]])
-            wb = 0.5 * (x[nd[1]] + x[nd[2]])
-            if _finite_tri(wa, wb, wb):
-                a = _pix(wa, params)
-                b = _pix(wb, params)
-                q0 = ti.cast(ti.max(ti.ceil(ti.min(a[0], b[0]) - half_w - 0.5), 0.0), ti.i32)
-                q1 = ti.cast(ti.min(ti.floor(ti.max(a[0], b[0]) + half_w - 0.5), W - 1.0), ti.i32)
-                r0 = ti.cast(ti.max(ti.ceil(ti.min(a[1], b[1]) - half_w - 0.5), 0.0), ti.i32)
-                r1 = ti.cast(ti.min(ti.floor(ti.max(a[1], b[1]) + half_w - 0.5), H - 1.0), ti.i32)
-                ab = b - a
-                l2 = ab.dot(ab)
-                for r in range(r0, r1 + 1):
-                    for q in range(q0, q1 + 1):
-                        pc = ti.Vector([ti.cast(q, ti.f32) + 0.5, ti.cast(r, ti.f32) + 0.5])
-                        t = 0.0
-                        if l2 > 0.0:
-                            t = ti.min(ti.max((pc - a).dot(ab) / l2, 0.0), 1.0)
-                        if (pc - (a + t * ab)).norm() <= half_w:
-                            for k in ti.static(range(3)):
-                                img[r, q, k] = c8[k]
+            for face in ti.static(range(2)):
+                wa = x[nd[0]] if face == 0 else x[nd[3]]
+                wb = x[nd[1]] if face == 0 else x[nd[2]]
+                if _finite_tri(wa, wb, wb):
+                    a = _pix(wa, params)
+                    b = _pix(wb, params)
+                    q0 = ti.cast(ti.max(ti.ceil(ti.min(a[0], b[0]) - half_w - 0.5), 0.0), ti.i32)
+                    q1 = ti.cast(ti.min(ti.floor(ti.max(a[0], b[0]) + half_w - 0.5), W - 1.0), ti.i32)
+                    r0 = ti.cast(ti.max(ti.ceil(ti.min(a[1], b[1]) - half_w - 0.5), 0.0), ti.i32)
+                    r1 = ti.cast(ti.min(ti.floor(ti.max(a[1], b[1]) + half_w - 0.5), H - 1.0), ti.i32)
+                    ab = b - a
+                    l2 = ab.dot(ab)
+                    for r in range(r0, r1 + 1):
+                        for q in range(q0, q1 + 1):
+                            pc = ti.Vector([ti.cast(q, ti.f32) + 0.5, ti.cast(r, ti.f32) + 0.5])
+                            t = 0.0
+                            if l2 > 0.0:
+                                t = ti.min(ti.max((pc - a).dot(ab) / l2, 0.0), 1.0)
+                            if (pc - (a + t * ab)).norm() <= half_w:
+                                for k in ti.static(range(3)):
+                                    img[r, q, k] = c8[k]
