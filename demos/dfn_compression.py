@@ -140,7 +140,7 @@ def compress(mesh, lines, short: bool, frame=None, crack_path=None):
     transit = H / cp
     peak_mc = mohr_coulomb_peak(0.0, mat.cohesion, mat.friction_angle)
     eps_peak = peak_mc / (0.5 * mat.young)
-    rate = eps_peak / ((30.0 if short else 60.0) * transit)
+    rate = eps_peak / ((30.0 if short else 40.0) * transit)
     v = rate * 0.5 * H
     t = 0.1 * H
     start = fdem.Curve.ramp(5 * transit, name="platens")
@@ -176,7 +176,7 @@ def main(argv=None) -> dict:
     import numpy as np
     from taichi_fdem.render import RendererImage, VideoWriter
 
-    h = 0.005 if args.short else 0.0025
+    h = 0.005 if args.short else 0.0035
     mesh, lines, tips, crossings = specimen(h)
     print(f"{NAME}: {mesh.triangle_count} triangles (h = {h * 1e3:g} mm), {len(lines)} fractures "
           f"({sum(float(np.linalg.norm(l.points[1] - l.points[0])) for l in lines) * 1e3:.0f} mm), "
