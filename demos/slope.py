@@ -8,8 +8,9 @@ lines=...)`` so that mesh edges follow two persistent joint sets, clipped to the
 here with NumPy: J1 dipping 40° out of the face (it daylights on the face) and J2 dipping 78°
 into the slope.  The intact rock is jointed everywhere (``fracture=True``) with strong joints
 (f_t = 0.5 MPa, c = 1 MPa, φ = 35°: the gravity stresses stay below 0.3 MPa); the two sets get
-weak joints (f_t = 2 kPa, c = 5 kPa, φ = 25°) with ``scene.add_joint_set``.  The faces of a broken
-joint slide with the rock's friction μ = 0.5 (26.6°), below the 40° dip of J1.  The base is fixed,
+weak joints with ``scene.add_joint_set`` (J1: f_t = 1 kPa, c = 2 kPa, φ = 15°; J2: f_t = 2 kPa,
+c = 5 kPa, φ = 30°).  The faces of a broken joint slide with the rock's friction μ = 0.4
+(21.8°), below the 40° dip of J1.  The base is fixed,
 the back of the slope is on rollers; gravity acts from t = 0, with ``quasi_static=True`` (local
 damping: the slope comes to rest where it is stable).
 
@@ -199,7 +200,7 @@ def main(argv=None) -> dict:
                              vmin=0.0, vmax=1.0 if args.short else 2.0, colorbar=not args.short, stamp=not args.short,
                              cracks=True, edge_width=0.5)
     e0 = sim.energies()
-    duration = 1.4 if args.short else 3.0
+    duration = 2.0 if args.short else 3.0
     frames = 15 if args.short else 90
     with VideoWriter(args.out, fps=10 if args.short else 30) as video:
         video.append(renderer.render_sim(sim))

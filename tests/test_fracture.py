@@ -209,3 +209,24 @@ def test_fracture_parameters_validated():
     scene.add_body(_square(), soft, fracture=True)
     with pytest.warns(RuntimeWarning, match="joint_penalty"):
         scene.build()
+
+
+def test_friction_energy_balance_while_fragmenting():
+    """A jointed slab dropped on a floor at 3 m/s shatters with μ = 0.5 between its fragments.
+    The friction force acts at the centroid of the normal force and its dissipation is booked as
+    the plastic slip times the mean spring force over the increment (engine.contact): the energy
+    account closes within 0.5 % (it drifted by −4.6 % with the span's representative point and
+    the end-of-increment force, measured)."""
+    rock = fdem.Material(density=2500.0, young=1e8, poisson=0.25, friction=0.5, tensile_strength=5e4,
+                         fracture_energy=5.0)
+    floor = fdem.Material(density=2500.0, young=1e8, friction=0.0)
+    scene = fdem.Scene(gravity=(0.0, -9.81))
+    scene.add_body(fdem.mesh.rectangle(1.0, 0.1, 0.1), floor, position=(0.0, -0.05), fixed=True)
+    scene.add_body(fdem.mesh.polygon([(-0.2, 0.0), (0.2, 0.0), (0.2, 0.1), (-0.2, 0.1)], 0.025), rock,
+                   position=(0.0, 0.1), velocity=(0.0, -3.0), fracture=True)
+    sim = scene.build()
+    e0 = sim.energies()["total"]
+    sim.step(int(round(0.041 / sim.dt)))
+    e = sim.energies()
+    assert sim.broken_joint_count > 40 and e["friction"] > 0.2 * abs(e0)      # it shattered, with friction
+    assert abs(e["total"] - e0) < 5e-3 * abs(e0), e
