@@ -326,3 +326,33 @@ def test_serial_and_parallel_agree_on_a_partly_jointed_body_with_a_crack_tip():
     assert a.broken_joint_count == b.broken_joint_count > 5
     np.testing.assert_allclose(a.node_positions(), b.node_positions(), rtol=0, atol=1e-11)
     assert a.energies()["total"] == pytest.approx(b.energies()["total"], rel=1e-9)
+
+
+def test_readme_discontinuity_example_runs_as_written(capsys):
+    """README "Discontinuities, joint sets and heterogeneity": the example runs as written; its
+    band of joints, its crack (x = 0 below y = −0.1: 3 edges of 0.05 m) and its joint set
+    (y = 0.15: 20 edges) are where it says."""
+    import os
+    import re
+    readme = open(os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "README.md")).read()
+    sec = readme[readme.index("### Discontinuities, joint sets and heterogeneity"):]
+    code = re.search(r"```python\n(.*?)```", sec, re.S).group(1)
+    scope: dict = {}
+    exec(compile(code, "README.md", "exec"), scope)
+    assert "['default', 'bedding']" in capsys.readouterr().out
+    block = scope["block"]
+    assert block.crack_count == 3
+    assert (block.joint_set == 1).sum() == 20
+    mid = 0.5 * (block.mesh.points[block.joint_nodes[:, 0]] + block.mesh.points[block.joint_nodes[:, 1]])
+    own = block.joint_set == 0
+    assert np.all(np.abs(mid[own, 1]) < 0.1) and np.allclose(mid[~own, 1], 0.15)
+
+
+def test_a_line_the_mesh_does_not_follow_is_reported():
+    m = mesh.rectangle(1.0, 1.0, 0.25)
+    scene = Scene(gravity=(0, 0))
+    with pytest.warns(RuntimeWarning, match=r"follow only 1 m of the 1\.4 m"):
+        b = scene.add_body(m, Material(**ROCK), cracks=mesh.Polyline([(-0.5, 0.0), (0.9, 0.0)]))
+    assert b.crack_count == 4                        # the part inside the body is cracked
+    with pytest.warns(RuntimeWarning, match="follow only 0 m"), pytest.raises(ValueError, match="selects no"):
+        scene.add_body(m, Material(**ROCK), cracks=mesh.Polyline([(-0.5, 0.0), (0.5, 0.1)]))

@@ -213,10 +213,10 @@ def test_fracture_parameters_validated():
 
 def test_friction_energy_balance_while_fragmenting():
     """A jointed slab dropped on a floor at 3 m/s shatters with μ = 0.5 between its fragments.
-    The friction force acts at the centroid of the normal force and its dissipation is booked as
+    The friction force acts where its relative velocity is taken and its dissipation is booked as
     the plastic slip times the mean spring force over the increment (engine.contact): the energy
-    account closes within 0.5 % (it drifted by −4.6 % with the span's representative point and
-    the end-of-increment force, measured)."""
+    account closes within 0.5 % (it drifted by −4.6 % with the force split like the normal force
+    and the end-of-increment force, measured)."""
     rock = fdem.Material(density=2500.0, young=1e8, poisson=0.25, friction=0.5, tensile_strength=5e4,
                          fracture_energy=5.0)
     floor = fdem.Material(density=2500.0, young=1e8, friction=0.0)

@@ -100,6 +100,7 @@ def select_interior_edges(mesh: TriMesh, selector, where: str, table=None, group
         if mask.shape != (n,):
             raise ValueError(f"{where}: {type(selector).__name__}.select_edges returned shape {mask.shape}, "
                              f"expected ({n},)")
+        _warn_partly_followed(mesh, selector, mask, u, v, where)
         return mask
     if callable(selector):
         mid = 0.5 * (pts[u] + pts[v])
@@ -126,6 +127,25 @@ def select_interior_edges(mesh: TriMesh, selector, where: str, table=None, group
     raise TypeError(f"{where}: an edge selector is True/False, a callable where(x, y), an (k, 2) integer "
                     f"array of node pairs, a Polyline / line group, 'interfaces' or a list of these; got "
                     f"{type(selector).__name__}")
+
+
+def _warn_partly_followed(mesh, line, mask, u, v, where: str) -> None:
+    """Warn when mesh edges follow less than 99 % of a line's length (a line the mesh was not
+    built along, or one that leaves the body: only the followed part becomes joints / cracks)."""
+    total = float(getattr(line, "length", 0.0) or 0.0)
+    if total <= 0.0:
+        return
+    pts = mesh.points
+    b = mesh.boundary_edges().reshape(-1, 2)
+    on_b = np.asarray(line.select_edges(pts, b), bool) if len(b) else np.zeros(0, bool)
+    followed = np.linalg.norm(pts[u[mask]] - pts[v[mask]], axis=1).sum() \
+        + np.linalg.norm(pts[b[on_b, 0]] - pts[b[on_b, 1]], axis=1).sum()
+    if followed < 0.99 * total:
+        import warnings
+        name = getattr(line, "name", None)
+        warnings.warn(f"{where}: mesh edges follow only {followed:.4g} m of the {total:.4g} m of "
+                      f"{type(line).__name__}{' ' + repr(name) if name else ''}; build the mesh along it "
+                      f"(fdem.mesh.polygon(..., lines=[...])) or clip it to the body", RuntimeWarning, stacklevel=5)
 
 
 def split_mesh(mesh: TriMesh, cut: np.ndarray, table=None):
