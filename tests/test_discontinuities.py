@@ -356,3 +356,30 @@ def test_a_line_the_mesh_does_not_follow_is_reported():
     assert b.crack_count == 4                        # the part inside the body is cracked
     with pytest.warns(RuntimeWarning, match="follow only 0 m"), pytest.raises(ValueError, match="selects no"):
         scene.add_body(m, Material(**ROCK), cracks=mesh.Polyline([(-0.5, 0.0), (0.5, 0.1)]))
+
+
+def test_line_groups_of_a_mesh_file_as_crack_and_joint_selectors(tmp_path):
+    """A gmsh file with physical line groups: load_groups(...).lines (or lines=True) gives
+    Segments usable as cracks= / fracture= selectors on the mesh of that file."""
+    import meshio
+    src = mesh.rectangle(0.2, 0.1, 0.025)
+    pts3 = np.c_[src.points, np.zeros(src.point_count)]
+    on_y0 = [e for e in src.edges().tolist() if abs(src.points[e[0], 1]) < 1e-12 and abs(src.points[e[1], 1]) < 1e-12]
+    on_x0 = [e for e in src.edges().tolist() if abs(src.points[e[0], 0]) < 1e-12 and abs(src.points[e[1], 0]) < 1e-12]
+    lines = np.array(on_y0 + on_x0)
+    ltag = np.array([10] * len(on_y0) + [11] * len(on_x0))
+    ttag = np.ones(src.triangle_count, int)
+    path = tmp_path / "faults.msh"
+    meshio.write(path, meshio.Mesh(pts3, [("line", lines), ("triangle", src.triangles)],
+                                   cell_data={"gmsh:physical": [ltag, ttag], "gmsh:geometrical": [ltag, ttag]},
+                                   field_data={"fault": np.array([10, 1]), "joint": np.array([11, 1]),
+                                               "rock": np.array([1, 2])}),
+                 file_format="gmsh22", binary=False)
+    groups = mesh.load_groups(path)
+    assert list(groups.lines) == ["fault", "joint"]
+    scene = Scene(gravity=(0, 0))
+    b = scene.add_body(groups["rock"], Material(**ROCK), cracks=groups.lines["fault"], fracture=groups.lines["joint"])
+    assert b.crack_count == 8                         # y = 0: 0.2 m / 0.025 m
+    assert b.joint_count == 4                         # x = 0: 0.1 m / 0.025 m, not on the crack
+    both = Scene(gravity=(0, 0)).add_body(groups["rock"], Material(**ROCK), cracks=groups.lines)
+    assert both.crack_count == 12                     # a dict of line groups: their union

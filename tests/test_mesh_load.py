@@ -220,7 +220,12 @@ def test_load_groups_with_line_groups(tmp_path, fmt, binary):
     write_with_lines(path, fmt, binary)
     groups, lines = M.load_groups(path, lines=True)
     check_split(groups)                                     # the surfaces as before
-    assert isinstance(M.load_groups(path), dict)            # lines=False: unchanged, a dict
+    plain = M.load_groups(path)
+    assert isinstance(plain, dict) and list(plain) == list(groups)   # lines=False: a dict of meshes
+    assert list(plain.lines) == ["bottom", "dyke"]          # ... that also carries the line groups
+    np.testing.assert_array_equal(plain.lines["dyke"].segments, lines["dyke"].segments)
+    import pickle
+    assert type(pickle.loads(pickle.dumps(plain))) is dict
     assert list(lines) == ["bottom", "dyke"]
     bottom, dyke = lines["bottom"], lines["dyke"]
     assert isinstance(bottom, M.Segments) and bottom.name == "bottom" and dyke.name == "dyke"

@@ -225,7 +225,8 @@ def load_groups(path, key: str | None = None, lines: bool = False):
 
     Returns
     -------
-    ``groups``, or ``(groups, line_groups)`` when ``lines=True``.
+    ``groups``, or ``(groups, line_groups)`` when ``lines=True``.  Without it, ``groups`` (a
+    :class:`MeshGroups` dict) carries the line groups too, as ``groups.lines``.
 
     groups : dict mapping each group to its mesh, in increasing tag order.  A group is keyed
         by its name when the file names it (gmsh ``$PhysicalNames`` of dimension 2, meshio
@@ -259,7 +260,27 @@ def load_groups(path, key: str | None = None, lines: bool = False):
             raise ValueError(f"{exc} (group {label!r}, {key} = {value})") from None
     if lines:
         return out, _line_groups(m, pts, key, name, where)
-    return out
+    return MeshGroups(out, lambda: _line_groups(m, pts, key, name, where))
+
+
+class MeshGroups(dict):
+    """The dict of :func:`load_groups` (group -> :class:`TriMesh`), which also carries the file's
+    physical line groups as ``.lines`` (group -> :class:`~taichi_fdem.mesh.Segments`, read on
+    first access; the same as ``load_groups(path, lines=True)[1]``)."""
+
+    def __init__(self, groups: dict, read_lines):
+        super().__init__(groups)
+        self._read_lines = read_lines
+        self._lines = None
+
+    @property
+    def lines(self) -> dict:
+        if self._lines is None:
+            self._lines = self._read_lines()
+        return self._lines
+
+    def __reduce__(self):                        # pickles as a plain dict
+        return (dict, (dict(self),))
 
 
 def load_tagged(path, key: str | None = None):

@@ -13,7 +13,8 @@ Edge selectors (:func:`select_interior_edges`) are any of ``True`` (every interi
 ``False`` / ``None`` (none), a callable ``where(x, y)`` evaluated at interior-edge midpoints,
 an (k, 2) array of node-index pairs, an object with a ``select_edges(points, edges)`` method
 (:class:`~taichi_fdem.mesh.Polyline`, line groups of a mesh file), the string
-``"interfaces"`` (edges between different material groups) or a list of these (their union).
+``"interfaces"`` (edges between different material groups) or a list (or dict, e.g. every line
+group of a file) of these: their union.
 
 Pure NumPy, vectorised; no Taichi.
 """
@@ -82,6 +83,8 @@ def select_interior_edges(mesh: TriMesh, selector, where: str, table=None, group
             return np.zeros(n, bool)
         g = np.asarray(groups)
         return g[tA] != g[tB]
+    if isinstance(selector, dict):                  # e.g. all the line groups of a mesh file
+        selector = list(selector.values())
     if isinstance(selector, (list, tuple)):
         try:
             arr = np.asarray(selector)
