@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .material import Material, check_finite
-from .mesh.split import interior_edge_table, split_mesh
+from .mesh.split import split_mesh
 
 __all__ = ["Weibull", "NormalStrength", "split_body"]
 
@@ -203,7 +203,3 @@ def resolve(body, selector, where: str) -> np.ndarray:
     """Mask over ``body``'s interior edges selected by ``selector`` (see mesh.split)."""
     from .mesh.split import select_interior_edges
     return select_interior_edges(body.source_mesh, selector, where, body.edge_table, body.tri_group)
-
-
-def edge_table(mesh):
-    return interior_edge_table(mesh.triangles)

@@ -156,7 +156,6 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
 
     # ---- materials and pair table --------------------------------------------------------------
     pair = _pair_table(scene, materials)
-    M = len(materials)
 
     # ---- joints (FDEM_SPEC §7, §13): per-joint properties and joint sets ------------------------
     jn, jt, jp, js = [], [], [], []

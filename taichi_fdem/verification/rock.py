@@ -19,6 +19,16 @@ from ..scene import Curve, Scene
 from ._common import E, NU, RHO, _build, _precision, _result
 
 
+
+def _settle(sim, chunk: int, max_steps: int) -> None:
+    """Step ``sim`` in chunks until its kinetic energy is below 1e-8 of its strain energy (a
+    quasi-static answer) or ``max_steps`` steps have run."""
+    while sim.step_count < max_steps:
+        sim.step(chunk)
+        en = sim.energies()
+        if en["kinetic"] <= 1e-8 * en["strain"]:
+            break
+
 def _polar_stress(sim, body=None):
     """(r, θ, σ_rr, σ_θθ, σ_rθ) at the triangles' initial centroids about the origin."""
     T = sim.stresses(body)
@@ -87,11 +97,7 @@ def case_kirsch(resolution: int = 32, safety: float = 0.2, penalty_factor: float
     t0 = _time.perf_counter()
     sim.run(t_ramp)
     chunk = max(1, int(0.5 * W / cp / sim.dt))
-    while sim.step_count < max_steps:
-        sim.step(chunk)
-        en = sim.energies()
-        if en["kinetic"] <= 1e-8 * en["strain"]:
-            break
+    _settle(sim, chunk, max_steps)
     wall = _time.perf_counter() - t0
     r, th, srr, stt, srt = _polar_stress(sim, body)
     dr = h_hole                                      # first cells are about h_hole deep
@@ -147,11 +153,7 @@ def case_lame(resolution: int = 8, safety: float = 0.2, penalty_factor: float = 
     sim.run(t_ramp)
     chunk = max(1, int(b / cp / sim.dt))
     sim.step(4 * chunk)
-    while sim.step_count < max_steps:
-        sim.step(chunk)
-        en = sim.energies()
-        if en["kinetic"] <= 1e-8 * en["strain"]:
-            break
+    _settle(sim, chunk, max_steps)
     wall = _time.perf_counter() - t0
     X = sim.model.node_rest[body.nodes]
     R = np.hypot(X[:, 0], X[:, 1])
