@@ -30,7 +30,7 @@ def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, 
     debug : Taichi debug mode (bounds checks; slow).
     cpu_max_num_threads : threads of the CPU back end (default: all cores).
     fast_compile : skip Taichi's advanced IR optimisations.  Measured on the 1k-triangle pile
-        (benchmarks/pile.py): cold start 4.6 s instead of 52 s, stepping ~22 % slower.  For
+        (benchmarks/pile.py): cold start 3.0 s instead of 9.8 s, stepping ~22 % slower.  For
         short runs on a cold cache; the offline cache makes later starts fast either way.
         Round-off differs from the default build, which can shift discrete events (the step at
         which two bodies separate): the figures of the accuracy benchmark are measured with the
