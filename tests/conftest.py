@@ -196,6 +196,39 @@ def reference_couple_forces(A, B, p, nquad=40001):
 # ------------------------------------------------------------------------------------------------
 # brute-force broad phase (FDEM_SPEC §4.1)
 # ------------------------------------------------------------------------------------------------
+def union_find_roots(n: int, pairs) -> np.ndarray:
+    """Brute force: for each of n items linked by ``pairs``, the smallest item of its connected
+    component (union-find)."""
+    parent = list(range(n))
+
+    def find(a):
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+    for a, b in pairs:
+        ra, rb = find(int(a)), find(int(b))
+        if ra != rb:
+            parent[max(ra, rb)] = min(ra, rb)
+    return np.array([find(a) for a in range(n)], dtype=np.int64)
+
+
+def shared_node_pairs(tris, active=None):
+    """Pairs of triangles (rows of ``tris``) that share a node, as (t, first triangle of the node);
+    triangles with ``active`` False are left out."""
+    owner, pairs = {}, []
+    for t, nodes in enumerate(np.asarray(tris)):
+        if active is not None and not active[t]:
+            continue
+        for n in nodes:
+            n = int(n)
+            if n in owner:
+                pairs.append((t, owner[n]))
+            else:
+                owner[n] = t
+    return pairs
+
+
 def bounding_circles(x, tris):
     """Centroids (m × 2) and radii r = max_v |x_v − c| of the triangles ``tris`` at positions ``x``."""
     P = x[tris]

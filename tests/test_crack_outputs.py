@@ -18,6 +18,7 @@ import taichi_fdem as fdem
 from taichi_fdem import verification as V
 from taichi_fdem.cracks import CSV_COLUMNS, read_crack_events
 from taichi_fdem.mesh import TriMesh
+from conftest import shared_node_pairs, union_find_roots
 
 Z_INTEGRAL = 0.3863      # ∫₀¹ z(D) dD (FDEM_SPEC §7.5)
 EVENT_KEYS = ("index", "time", "x", "y", "mode", "energy", "length", "set")
@@ -285,32 +286,11 @@ def _union_find_labels(sim, body=None):
     md = sim.model
     m = md.tri_count
     active = sim.active_triangles()
-    parent = list(range(m))
-
-    def find(a):
-        while parent[a] != a:
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        return a
-
-    def union(a, b):
-        ra, rb = find(a), find(b)
-        if ra != rb:
-            parent[max(ra, rb)] = min(ra, rb)
-    owner = {}
-    for t in range(m):
-        if active[t]:
-            for n in md.tri_nodes_np[t]:
-                if n in owner:
-                    union(t, owner[n])
-                else:
-                    owner[n] = t
+    pairs = shared_node_pairs(md.tri_nodes_np, active)
     if md.fracture:
         state = sim.state.joint_state.to_numpy()
-        for j, (a, b) in enumerate(md.joint_tris_np):
-            if state[j] == 0 and active[a] and active[b]:
-                union(int(a), int(b))
-    roots = np.array([find(t) if active[t] else -1 for t in range(m)])
+        pairs += [(a, b) for j, (a, b) in enumerate(md.joint_tris_np) if state[j] == 0 and active[a] and active[b]]
+    roots = np.where(active, union_find_roots(m, pairs), -1)
     if body is not None:
         roots = roots[body.triangles]
     return roots

@@ -11,7 +11,7 @@ import os
 import numpy as np
 import pytest
 
-from conftest import DEMOS, load_demo as _load
+from conftest import DEMOS, load_demo as _load, union_find_roots
 
 G = 9.81
 
@@ -88,18 +88,7 @@ def test_brazilian_short(tmp_path):
 
 def _components(n_tri, pairs):
     """Connected components of n_tri triangles linked by ``pairs`` (union-find, brute force)."""
-    parent = list(range(n_tri))
-
-    def find(a):
-        while parent[a] != a:
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        return a
-    for a, b in pairs:
-        ra, rb = find(int(a)), find(int(b))
-        if ra != rb:
-            parent[ra] = rb
-    return len({find(a) for a in range(n_tri)})
+    return len(set(union_find_roots(n_tri, pairs)))
 
 
 def test_fragment_plate_short(tmp_path):

@@ -8,6 +8,7 @@ import pytest
 import taichi_fdem as fdem
 from taichi_fdem import Material, Scene, mesh
 from taichi_fdem.verification import discontinuities as vd
+from conftest import shared_node_pairs, union_find_roots
 
 ROCK = dict(density=2000.0, young=1e8, poisson=0.25, tensile_strength=2e5, fracture_energy=10.0)
 
@@ -187,24 +188,9 @@ def test_crack_friction_overrides_the_material():
 def _components(sim, body) -> int:
     """Brute force: triangles linked by a shared node or an intact joint (union-find)."""
     tri = body.mesh.triangles
-    parent = list(range(len(tri)))
-
-    def find(a):
-        while parent[a] != a:
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        return a
-    owner = {}
-    for t, nodes in enumerate(tri):
-        for n in nodes:
-            if n in owner:
-                parent[find(t)] = find(owner[n])
-            owner[n] = t
     state = sim.state.joint_state.to_numpy()
-    for j, (a, b) in enumerate(body.joint_tris):
-        if state[j] == 0:
-            parent[find(a)] = find(b)
-    return len({find(t) for t in range(len(tri))})
+    pairs = shared_node_pairs(tri) + [(a, b) for j, (a, b) in enumerate(body.joint_tris) if state[j] == 0]
+    return len(set(union_find_roots(len(tri), pairs)))
 
 
 def test_fracture_confined_to_a_jointed_band():
