@@ -230,3 +230,34 @@ def test_friction_energy_balance_while_fragmenting():
     e = sim.energies()
     assert sim.broken_joint_count > 40 and e["friction"] > 0.2 * abs(e0)      # it shattered, with friction
     assert abs(e["total"] - e0) < 5e-3 * abs(e0), e
+
+
+# ------------------------------------------------------------------------------------------------
+# broken joints need no re-detection (FDEM_SPEC §7.10)
+# ------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("strategy", ["serial", "parallel"])
+def test_overlapping_pairs_are_couples_after_breakage_without_redetection(strategy):
+    """Joined neighbours stay couples and every triangle of a split body takes part in
+    detection, so a joint that breaks needs no re-detection: after a fragmenting impact (joints
+    broken between detections), every pair of triangles that overlaps now (brute force: clipped
+    overlap area, pairs sharing no node) is in the couple list, and there are fewer detections
+    than broken joints (one was forced at every break before)."""
+    from conftest import couple_set, overlap_area
+    sim, _ = V.fragment_plate_scene(h_plate=0.025, h_ball=0.02)
+    sim = sim.scene.build(strategy=strategy)
+    sim.run(0.003, progress=False)
+    assert sim.broken_joint_count >= 20
+    assert sim.detection_count < sim.broken_joint_count
+    x = sim.node_positions()
+    tris = sim.model.tri_nodes_np
+    P = x[tris]                                                   # (m, 3, 2)
+    lo, hi = P.min(axis=1), P.max(axis=1)
+    box = ((lo[:, None, 0] < hi[None, :, 0]) & (lo[None, :, 0] < hi[:, None, 0])
+           & (lo[:, None, 1] < hi[None, :, 1]) & (lo[None, :, 1] < hi[:, None, 1]))
+    a, b = np.nonzero(np.triu(box, 1))
+    share = (tris[a][:, :, None] == tris[b][:, None, :]).any(axis=(1, 2))
+    a, b = a[~share], b[~share]
+    tol = 1e-12 * float(sim.model.tri_area0_np.mean())
+    touching = {(int(i), int(j)) for i, j in zip(a, b) if overlap_area(P[i], P[j]) > tol}
+    assert len(touching) >= 20                                    # fragments and joined faces pressing
+    assert touching <= couple_set(sim)
