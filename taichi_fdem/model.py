@@ -25,7 +25,8 @@ import numpy as np
 import taichi as ti
 
 from . import backend, timestep
-from .engine.groups import (COUPLES, DACC, DACC_FORCE, GROUPS, INT_COUNTERS, QS_ALPHA, REAL_COUNTERS, SWITCH_BC,
+from .engine.groups import (COUPLES, DACC, DACC_FORCE, FORCE_BLOCKS, GROUPS, INT_COUNTERS, QS_ALPHA, REAL_COUNTERS,
+                            SWITCH_BC,
                             SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING, SWITCH_PRESTRESS)
 from .engine.loads import LOAD_ABSORB, LOAD_FORCE, LOAD_PRESSURE, LOAD_TRACTION, LOAD_VELOCITY
 
@@ -605,12 +606,14 @@ def grow_couples(md: Model, st: State, capacity: int) -> None:
     st.couple_max = capacity
 
 
-def allocate_scratch(md: Model, st: State, parallel: bool = False) -> Scratch:
+def allocate_scratch(md: Model, st: State, parallel: bool = False, blocks: bool = True) -> Scratch:
     """Detection work arrays sized for the model's contact triangles and the state's couple
-    buffer, and (``parallel``) the force slots and node lists of the parallel strategy."""
+    buffer, and (``parallel``) the assembly arrays of the parallel strategy: the block copies of
+    the nodal forces (``blocks``, the CPU default) or the force slots and node lists."""
     rti = backend.real_ti()
     sw = Scratch()
     sw.parallel = bool(parallel)
+    sw.blocks = bool(blocks)
     K = md.ctri_count if md.contact else 1
     H = _next_pow2(2 * K) if md.contact else 1
     sw.det_circle = ti.Vector.ndarray(3, rti, shape=K)
@@ -618,32 +621,49 @@ def allocate_scratch(md: Model, st: State, parallel: bool = False) -> Scratch:
     sw.det_bucket = ti.Vector.ndarray(2, ti.i32, shape=H)
     for name, n in (("cnew", K + 1), ("old_start", K + 1 if md.friction else 1)):
         setattr(sw, "det_" + name, ti.ndarray(ti.i32, shape=n))
-    sw.asm_node_start = ti.ndarray(ti.i32, shape=md.node_count + 1 if parallel else 1)
     size_couple_scratch(md, st, sw)
     return sw
 
 
 def enable_parallel(md: Model, st: State, sw: Scratch) -> None:
-    """Allocate the parallel strategy's force slots and node lists (a simulation switched to it)."""
+    """Allocate the parallel strategy's assembly arrays (a simulation switched to it)."""
     sw.parallel = True
-    sw.asm_node_start = ti.ndarray(ti.i32, shape=md.node_count + 1)
-    size_couple_scratch(md, st, sw)
+    size_assembly(md, st, sw)
 
 
 def size_couple_scratch(md: Model, st: State, sw: Scratch) -> None:
     """Scratch sized by the couple buffer: the previous-couple copies that carry friction history
-    over and, for the parallel strategy, the force slots (3 per triangle, 6 per couple) and the
-    node lists (3 per triangle, 4 per joint, 6 per couple)."""
+    over, and the assembly arrays (:func:`size_assembly`)."""
     cap = st.couple_max
     sw.det_old_b = ti.ndarray(ti.i32, shape=cap if md.friction else 1)
     sw.det_old_hist = ti.ndarray(backend.real_ti(), shape=6 * cap if md.friction else 1)
-    if sw.parallel:
-        ncap = cap if md.contact else 0
-        sw.asm_force = ti.Vector.ndarray(2, backend.real_ti(), shape=3 * md.tri_count + 6 * ncap)
-        sw.asm_node_slots = ti.ndarray(ti.i32, shape=3 * md.tri_count + 4 * md.joint_count + 6 * ncap)
-    else:
-        sw.asm_force = ti.Vector.ndarray(2, backend.real_ti(), shape=1)
+    size_assembly(md, st, sw)
+
+
+def size_assembly(md: Model, st: State, sw: Scratch) -> None:
+    """The parallel strategy's assembly arrays (1-element placeholders otherwise).
+
+    Blocks (``sw.blocks``): FORCE_BLOCKS copies of the nodal forces, block-major
+    (asm_force[b * N + n]), then one entry per block for its dissipated contact work; all zero
+    between steps (the gather resets them).  Slots:
+    one force slot per triangle node (3) and couple node (6), and the node lists (3 per
+    triangle, 4 per joint, 6 per couple) with their starts.
+    """
+    rti = backend.real_ti()
+    N = md.node_count
+    if sw.parallel and sw.blocks:
+        sw.asm_force = ti.Vector.ndarray(2, rti, shape=FORCE_BLOCKS * (N + 1))
         sw.asm_node_slots = ti.ndarray(ti.i32, shape=1)
+        sw.asm_node_start = ti.ndarray(ti.i32, shape=1)
+    elif sw.parallel:
+        ncap = st.couple_max if md.contact else 0
+        sw.asm_force = ti.Vector.ndarray(2, rti, shape=3 * md.tri_count + 6 * ncap)
+        sw.asm_node_slots = ti.ndarray(ti.i32, shape=3 * md.tri_count + 4 * md.joint_count + 6 * ncap)
+        sw.asm_node_start = ti.ndarray(ti.i32, shape=N + 1)
+    else:
+        sw.asm_force = ti.Vector.ndarray(2, rti, shape=1)
+        sw.asm_node_slots = ti.ndarray(ti.i32, shape=1)
+        sw.asm_node_start = ti.ndarray(ti.i32, shape=1)
 
 
 def pack_groups(md: Model, st: State, sw: Scratch) -> dict:

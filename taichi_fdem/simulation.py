@@ -30,7 +30,7 @@ from .engine.diagnostics import overlap_areas
 from .guards import SimulationError
 from .engine.groups import COUPLES, DACC, DACC_FORCE, DETECTIONS, FOUND, SWITCH_BC
 from .model import (allocate_scratch, allocate_state, build_model, counter, enable_parallel, grow_couples,
-                    pack_groups, set_counter, size_couple_scratch)
+                    pack_groups, set_counter, size_assembly, size_couple_scratch)
 from .cracks import CrackEventLog
 from .results import History, SimulationResults
 from .timestep import CONTACT_LIMIT_FACTOR  # noqa: F401  (re-exported)
@@ -85,7 +85,9 @@ class Simulation(SimulationResults):
         if strategy == "auto":
             strategy = "serial" if backend.arch() == "cpu" else "parallel"
         self.strategy = strategy
-        self.scratch = allocate_scratch(self.model, self.state, parallel=strategy == "parallel")
+        self._assembly = "blocks" if backend.arch() == "cpu" else "slots"
+        self.scratch = allocate_scratch(self.model, self.state, parallel=strategy == "parallel",
+                                        blocks=self._assembly == "blocks")
         self._repack()
         self.step_count = 0
         self.launches: dict[str, int] = {}
@@ -136,9 +138,39 @@ class Simulation(SimulationResults):
             self._repack()
             self._build_node_slots()
 
+    @property
+    def assembly(self) -> str:
+        """How the parallel strategy sums the nodal forces without atomic float adds (it has no
+        effect on the serial strategy):
+
+        * "blocks" (default on the CPU): one parallel loop over FORCE_BLOCKS (4) blocks of
+          items, each adding into its own copy of the nodal forces, summed per node in block
+          order;
+        * "slots" (default on GPUs): every triangle, joint and couple writes its forces into its
+          own slots, summed per node through sorted lists rebuilt at each detection.
+
+        Both give the same bits for any thread count; they differ from each other and from the
+        serial strategy by round-off.  May be changed between calls.
+        """
+        return self._assembly
+
+    @assembly.setter
+    def assembly(self, value: str) -> None:
+        if value not in ("blocks", "slots"):
+            raise ValueError(f"assembly must be 'blocks' or 'slots', got {value!r}")
+        self._assembly = value
+        sw = self.__dict__.get("scratch")
+        if sw is not None and sw.blocks != (value == "blocks"):
+            sw.blocks = value == "blocks"
+            size_assembly(self.model, self.state, sw)
+            self._repack()
+            if self.strategy == "parallel":
+                self._build_node_slots()
+
     def _after_restore(self) -> None:
         """Re-derive scratch sizes, argpacks and node lists after the state was replaced
         (checkpoint load, restore_last_good)."""
+        self.scratch.blocks = self.__dict__.get("_assembly", "blocks") == "blocks"
         size_couple_scratch(self.model, self.state, self.scratch)
         if np.any(self.state.tri_intact.to_numpy() < 0):
             self._apply_removal()                 # the rebuilt model lacks the excavations
@@ -240,6 +272,8 @@ class Simulation(SimulationResults):
             self._build_node_slots()             # the slot arrays were reallocated
 
     def _build_node_slots(self) -> None:
+        if self.scratch.blocks:
+            return                               # the block assembly needs no node lists
         p = self._packs
         self._launch("build_node_slots", kernels.build_node_slots, p["tris"], p["contact"], p["joints"], p["step"],
                      p["asm"], self.model.contact, self.model.fracture)
@@ -339,7 +373,8 @@ class Simulation(SimulationResults):
         for _ in range(n):
             if due:
                 self._detect()
-            code = self._launch("step_parallel", kernels.step_parallel, *self._groups["parallel"], *switches)
+            code = self._launch("step_parallel", kernels.step_parallel, *self._groups["parallel"], *switches,
+                                self.scratch.blocks)
             self.step_count += 1
             due = self.model.contact and bool(code & 1)
             if code & 2:

@@ -1,6 +1,7 @@
-"""The parallel strategy assembles forces without atomic float adds (force slots + sorted node
-lists): its results are bit-identical from run to run and for any thread count, and agree with
-the serial strategy to round-off."""
+"""The parallel strategy assembles forces without atomic float adds, in either assembly (block
+copies of the nodal forces, the CPU default; force slots + sorted node lists, the GPU default):
+its results are bit-identical from run to run and for any thread count, and agree with the
+serial strategy to round-off."""
 from __future__ import annotations
 
 import json
@@ -17,45 +18,64 @@ import hashlib, json, sys
 import taichi_fdem as fdem
 fdem.init(cpu_max_num_threads=int(sys.argv[1]))
 from taichi_fdem.verification import fragment_plate_scene
-sim, (plate, ball) = fragment_plate_scene(h_plate=0.025, h_ball=0.02)
+sim, (plate, ball) = fragment_plate_scene(h_plate=0.025, h_ball=0.02, friction=0.5)
 sim = sim.scene.build(strategy="parallel")
+sim.assembly = sys.argv[2]
 sim.run(0.004, progress=False)
 x, v = sim.node_positions(), sim.node_velocities()
+e = sim.energies()
 print(json.dumps({"hash": hashlib.sha1(x.tobytes() + v.tobytes()).hexdigest(),
-                  "broken": sim.broken_joint_count, "couples": sim.couple_count}))
+                  "broken": sim.broken_joint_count, "couples": sim.couple_count,
+                  "friction": e["friction"].hex(), "joints": e["fracture"].hex()}))
 """
 
 
-def _run(threads: int) -> dict:
-    r = subprocess.run([sys.executable, "-c", SCRIPT, str(threads)], capture_output=True, text=True, timeout=900)
+def _run(threads: int, assembly: str) -> dict:
+    r = subprocess.run([sys.executable, "-c", SCRIPT, str(threads), assembly], capture_output=True, text=True,
+                       timeout=900)
     assert r.returncode == 0, r.stderr[-3000:]
     return json.loads(r.stdout.strip().splitlines()[-1])
 
 
-def test_parallel_is_bit_identical_across_thread_counts():
-    """A fragmenting impact (joints breaking, couples changing) on 1 and 2 threads: same bits."""
-    one, two = _run(1), _run(2)
-    assert one["broken"] > 0 and one["couples"] > 0
+@pytest.mark.parametrize("assembly", ["blocks", "slots"])
+def test_parallel_is_bit_identical_across_thread_counts(assembly):
+    """A fragmenting impact (joints breaking, couples changing, friction) on 1 and 2 threads:
+    the same bits, positions and velocities and (blocks: summed in block order) the friction
+    work and the joints' work too."""
+    one, two = _run(1, assembly), _run(2, assembly)
+    assert one["broken"] > 0 and one["couples"] > 0 and float.fromhex(one["friction"]) > 0.0
+    if assembly == "slots":                     # its friction work is summed with atomics
+        one.pop("friction"), two.pop("friction")
     assert one == two
 
 
-def test_parallel_agrees_with_serial():
-    """Same fragmenting scene, both strategies: the same joints break and positions agree to
-    round-off amplified by the fragmentation (a missing or doubled force would be O(1))."""
+@pytest.mark.parametrize("assembly", ["blocks", "slots"])
+def test_parallel_agrees_with_serial(assembly):
+    """Same fragmenting scene, both strategies: the same joints break, positions agree to
+    round-off amplified by the fragmentation (a missing or doubled force would be O(1)), and so
+    do the energy terms, friction work included (booked per block, or per couple)."""
     out = {}
     for strategy in ("serial", "parallel"):
         from taichi_fdem.verification import fragment_plate_scene
-        sim, _ = fragment_plate_scene(h_plate=0.025, h_ball=0.02)
+        sim, _ = fragment_plate_scene(h_plate=0.025, h_ball=0.02, friction=0.5)
         sim = sim.scene.build(strategy=strategy)
+        sim.assembly = assembly
         sim.run(0.003, progress=False)
-        out[strategy] = (sim.node_positions(), sim.broken_joint_count, sim.energies()["total"])
+        out[strategy] = (sim.node_positions(), sim.broken_joint_count, sim.energies())
     xs, xp = out["serial"][0], out["parallel"][0]
     assert out["serial"][1] == out["parallel"][1]
     assert np.abs(xs - xp).max() <= 1e-5 * np.abs(xs).max()
-    assert out["parallel"][2] == pytest.approx(out["serial"][2], rel=1e-6)
+    es, ep = out["serial"][2], out["parallel"][2]
+    assert es["friction"] > 0.01 * es["total"]
+    assert ep["total"] == pytest.approx(es["total"], rel=1e-6)
+    # the terms, to the round-off the fragmentation amplifies (1e-5 to 4e-5 measured, either
+    # assembly); a term dropped or booked twice would be off by O(1)
+    for key in ("kinetic", "strain", "friction", "fracture", "joints"):
+        assert ep[key] == pytest.approx(es[key], rel=2e-4, abs=1e-6 * es["total"]), key
 
 
-def test_parallel_node_lists_cover_every_contribution():
+@pytest.mark.parametrize("assembly", ["blocks", "slots"])
+def test_parallel_node_lists_cover_every_contribution(assembly):
     """The gathered force of every node equals the scattered (serial) force, on a scene with
     contact, friction, joints and prescribed velocities."""
     mat = fdem.Material(density=1000.0, young=1e7, poisson=0.25, friction=0.4, tensile_strength=1e5,
@@ -67,6 +87,7 @@ def test_parallel_node_lists_cover_every_contribution():
     runs = {}
     for strategy in ("serial", "parallel"):
         sim = scene.build(strategy=strategy)
+        sim.assembly = assembly
         sim.step(300)
         runs[strategy] = sim.node_positions()
     assert np.abs(runs["serial"] - runs["parallel"]).max() <= 1e-12

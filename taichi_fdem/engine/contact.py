@@ -108,15 +108,17 @@ def edge_integrals(a, b, ci, cj, t0, t1, t2, inv2Ac):
 
 
 @ti.func
-def release_slip(hist: ti.template(), k, kt, step: ti.template()):
+def release_slip(hist: ti.template(), k, kt):
     """Reset the elastic slip of a contactor edge that left the target.  The energy its
-    friction spring held, ½ k_t s², leaves the model with it: it is booked as friction work,
-    so that the energy account stays closed (it was dropped unbooked before: 1.3 J of a
-    425 J fragmenting-slab impact, measured)."""
+    friction spring held, ½ k_t s², leaves the model with it; it is returned, to be booked as
+    friction work so that the energy account stays closed (it was dropped unbooked before:
+    1.3 J of a 425 J fragmenting-slab impact, measured)."""
     s = hist[k]
+    w = 0.0
     if s != 0.0:
-        ti.atomic_add(step.step_real[WORK_FRICTION], 0.5 * kt * s * s)
+        w = 0.5 * kt * s * s
         hist[k] = 0.0
+    return w
 
 
 @ti.func
@@ -130,15 +132,14 @@ def rel_velocity(s, a, b, W, ui, uj):
 
 
 @ti.func
-def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, step: ti.template(),
-                 friction: ti.template(), cdamping):
+def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, friction: ti.template(), cdamping):
     """One pass: contactor triangle C against target triangle T (§2.3.2 CONTACT_PASS).
 
     C, T: 3×2 matrices of node positions (row r = node r) [m]; U, W: their node velocities
     [m/s] (used with friction or contact damping only).  Returns (gC, gT), the 3×2 nodal
-    forces per unit thickness [N/m] on contactor and target.  ``hist[hslot + i]`` holds the
-    elastic slip [m] of contactor edge e; dissipated work goes to step_real (friction and
-    contact damping components) [J/m].
+    forces per unit thickness [N/m] on contactor and target, and the work dissipated over the
+    step (friction, contact damping) [J/m] as a 2-vector.  ``hist[hslot + i]`` holds the elastic
+    slip [m] of contactor edge i.
     """
     t0 = vec2(T[0, 0], T[0, 1])
     t1 = vec2(T[1, 0], T[1, 1])
@@ -150,6 +151,8 @@ def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, step
         br = barycentric(vec2(C[r, 0], C[r, 1]), t0, t1, t2, inv2At)
         Bm[r, 0], Bm[r, 1], Bm[r, 2] = br[0], br[1], br[2]
     gC = ti.Matrix.zero(float, 3, 2)
+    wf = 0.0                                  # friction work [J/m]
+    wc = 0.0                                  # contact-damping work [J/m]
     # the whole contactor outside one target edge line: no edge can touch (exact early out;
     # it is what most couples of a jointed mesh are, and fragments drifting apart)
     eps = ti.static(_eps())
@@ -160,7 +163,7 @@ def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, step
     if outside:
         if ti.static(friction):
             for i in ti.static(range(3)):
-                release_slip(hist, hslot + i, kt, step)
+                wf += release_slip(hist, hslot + i, kt)
     for i in range(0 if outside else 3):      # a runtime loop: one copy of the edge code
         j = (i + 1) % 3
         a = vec3(Bm[i, 0], Bm[i, 1], Bm[i, 2])
@@ -201,7 +204,7 @@ def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, step
                         # start and the end of the increment (the central-difference work of the
                         # friction force less the change of its spring's energy; the end force
                         # alone over-booked it while the normal force changes)
-                        ti.atomic_add(step.step_real[WORK_FRICTION], 0.5 * (kt * s_old + Fs) * (slip - Fs / kt))
+                        wf += 0.5 * (kt * s_old + Fs) * (slip - Fs / kt)
                         Ft = Fs
                         slip = Fs / kt
                     hist[hslot + i] = slip
@@ -219,14 +222,14 @@ def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, step
                     wd = 1.0 - 0.5 * (smin + smax)
                     gi += -(Fd * wd) * nhat
                     gj += -(Fd * (1.0 - wd)) * nhat
-                    ti.atomic_add(step.step_real[WORK_CDAMPING], cn * rate * rate * span * dt)
+                    wc += cn * rate * rate * span * dt
             gC[i, 0] += gi[0]
             gC[i, 1] += gi[1]
             gC[j, 0] += gj[0]
             gC[j, 1] += gj[1]
         else:
             if ti.static(friction):
-                release_slip(hist, hslot + i, kt, step)   # [Recommended] reset slip when the edge leaves
+                wf += release_slip(hist, hslot + i, kt)   # [Recommended] reset slip when the edge leaves
     # step 9: reaction on the target through N_q(c_r) = β_{q+1}(c_r)
     gT = ti.Matrix.zero(float, 3, 2)
     for q in ti.static(range(3)):
@@ -234,7 +237,7 @@ def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, step
             N = Bm[r, (q + 1) % 3]
             gT[q, 0] -= gC[r, 0] * N
             gT[q, 1] -= gC[r, 1] * N
-    return gC, gT
+    return gC, gT, vec2(wf, wc)
 
 
 @ti.func
@@ -278,10 +281,12 @@ def is_bonded(A, B, tris: ti.template()):
 @ti.func
 def couple_forces(c, nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
                   step: ti.template(), friction: ti.template(), fracture: ti.template()):
-    """Contact forces of couple c (both passes, §2.3.2 COUPLE): (gA, gB, hit); gA, gB are 3×2
-    matrices whose row r is the force [N/m] on node r of triangle A, B.  ``hit`` is False, and the
-    forces zero, for a pair bonded by intact joints (:func:`is_bonded`, fracture only) and for
-    pairs whose boxes do not overlap (the common cheap case)."""
+    """Contact forces of couple c (both passes, §2.3.2 COUPLE): (gA, gB, hit, work); gA, gB are
+    3×2 matrices whose row r is the force [N/m] on node r of triangle A, B.  ``hit`` is False,
+    and the forces zero, for a pair bonded by intact joints (:func:`is_bonded`, fracture only)
+    and for pairs whose boxes do not overlap (the common cheap case).  ``work``: the work
+    dissipated over the step by friction and contact damping [J/m], which the caller books in
+    step_real[WORK_FRICTION], step_real[WORK_CDAMPING]."""
     A = con.couple_a[c]
     B = con.couple_b[c]
     na = tris.tri_nodes[A]
@@ -290,6 +295,7 @@ def couple_forces(c, nodes: ti.template(), tris: ti.template(), mats: ti.templat
     b0, b1, b2 = nodes.node_x[nb[0]], nodes.node_x[nb[1]], nodes.node_x[nb[2]]
     gA = ti.Matrix.zero(float, 3, 2)
     gB = ti.Matrix.zero(float, 3, 2)
+    work = vec2(0.0, 0.0)
     bonded = False
     if ti.static(fracture):
         bonded = is_bonded(A, B, tris)
@@ -317,8 +323,9 @@ def couple_forces(c, nodes: ti.template(), tris: ti.template(), mats: ti.templat
             C, U, T, W = XB, VB, XA, VA
             if ps == 1:
                 C, U, T, W = XA, VA, XB, VB
-            gC, gT = contact_pass(C, U, T, W, prop[0], prop[1], prop[2], prop[3], dt,
-                                  con.couple_hist, c * 6 + 3 * ps, step, friction, cdamping)
+            gC, gT, w = contact_pass(C, U, T, W, prop[0], prop[1], prop[2], prop[3], dt,
+                                     con.couple_hist, c * 6 + 3 * ps, friction, cdamping)
+            work += w
             if ps == 0:
                 gB += gC
                 gA += gT
@@ -329,7 +336,16 @@ def couple_forces(c, nodes: ti.template(), tris: ti.template(), mats: ti.templat
         if ti.static(friction):
             for s in ti.static(range(6)):
                 con.couple_hist[c * 6 + s] = 0.0
-    return gA, gB, hit
+    return gA, gB, hit, work
+
+
+@ti.func
+def book_contact_work(work, step: ti.template()):
+    """Add a couple's dissipated work (friction, contact damping) [J/m] to the step counters."""
+    if work[0] != 0.0:
+        ti.atomic_add(step.step_real[WORK_FRICTION], work[0])
+    if work[1] != 0.0:
+        ti.atomic_add(step.step_real[WORK_CDAMPING], work[1])
 
 
 @ti.func
@@ -337,7 +353,8 @@ def eval_couple(c, nodes: ti.template(), tris: ti.template(), mats: ti.template(
                 step: ti.template(), friction: ti.template(), fracture: ti.template()):
     """Add the contact forces of couple c (:func:`couple_forces`) to nodes.node_f (nothing to add
     for the many couples whose boxes do not overlap)."""
-    gA, gB, hit = couple_forces(c, nodes, tris, mats, con, step, friction, fracture)
+    gA, gB, hit, work = couple_forces(c, nodes, tris, mats, con, step, friction, fracture)
+    book_contact_work(work, step)
     if hit:
         na = tris.tri_nodes[con.couple_a[c]]
         nb = tris.tri_nodes[con.couple_b[c]]

@@ -76,7 +76,9 @@ def tri_forces(e, nodes: ti.template(), tris: ti.template(), mats: ti.template()
             ks = tris.tri_visc[e]
             T += ks * D
             area = 0.5 * Fx.determinant()
-            tris.tri_diss[e] += ks * (D[0, 0] ** 2 + 2.0 * D[0, 1] ** 2 + D[1, 1] ** 2) * area * step.step_dt[None]
+            # a plain read and write (+= would be atomic in a parallel loop; one thread per triangle)
+            tris.tri_diss[e] = tris.tri_diss[e] + ks * (D[0, 0] ** 2 + 2.0 * D[0, 1] ** 2 + D[1, 1] ** 2) * area * \
+                step.step_dt[None]
         # n_i = (y_k − y_j, x_j − x_k), (i, j, k) cyclic: outward normal of the edge opposite i
         f0 = 0.5 * (T @ vec2(x2[1] - x1[1], x1[0] - x2[0]))
         f1 = 0.5 * (T @ vec2(x0[1] - x2[1], x2[0] - x0[0]))

@@ -95,6 +95,15 @@ GROUPS = {"nodes": (NodeGroup, NODE_MEMBERS), "tris": (TriGroup, TRI_MEMBERS), "
           "joints": (JointGroup, JOINT_MEMBERS), "step": (StepGroup, STEP_MEMBERS),
           "asm": (AssemblyGroup, ASSEMBLY_MEMBERS)}
 
+# Block assembly of the parallel strategy on the CPU (FDEM_SPEC §6.1; see engine.step): the items
+# (triangles, joints, couples) are dealt in granules of BLOCK_GRAIN, granule g to block
+# g % FORCE_BLOCKS, and each block adds its forces into its own copy of the nodal forces.  Both
+# are fixed numbers, not the thread count, so that the sums, and the results, are the same bits
+# for any number of threads.
+FORCE_BLOCKS = 4
+BLOCK_GRAIN = 64
+BLOCK_STRIDE = 1024       # loop iterations per block (see engine.step.phase_blocks)
+
 # Stored in step.dacc to force a contact detection at the next step.
 DACC_FORCE = 1e30
 

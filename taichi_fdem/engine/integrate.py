@@ -13,7 +13,8 @@ step_real[WORK_LOCAL].
 """
 import taichi as ti
 
-from .groups import DACC, NONFINITE, QS_ALPHA, SWITCH_BC, SWITCH_BC_WORK, TIME, VMAX, WORK_BOUNDARY, WORK_LOCAL
+from .groups import (DACC, FORCE_BLOCKS, NONFINITE, QS_ALPHA, SWITCH_BC, SWITCH_BC_WORK, TIME, VMAX, WORK_BOUNDARY,
+                     WORK_CDAMPING, WORK_FRICTION, WORK_LOCAL)
 from .tiutil import vec2
 
 CHUNK = 256   # nodes per chunk in reductions (one atomic per chunk, not per node)
@@ -93,6 +94,7 @@ def _slot_force(s, joints: ti.template(), asm: ti.template()):
 @ti.func
 def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
                    gathered: ti.template(), local_damping: ti.template()):
+    """gathered: 0 = node_f only (serial), 1 = plus the node's slots, 2 = plus its block copies."""
     N = nodes.node_x.shape[0]
     dt = step.step_dt[None]
     g = step.step_gravity[None]
@@ -110,10 +112,15 @@ def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.templat
         local = 0.0
         for i in range(chunk * CHUNK, ti.min(N, chunk * CHUNK + CHUNK)):
             f = nodes.node_f[i]
-            if ti.static(gathered):
+            if ti.static(gathered == 1):
                 # the node's slots, in the sorted order of build_node_slots: a fixed summation order
                 for a in range(asm.asm_node_start[i], asm.asm_node_start[i + 1]):
                     f += _slot_force(asm.asm_node_slots[a], joints, asm)
+            if ti.static(gathered == 2):
+                # the node's block copies in block order, each reset for the next step
+                for b in ti.static(range(FORCE_BLOCKS)):
+                    f += asm.asm_force[b * N + i]
+                    asm.asm_force[b * N + i] = vec2(0.0, 0.0)
             s, w, lw, b = integrate_node(i, f, nodes, dt, g, bc, bc_work, alpha, local_damping)
             work += w
             local += lw
@@ -127,6 +134,13 @@ def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.templat
         if ti.static(local_damping):
             ti.atomic_add(step.step_real[WORK_LOCAL], local)
     for _ in range(1):
+        if ti.static(gathered == 2):
+            # the blocks' dissipated contact work, in block order (engine.step.phase_blocks)
+            for b in ti.static(range(FORCE_BLOCKS)):
+                w = asm.asm_force[FORCE_BLOCKS * N + b]
+                step.step_real[WORK_FRICTION] += w[0]
+                step.step_real[WORK_CDAMPING] += w[1]
+                asm.asm_force[FORCE_BLOCKS * N + b] = vec2(0.0, 0.0)
         # re-detection trigger D_acc += 2 Δt v_max (§4.1)
         step.step_real[DACC] += 2.0 * dt * step.step_real[VMAX]
         step.step_real[TIME] += dt
@@ -139,12 +153,16 @@ def integrate_nodes(nodes: ti.template(), step: ti.template(), local_damping: ti
 
     A node speed above step.step_vlimit is read as instability (see :func:`taichi_fdem.engine.step.is_unstable`).
     """
-    _integrate_all(nodes, nodes, step, nodes, False, local_damping)
+    _integrate_all(nodes, nodes, step, nodes, 0, local_damping)
 
 
 @ti.func
 def integrate_nodes_gathered(nodes: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
-                             local_damping: ti.template()):
+                             blocks: ti.template(), local_damping: ti.template()):
     """As :func:`integrate_nodes`, the force of each node being node_f plus the sum of its slots
-    (parallel strategy, no atomic float add)."""
-    _integrate_all(nodes, joints, step, asm, True, local_damping)
+    (``blocks`` False) or of its block copies (``blocks`` True): parallel strategy, no atomic
+    float add."""
+    if ti.static(blocks):
+        _integrate_all(nodes, joints, step, asm, 2, local_damping)
+    else:
+        _integrate_all(nodes, joints, step, asm, 1, local_damping)

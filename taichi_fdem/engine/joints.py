@@ -153,7 +153,9 @@ def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(
             # velocities here, the half with the new ones in add_joint_work
             dv0 = nodes.node_v[nd[0]] - nodes.node_v[nd[3]]
             dv1 = nodes.node_v[nd[1]] - nodes.node_v[nd[2]]
-            joints.joint_work[j] += 0.5 * (g0.dot(dv0) + g1.dot(dv1)) * step.step_dt[None]
+            # (a plain read and write, not +=, which Taichi makes atomic in a parallel loop:
+            # joint j is evaluated by one thread)
+            joints.joint_work[j] = joints.joint_work[j] + 0.5 * (g0.dot(dv0) + g1.dot(dv1)) * step.step_dt[None]
 
 
 @ti.func
@@ -176,4 +178,5 @@ def add_joint_work(j, joints: ti.template(), tris: ti.template(), nodes: ti.temp
         nd = joints.joint_nodes[j]
         dv0 = nodes.node_v[nd[0]] - nodes.node_v[nd[3]]
         dv1 = nodes.node_v[nd[1]] - nodes.node_v[nd[2]]
-        joints.joint_work[j] += 0.5 * (g[0] * dv0[0] + g[1] * dv0[1] + g[2] * dv1[0] + g[3] * dv1[1]) * step.step_dt[None]
+        joints.joint_work[j] = joints.joint_work[j] + 0.5 * (g[0] * dv0[0] + g[1] * dv0[1] + g[2] * dv1[0]
+                                                             + g[3] * dv1[1]) * step.step_dt[None]

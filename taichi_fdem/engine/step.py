@@ -40,10 +40,10 @@ import taichi as ti
 
 from .tiutil import vec2
 
-from .contact import couple_forces, eval_couple
+from .contact import book_contact_work, couple_forces, eval_couple
 from .detection import bin_circle, prepare_circle, scan_partners
 from .elastic import eval_tri_elastic, tri_forces
-from .groups import (COUPLES, DACC, DETECTIONS, FOUND, INVERTED, NONFINITE, RMAX, VMAX, AssemblyGroup, ContactGroup,
+from .groups import (BLOCK_GRAIN, BLOCK_STRIDE, COUPLES, DACC, FORCE_BLOCKS, DETECTIONS, FOUND, INVERTED, NONFINITE, RMAX, VMAX, AssemblyGroup, ContactGroup,
                      DetectGroup, JointGroup, MaterialGroup, NodeGroup, StepGroup, TriGroup)
 from .integrate import integrate_nodes, integrate_nodes_gathered
 from .joints import add_joint_work, eval_joint
@@ -223,7 +223,8 @@ def phase_slots(nodes: ti.template(), tris: ti.template(), mats: ti.template(), 
         else:
             if ti.static(contact):
                 c = item - T - J
-                gA, gB, hit = couple_forces(c, nodes, tris, mats, con, step, friction, fracture)
+                gA, gB, hit, work = couple_forces(c, nodes, tris, mats, con, step, friction, fracture)
+                book_contact_work(work, step)
                 base = 3 * T + 6 * c
                 for r in ti.static(range(3)):
                     asm.asm_force[base + r] = vec2(gA[r, 0], gA[r, 1])
@@ -231,21 +232,108 @@ def phase_slots(nodes: ti.template(), tris: ti.template(), mats: ti.template(), 
 
 
 @ti.func
+def asm_nodes(asm: ti.template()):
+    """Nodes of the block assembly.  asm_force holds FORCE_BLOCKS copies of the nodal forces,
+    block-major (two blocks share no cache line but at their ends), then one entry per block:
+    its dissipated contact work (friction, contact damping) [J/m]."""
+    return asm.asm_force.shape[0] // FORCE_BLOCKS - 1
+
+
+@ti.func
+def add_block_force(asm: ti.template(), b, n, f):
+    """Add f to node n's copy of block b: a plain read and write (one thread runs a block)."""
+    k = b * asm_nodes(asm) + n
+    asm.asm_force[k] = asm.asm_force[k] + f
+
+
+@ti.func
+def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
+                 joints: ti.template(), step: ti.template(), asm: ti.template(), contact: ti.template(),
+                 friction: ti.template(), fracture: ti.template()):
+    """Phases 2–4 of the parallel strategy on the CPU, as one parallel loop over FORCE_BLOCKS
+    blocks.  The items (triangles, joints, couples, in that order) are dealt in granules of
+    BLOCK_GRAIN, granule g to block g % FORCE_BLOCKS, which spreads the costly couples of a
+    compressed region over the blocks; each block adds its items' forces into its own copy of
+    the nodal forces (asm_force[n * FORCE_BLOCKS + b]) in item order, without atomics.  The
+    gather sums the copies in block order, so the result does not depend on the thread count."""
+    T = tris.tri_nodes.shape[0]
+    J = 0
+    C = 0
+    if ti.static(fracture):
+        J = joints.joint_nodes.shape[0]
+    if ti.static(contact):
+        C = step.step_int[COUPLES]
+    total = T + J + C
+    ngran = (total + BLOCK_GRAIN - 1) // BLOCK_GRAIN
+    # Taichi 1.7's CPU range-for hands each thread tasks of at least 512 iterations (its adaptive
+    # block_dim; loop_config(block_dim) is overridden), so a loop of FORCE_BLOCKS iterations would
+    # run on one thread: the loop has BLOCK_STRIDE iterations per block and the first of each
+    # does the block's work, which puts every block in its own task
+    for t in range(FORCE_BLOCKS * BLOCK_STRIDE):
+        b = t // BLOCK_STRIDE
+        g = b
+        if t % BLOCK_STRIDE != 0:
+            g = ngran
+        bwork = vec2(0.0, 0.0)                 # the block's dissipated contact work
+        while g < ngran:
+            for item in range(g * BLOCK_GRAIN, ti.min(total, g * BLOCK_GRAIN + BLOCK_GRAIN)):
+                if item < T:
+                    f0, f1, f2 = tri_forces(item, nodes, tris, mats, step)
+                    n = tris.tri_nodes[item]
+                    add_block_force(asm, b, n[0], f0)
+                    add_block_force(asm, b, n[1], f1)
+                    add_block_force(asm, b, n[2], f2)
+                elif item < T + J:
+                    if ti.static(fracture):
+                        j = item - T
+                        if joints.joint_state[j] == 0:
+                            eval_joint(j, joints, tris, mats, nodes, step, False)
+                            gj = joints.joint_g[j]
+                            nd = joints.joint_nodes[j]
+                            g0 = vec2(gj[0], gj[1])
+                            g1 = vec2(gj[2], gj[3])
+                            add_block_force(asm, b, nd[0], -g0)
+                            add_block_force(asm, b, nd[1], -g1)
+                            add_block_force(asm, b, nd[2], g1)
+                            add_block_force(asm, b, nd[3], g0)
+                else:
+                    if ti.static(contact):
+                        c = item - T - J
+                        gA, gB, hit, work = couple_forces(c, nodes, tris, mats, con, step, friction, fracture)
+                        bwork += work
+                        if hit:
+                            na = tris.tri_nodes[con.couple_a[c]]
+                            nb = tris.tri_nodes[con.couple_b[c]]
+                            for r in ti.static(range(3)):
+                                add_block_force(asm, b, na[r], vec2(gA[r, 0], gA[r, 1]))
+                                add_block_force(asm, b, nb[r], vec2(gB[r, 0], gB[r, 1]))
+            g += FORCE_BLOCKS
+        if t % BLOCK_STRIDE == 0:
+            asm.asm_force[FORCE_BLOCKS * asm_nodes(asm) + b] = bwork
+
+
+@ti.func
 def phase_gather_integrate(nodes: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
-                           local_damping: ti.template()):
-    """Phase 6 of the parallel strategy: each node sums its slots in list order, then integrates."""
-    integrate_nodes_gathered(nodes, joints, step, asm, local_damping)
+                           blocks: ti.template(), local_damping: ti.template()):
+    """Phase 6 of the parallel strategy: each node sums its slots in list order (or its block
+    copies in block order), then integrates."""
+    integrate_nodes_gathered(nodes, joints, step, asm, blocks, local_damping)
 
 
 @ti.func
 def phases_parallel(nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
-                    joints: ti.template(), step: ti.template(), asm: ti.template(), feat: ti.template()):
+                    joints: ti.template(), step: ti.template(), asm: ti.template(), feat: ti.template(),
+                    blocks: ti.template()):
     """Phases 2–7 of a step in the parallel strategy (no atomic float add on the element, joint
-    and couple forces; the few load entries are added to node_f in one serial loop)."""
-    phase_slots(nodes, tris, mats, con, joints, step, asm, feat.contact, feat.friction, feat.fracture)
+    and couple forces; the few load entries are added to node_f in one serial loop).  ``blocks``:
+    the block assembly (CPU) instead of the slots (GPU)."""
+    if ti.static(blocks):
+        phase_blocks(nodes, tris, mats, con, joints, step, asm, feat.contact, feat.friction, feat.fracture)
+    else:
+        phase_slots(nodes, tris, mats, con, joints, step, asm, feat.contact, feat.friction, feat.fracture)
     if ti.static(feat.loads):
         phase_loads(nodes, step)
-    phase_gather_integrate(nodes, joints, step, asm, feat.local_damping)
+    phase_gather_integrate(nodes, joints, step, asm, blocks, feat.local_damping)
     if ti.static(feat.fracture):
         phase_joint_work(nodes, tris, joints, step)
     if ti.static(feat.loads):
@@ -338,10 +426,11 @@ def build_node_slots(tris: TriGroup, con: ContactGroup, joints: JointGroup, step
 
 @ti.kernel
 def step_parallel(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: ContactGroup, joints: JointGroup,
-                  step: StepGroup, asm: AssemblyGroup, feat: ti.template()) -> ti.i32:
+                  step: StepGroup, asm: AssemblyGroup, feat: ti.template(), blocks: ti.template()) -> ti.i32:
     """One step in parallel loops without atomic float adds on the element, joint and couple
-    forces.  ``feat``: the compile-time :class:`Features`.  Returns :func:`status_code`."""
-    phases_parallel(nodes, tris, mats, con, joints, step, asm, feat)
+    forces.  ``feat``: the compile-time :class:`Features`; ``blocks``: block assembly (CPU)
+    rather than slots (GPU).  Returns :func:`status_code`."""
+    phases_parallel(nodes, tris, mats, con, joints, step, asm, feat, blocks)
     return status_code(step)
 
 

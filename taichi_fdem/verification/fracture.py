@@ -289,13 +289,14 @@ def case_brazilian(resolution: int = 40, safety: float = 0.35, penalty_factor: f
 # ------------------------------------------------------------------------------------------------
 # a projectile fragmenting a jointed plate (shared by demos/fragment_plate.py and the tests)
 # ------------------------------------------------------------------------------------------------
-def fragment_plate_scene(h_plate: float = 0.02, h_ball: float = 0.015, speed: float = 30.0):
+def fragment_plate_scene(h_plate: float = 0.02, h_ball: float = 0.015, speed: float = 30.0,
+                         friction: float = 0.0):
     """A free brittle plate (0.4 × 0.1 m, every interior edge a cohesive joint, mesh size
     ``h_plate``) hit in its middle by a stiff disc (R = 3 cm, mesh size ``h_ball``) at ``speed``
-    [m/s], no gravity.  Returns (sim, (plate, ball))."""
+    [m/s], no gravity; Coulomb ``friction`` on every contact.  Returns (sim, (plate, ball))."""
     plate_mat = Material(density=1000.0, young=1e8, poisson=0.25, tensile_strength=2e5, fracture_energy=20.0,
-                         name="brittle")
-    proj_mat = Material(density=3000.0, young=1e8, poisson=0.25, name="projectile")
+                         friction=friction, name="brittle")
+    proj_mat = Material(density=3000.0, young=1e8, poisson=0.25, friction=friction, name="projectile")
     scene = Scene(gravity=(0.0, 0.0))
     plate = scene.add_body(mesh.rectangle(0.4, 0.1, h_plate), plate_mat, fracture=True, name="plate")
     ball = scene.add_body(mesh.disk(0.03, h_ball), proj_mat, position=(0.0, 0.085), velocity=(0.0, -speed),
