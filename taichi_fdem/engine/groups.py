@@ -100,7 +100,7 @@ GROUPS = {"nodes": (NodeGroup, NODE_MEMBERS), "tris": (TriGroup, TRI_MEMBERS), "
 # g % FORCE_BLOCKS, and each block adds its forces into its own copy of the nodal forces.  Both
 # are fixed numbers, not the thread count, so that the sums, and the results, are the same bits
 # for any number of threads.
-FORCE_BLOCKS = 4
+FORCE_BLOCKS = 2
 BLOCK_GRAIN = 64
 BLOCK_STRIDE = 1024       # loop iterations per block (see engine.step.phase_blocks)
 

@@ -64,6 +64,7 @@ def apply_loads(nodes: ti.template(), step: ti.template()):
     velocities for t_n + Δt/2; book the first half of the loads' work."""
     t = step.step_real[TIME]
     dt = step.step_dt[None]
+    ti.loop_config(serialize=True)   # few entries: a parallel loop's launch (~75 µs) costs more
     for k in range(nodes.load_nodes.shape[0]):
         ld = nodes.load_nodes[k]
         kind = ld[0]
@@ -115,6 +116,7 @@ def apply_loads(nodes: ti.template(), step: ti.template()):
 def book_load_work(nodes: ti.template(), step: ti.template()):
     """Second half of the loads' work over the step, with the new velocities (see the module)."""
     dt = step.step_dt[None]
+    ti.loop_config(serialize=True)   # few entries: a parallel loop's launch (~75 µs) costs more
     for k in range(nodes.load_nodes.shape[0]):
         ld = nodes.load_nodes[k]
         kind = ld[0]

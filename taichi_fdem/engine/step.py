@@ -70,6 +70,7 @@ def phase_detect_count(nodes: ti.template(), tris: ti.template(), det: ti.templa
     """Bounding circles, counting sort and couple count; det.det_cnew = exclusive prefix of counts."""
     K = det.contact_tri.shape[0]
     H = det.det_bucket.shape[0]
+    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
     for _ in range(1):
         step.step_real[RMAX] = 0.0
     for k in range(K):
@@ -78,6 +79,7 @@ def phase_detect_count(nodes: ti.template(), tris: ti.template(), det: ti.templa
         det.det_bucket[h] = ti.Vector([0, 0])
     for k in range(K):
         bin_circle(k, det, step)
+    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
     for _ in range(1):
         s = 0
         for h in range(H):
@@ -88,6 +90,7 @@ def phase_detect_count(nodes: ti.template(), tris: ti.template(), det: ti.templa
         det.det_sort[det.det_bucket[bn[0]][0] + bn[1]][2] = k
     for k in range(K):
         det.det_cnew[k] = scan_partners(k, True, det, con, tris, step, 0, False)
+    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
     for _ in range(1):
         s = 0
         for k in range(K):              # counts -> exclusive prefix, in place
@@ -114,6 +117,7 @@ def phase_detect_fill(tris: ti.template(), det: ti.template(), con: ti.template(
                 det.det_old_hist[6 * c + q] = con.couple_hist[6 * c + q]
     for k in range(K):
         scan_partners(k, False, det, con, tris, step, det.det_cnew[k], friction)
+    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
     for _ in range(1):
         step.step_int[COUPLES] = step.step_int[FOUND]
         step.step_int[DETECTIONS] += 1
@@ -384,6 +388,7 @@ def build_node_slots(tris: TriGroup, con: ContactGroup, joints: JointGroup, step
             for r in ti.static(range(3)):
                 ti.atomic_add(asm.asm_node_start[na[r] + 1], 1)
                 ti.atomic_add(asm.asm_node_start[nb[r] + 1], 1)
+    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
     for _ in range(1):
         for i in range(1, N + 1):
             asm.asm_node_start[i] += asm.asm_node_start[i - 1]           # asm.asm_node_start[i]: first slot of node i
@@ -404,6 +409,7 @@ def build_node_slots(tris: TriGroup, con: ContactGroup, joints: JointGroup, step
             for r in ti.static(range(3)):
                 asm.asm_node_slots[ti.atomic_add(asm.asm_node_start[na[r]], 1)] = base + r
                 asm.asm_node_slots[ti.atomic_add(asm.asm_node_start[nb[r]], 1)] = base + 3 + r
+    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
     for _ in range(1):
         for i0 in range(N):                    # asm.asm_node_start[i] now ends node i: shift back
             i = N - i0

@@ -51,7 +51,8 @@ FORMAT_VERSION = 2
 
 # attributes of the simulation rebuilt by load() rather than stored: the scene (stored on its
 # own), what build() derives from it, the state (stored array by array) and the argpacks
-_REBUILT = frozenset({"scene", "bodies", "thickness", "model", "state", "scratch", "_packs", "_groups"})
+_REBUILT = frozenset({"scene", "bodies", "thickness", "model", "state", "scratch", "_packs", "_groups",
+                      "_launch_cache"})
 
 
 class CheckpointError(ValueError):
