@@ -255,11 +255,12 @@ def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(),
                  joints: ti.template(), step: ti.template(), asm: ti.template(), contact: ti.template(),
                  friction: ti.template(), fracture: ti.template()):
     """Phases 2–4 of the parallel strategy on the CPU, as one parallel loop over FORCE_BLOCKS
-    blocks.  The items (triangles, joints, couples, in that order) are dealt in granules of
-    BLOCK_GRAIN, granule g to block g % FORCE_BLOCKS, which spreads the costly couples of a
-    compressed region over the blocks; each block adds its items' forces into its own copy of
-    the nodal forces (asm_force[n * FORCE_BLOCKS + b]) in item order, without atomics.  The
-    gather sums the copies in block order, so the result does not depend on the thread count."""
+    blocks.  Triangles, joints and couples are each dealt in granules of BLOCK_GRAIN, granule g
+    to block g % FORCE_BLOCKS (which spreads the costly couples of a compressed region over the
+    blocks), and each block adds its items' forces into its own copy of the nodal forces
+    (asm_force[b * N + n]) in item order, without atomics; its dissipated contact work goes to
+    asm_force[FORCE_BLOCKS * N + b].  The gather sums the copies in block order, so the result
+    does not depend on the thread count."""
     T = tris.tri_nodes.shape[0]
     J = 0
     C = 0
@@ -267,29 +268,26 @@ def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(),
         J = joints.joint_nodes.shape[0]
     if ti.static(contact):
         C = step.step_int[COUPLES]
-    total = T + J + C
-    ngran = (total + BLOCK_GRAIN - 1) // BLOCK_GRAIN
     # Taichi 1.7's CPU range-for hands each thread tasks of at least 512 iterations (its adaptive
     # block_dim; loop_config(block_dim) is overridden), so a loop of FORCE_BLOCKS iterations would
     # run on one thread: the loop has BLOCK_STRIDE iterations per block and the first of each
     # does the block's work, which puts every block in its own task
     for t in range(FORCE_BLOCKS * BLOCK_STRIDE):
-        b = t // BLOCK_STRIDE
-        g = b
-        if t % BLOCK_STRIDE != 0:
-            g = ngran
-        bwork = vec2(0.0, 0.0)                 # the block's dissipated contact work
-        while g < ngran:
-            for item in range(g * BLOCK_GRAIN, ti.min(total, g * BLOCK_GRAIN + BLOCK_GRAIN)):
-                if item < T:
-                    f0, f1, f2 = tri_forces(item, nodes, tris, mats, step)
-                    n = tris.tri_nodes[item]
+        if t % BLOCK_STRIDE == 0:
+            b = t // BLOCK_STRIDE
+            g = b
+            while g * BLOCK_GRAIN < T:
+                for e in range(g * BLOCK_GRAIN, ti.min(T, g * BLOCK_GRAIN + BLOCK_GRAIN)):
+                    f0, f1, f2 = tri_forces(e, nodes, tris, mats, step)
+                    n = tris.tri_nodes[e]
                     add_block_force(asm, b, n[0], f0)
                     add_block_force(asm, b, n[1], f1)
                     add_block_force(asm, b, n[2], f2)
-                elif item < T + J:
-                    if ti.static(fracture):
-                        j = item - T
+                g += FORCE_BLOCKS
+            if ti.static(fracture):
+                g = b
+                while g * BLOCK_GRAIN < J:
+                    for j in range(g * BLOCK_GRAIN, ti.min(J, g * BLOCK_GRAIN + BLOCK_GRAIN)):
                         if joints.joint_state[j] == 0:
                             eval_joint(j, joints, tris, mats, nodes, step, False)
                             gj = joints.joint_g[j]
@@ -300,9 +298,12 @@ def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(),
                             add_block_force(asm, b, nd[1], -g1)
                             add_block_force(asm, b, nd[2], g1)
                             add_block_force(asm, b, nd[3], g0)
-                else:
-                    if ti.static(contact):
-                        c = item - T - J
+                    g += FORCE_BLOCKS
+            if ti.static(contact):
+                bwork = vec2(0.0, 0.0)
+                g = b
+                while g * BLOCK_GRAIN < C:
+                    for c in range(g * BLOCK_GRAIN, ti.min(C, g * BLOCK_GRAIN + BLOCK_GRAIN)):
                         gA, gB, hit, work = couple_forces(c, nodes, tris, mats, con, step, friction, fracture)
                         bwork += work
                         if hit:
@@ -311,9 +312,8 @@ def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(),
                             for r in ti.static(range(3)):
                                 add_block_force(asm, b, na[r], vec2(gA[r, 0], gA[r, 1]))
                                 add_block_force(asm, b, nb[r], vec2(gB[r, 0], gB[r, 1]))
-            g += FORCE_BLOCKS
-        if t % BLOCK_STRIDE == 0:
-            asm.asm_force[FORCE_BLOCKS * asm_nodes(asm) + b] = bwork
+                    g += FORCE_BLOCKS
+                asm.asm_force[FORCE_BLOCKS * asm_nodes(asm) + b] = bwork
 
 
 @ti.func
