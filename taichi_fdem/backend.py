@@ -79,6 +79,13 @@ def arch() -> str:
     return _state["arch"]
 
 
+def cpu_threads() -> int:
+    """Threads of the CPU back end (Taichi's cpu_max_num_threads)."""
+    ensure_init()
+    from taichi.lang import impl
+    return int(impl.current_cfg().cpu_max_num_threads)
+
+
 def real_np():
     """NumPy dtype matching the active Taichi real type."""
     return _PRECISIONS[precision()][1]

@@ -7,11 +7,16 @@ estimates live in :mod:`taichi_fdem.timestep`, the stability guards in
 :mod:`taichi_fdem.guards`, the energy account in :mod:`taichi_fdem.energies`, the results
 accessors in :mod:`taichi_fdem.results`.
 
-Execution strategy.  Measured on the 2-core CPU (benchmarks/pile.py): the serial many-step
-kernel beats one-launch-per-step parallel loops at every size from 1k to 300k triangles,
-because parallel loops pay for f64 atomic scatter (CAS loops on x86) and launch overhead more
-than the second core gives back.  "auto" is therefore serial on the CPU and parallel on GPU
-back ends (untested: no GPU here).
+Execution strategy (see :mod:`taichi_fdem.engine.step`).  The serial strategy runs thousands of
+steps per launch on one core; the parallel one launches once per step (~0.35 ms of launch and
+loop overhead, measured) and sums the forces without atomics (block copies on the CPU).  On the
+2-core CPU (benchmarks/pile.py, benchmarks/fracture.py) the parallel strategy on 2 threads
+beats the serial one once a step has ~100,000 items to evaluate (triangles + joints + contact
+couples): 1.2× on the 10k-triangle plate impact (113k items), 1.15× on the 100k-triangle pile;
+below that the launch overhead wins (the 10k pile, 30k items, runs twice as fast serial).
+"auto" therefore picks parallel on the CPU when there are at least 2 threads and
+:data:`AUTO_PARALLEL_ITEMS` items at build, serial otherwise, and parallel on GPU back ends
+(untested: no GPU here).
 """
 from __future__ import annotations
 
@@ -35,10 +40,11 @@ from .cracks import CrackEventLog
 from .results import History, SimulationResults
 from .timestep import CONTACT_LIMIT_FACTOR  # noqa: F401  (re-exported)
 
-__all__ = ["Simulation", "SimulationError", "SERIAL_MAX_STEPS", "SERIAL_TRI_STEPS"]
+__all__ = ["Simulation", "SimulationError", "SERIAL_MAX_STEPS", "SERIAL_TRI_STEPS", "AUTO_PARALLEL_ITEMS"]
 
 SERIAL_MAX_STEPS = 2000          # at most this many steps per serial launch
 SERIAL_TRI_STEPS = 2_000_000     # ~50 ms of work per serial launch: responsive progress and Ctrl-C
+AUTO_PARALLEL_ITEMS = 100_000    # triangles + joints + couples from which "auto" runs parallel on >= 2 CPU threads
 
 # Names the simulation answered before the model/state split (kept for scripts that reach the
 # arrays directly; new code uses sim.model.* and sim.state.*).
@@ -82,7 +88,8 @@ class Simulation(SimulationResults):
                                  speed_limit=speed_limit, quasi_static=quasi_static)
         self.bodies = self.model.bodies
         self.state = allocate_state(self.model)
-        if strategy == "auto":
+        auto = strategy == "auto"
+        if auto:
             strategy = "serial" if backend.arch() == "cpu" else "parallel"
         self.strategy = strategy
         self._assembly = "blocks" if backend.arch() == "cpu" else "slots"
@@ -98,6 +105,15 @@ class Simulation(SimulationResults):
                 self._warn_overlaps()
         elif strategy == "parallel":
             self._build_node_slots()             # no contact: the node lists never change
+        if auto and self.strategy == "serial" and self._parallel_pays():
+            self.strategy = "parallel"
+
+    def _parallel_pays(self) -> bool:
+        """Whether the parallel strategy beats the serial one on this CPU (module docstring)."""
+        if backend.cpu_threads() < 2:
+            return False
+        md = self.model
+        return md.tri_count + (md.joint_count if md.fracture else 0) + self.couple_count >= AUTO_PARALLEL_ITEMS
 
     # ------------------------------------------------------------------------------------------
     # model / state access

@@ -112,3 +112,22 @@ print(json.dumps(sim.node_positions().tolist()))
         assert r.returncode == 0, r.stderr[-3000:]
         runs.append(np.array(json.loads(r.stdout.strip().splitlines()[-1])))
     assert np.abs(runs[0] - runs[1]).max() <= 1e-9 * np.abs(runs[0]).max()
+
+
+def test_auto_strategy_follows_the_work_and_the_threads(monkeypatch):
+    """'auto' runs parallel on the CPU with >= 2 threads once triangles + joints + couples reach
+    AUTO_PARALLEL_ITEMS, serial below it (and always serial on one thread)."""
+    import taichi_fdem.simulation as simmod
+    from taichi_fdem import backend
+    from taichi_fdem.verification import fragment_plate_scene
+    sim, _ = fragment_plate_scene(h_plate=0.025, h_ball=0.02)
+    scene = sim.scene
+    items = sim.tri_count + sim.joint_count + sim.couple_count
+    monkeypatch.setattr(simmod, "AUTO_PARALLEL_ITEMS", items + 1)
+    assert scene.build().strategy == "serial"
+    monkeypatch.setattr(simmod, "AUTO_PARALLEL_ITEMS", items)
+    big = scene.build()
+    assert big.strategy == ("parallel" if backend.cpu_threads() >= 2 else "serial")
+    assert big.assembly == "blocks"
+    big.step(50)                                # and it runs
+    assert np.isfinite(big.node_positions()).all()
