@@ -37,8 +37,22 @@ def barycentric(P, t0, t1, t2, inv2A):
 
 
 @ti.func
+def fmin(x, y):
+    """min(x, y) as a select: one minsd on x86 (ti.min is IEEE minNum, which LLVM lowers to a
+    compare, a min and a blend for its NaN rule; no NaN reaches here, the guards stop the run
+    at the first non-finite value)."""
+    return ti.select(x < y, x, y)
+
+
+@ti.func
+def fmax(x, y):
+    """max(x, y) as a select (see :func:`fmin`)."""
+    return ti.select(x > y, x, y)
+
+
+@ti.func
 def min3(v):
-    return ti.min(v[0], ti.min(v[1], v[2]))
+    return fmin(v[0], fmin(v[1], v[2]))
 
 
 @ti.func
@@ -70,9 +84,9 @@ def edge_integrals(a, b, ci, cj, t0, t1, t2, inv2Ac):
         # 3. clipping to the target
         for k in ti.static(range(3)):
             if a[k] < 0.0 and b[k] > eps:
-                smin = ti.max(smin, a[k] / (a[k] - b[k]))
+                smin = fmax(smin, a[k] / (a[k] - b[k]))
             if a[k] > eps and b[k] < 0.0:
-                smax = ti.min(smax, a[k] / (a[k] - b[k]))
+                smax = fmin(smax, a[k] / (a[k] - b[k]))
         if smax > smin:
             # 4. breakpoints where the minimum switches (at most 2 inside the clipped span)
             d = b - a
@@ -243,10 +257,10 @@ def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, fric
 @ti.func
 def boxes_overlap(a0, a1, a2, b0, b1, b2):
     """Cheap pre-check: do the axis-aligned boxes of the two triangles overlap?"""
-    amin = ti.min(a0, ti.min(a1, a2))
-    amax = ti.max(a0, ti.max(a1, a2))
-    bmin = ti.min(b0, ti.min(b1, b2))
-    bmax = ti.max(b0, ti.max(b1, b2))
+    amin = fmin(a0, fmin(a1, a2))
+    amax = fmax(a0, fmax(a1, a2))
+    bmin = fmin(b0, fmin(b1, b2))
+    bmax = fmax(b0, fmax(b1, b2))
     return amin[0] < bmax[0] and bmin[0] < amax[0] and amin[1] < bmax[1] and bmin[1] < amax[1]
 
 

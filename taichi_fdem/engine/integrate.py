@@ -17,7 +17,8 @@ from .groups import (DACC, FORCE_BLOCKS, NONFINITE, QS_ALPHA, SWITCH_BC, SWITCH_
                      WORK_CDAMPING, WORK_FRICTION, WORK_LOCAL)
 from .tiutil import vec2
 
-CHUNK = 256   # nodes per chunk in reductions (one atomic per chunk, not per node)
+CHUNK = 16    # nodes per chunk in reductions (one atomic per chunk, not per node); small enough that
+              # the chunk loop has several of Taichi's 512-iteration CPU tasks, so that it runs in parallel
 
 
 @ti.func
