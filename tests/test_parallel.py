@@ -26,7 +26,7 @@ x, v = sim.node_positions(), sim.node_velocities()
 e = sim.energies()
 print(json.dumps({"hash": hashlib.sha1(x.tobytes() + v.tobytes()).hexdigest(),
                   "broken": sim.broken_joint_count, "couples": sim.couple_count,
-                  "friction": e["friction"].hex(), "joints": e["fracture"].hex()}))
+                  "friction": e["friction"].hex(), "fracture": e["fracture"].hex(), "joints": e["joints"].hex()}))
 """
 
 

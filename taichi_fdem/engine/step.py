@@ -22,11 +22,14 @@ both strategies:
   thousands of steps in a serialised loop, detection included; forces are added to
   ``node_f`` directly.
 * **parallel** (large scenes, several cores, GPUs): per step, one launch with three parallel
-  loops and no atomic float add: (a) every triangle, joint and couple writes its nodal forces
-  into its own slots (:func:`phase_slots`); (b) every node sums its slots through a sorted
-  list (:func:`phase_gather_integrate`, the list rebuilt at each detection by
-  :func:`build_node_slots`) and integrates; (c) the joints' work.  Sums run in a fixed order,
-  so results are bit-identical from run to run and for any thread count.
+  loops and no atomic float add on the forces.  (a) Forces: on the CPU, the **block assembly**
+  (:func:`phase_blocks`): triangles, joints and couples are dealt in granules to
+  FORCE_BLOCKS fixed blocks, each adding into its own copy of the nodal forces; on GPUs the
+  **slot assembly** (:func:`phase_slots`): every triangle, joint and couple writes its nodal
+  forces into its own slots.  (b) Every node sums its block copies in block order, or its slots
+  through a sorted list (rebuilt at each detection by :func:`build_node_slots`), and integrates
+  (:func:`phase_gather_integrate`).  (c) The joints' work.  Sums run in a fixed order, so
+  results are bit-identical from run to run and for any thread count.
 
 Every kernel takes the array groups of :mod:`taichi_fdem.engine.groups`.  ``contact``,
 ``friction``, ``fracture``, ``loads`` and ``local_damping`` (the quasi-static option) are
