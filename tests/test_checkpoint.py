@@ -65,9 +65,11 @@ def test_restart_continues_exactly(tmp_path, strategy):
     assert A.keys() == B.keys()
     for name in A:
         assert A[name].shape == B[name].shape, name
-        if strategy == "serial":                # one thread, same operations: bit-identical
+        if strategy == "serial" or name in ("node_x", "node_v", "couple_hist", "tri_diss"):
+            # serial: one thread, same operations; parallel: the forces and the per-item
+            # accumulators are summed in a fixed order (block assembly): bit-identical
             np.testing.assert_array_equal(A[name], B[name], err_msg=name)
-        else:                                   # parallel atomics may sum in another order
+        else:                                   # per-chunk atomic sums (boundary work) may differ
             np.testing.assert_allclose(A[name], B[name], rtol=1e-12, atol=1e-15, err_msg=name)
     np.testing.assert_array_equal(a.couples(), b.couples())
 

@@ -131,3 +131,23 @@ def test_auto_strategy_follows_the_work_and_the_threads(monkeypatch):
     assert big.assembly == "blocks"
     big.step(50)                                # and it runs
     assert np.isfinite(big.node_positions()).all()
+
+
+def test_assembly_can_change_between_calls():
+    """``sim.assembly`` switches between blocks and slots mid-run (the arrays are re-sized, the
+    node lists rebuilt): the run continues as one that never switched, to round-off; a wrong
+    name is refused."""
+    from taichi_fdem.verification import fragment_plate_scene
+    runs = []
+    for switch in (False, True):
+        sim, _ = fragment_plate_scene(h_plate=0.025, h_ball=0.02, friction=0.5)
+        sim = sim.scene.build(strategy="parallel")
+        for k in range(4):
+            if switch:
+                sim.assembly = "slots" if k % 2 else "blocks"
+            sim.step(150)
+        runs.append((sim.node_positions(), sim.broken_joint_count))
+    assert runs[0][1] == runs[1][1] > 0
+    assert np.abs(runs[0][0] - runs[1][0]).max() <= 1e-9 * np.abs(runs[0][0]).max()
+    with pytest.raises(ValueError, match="assembly"):
+        sim.assembly = "atomic"
