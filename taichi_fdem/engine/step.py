@@ -205,12 +205,9 @@ def phases_forces_integrate(nodes: ti.template(), tris: ti.template(), mats: ti.
 
 
 @ti.func
-def phase_slots(nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
-                joints: ti.template(), step: ti.template(), asm: ti.template(), contact: ti.template(),
-                friction: ti.template(), fracture: ti.template()):
-    """Phases 2–4 of the parallel strategy as one parallel loop over triangles, joints and couples:
-    each writes its nodal forces into its own slots (triangle t: asm_force[3t + r]; couple c:
-    asm_force[3T + 6c + r], rows of A then B; joint j: joint_g[j]), never adding to a node."""
+def item_counts(tris: ti.template(), joints: ti.template(), step: ti.template(), contact: ti.template(),
+                fracture: ti.template()):
+    """(triangles, joints, couples) whose forces a step evaluates (0 for an absent feature)."""
     T = tris.tri_nodes.shape[0]
     J = 0
     C = 0
@@ -218,6 +215,17 @@ def phase_slots(nodes: ti.template(), tris: ti.template(), mats: ti.template(), 
         J = joints.joint_nodes.shape[0]
     if ti.static(contact):
         C = step.step_int[COUPLES]
+    return T, J, C
+
+
+@ti.func
+def phase_slots(nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
+                joints: ti.template(), step: ti.template(), asm: ti.template(), contact: ti.template(),
+                friction: ti.template(), fracture: ti.template()):
+    """Phases 2–4 of the parallel strategy as one parallel loop over triangles, joints and couples:
+    each writes its nodal forces into its own slots (triangle t: asm_force[3t + r]; couple c:
+    asm_force[3T + 6c + r], rows of A then B; joint j: joint_g[j]), never adding to a node."""
+    T, J, C = item_counts(tris, joints, step, contact, fracture)
     for item in range(T + J + C):
         if item < T:
             f0, f1, f2 = tri_forces(item, nodes, tris, mats, step)
@@ -264,13 +272,7 @@ def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(),
     (asm_force[b * N + n]) in item order, without atomics; its dissipated contact work goes to
     asm_force[FORCE_BLOCKS * N + b].  The gather sums the copies in block order, so the result
     does not depend on the thread count."""
-    T = tris.tri_nodes.shape[0]
-    J = 0
-    C = 0
-    if ti.static(fracture):
-        J = joints.joint_nodes.shape[0]
-    if ti.static(contact):
-        C = step.step_int[COUPLES]
+    T, J, C = item_counts(tris, joints, step, contact, fracture)
     # Taichi 1.7's CPU range-for hands each thread tasks of at least 512 iterations (its adaptive
     # block_dim; loop_config(block_dim) is overridden), so a loop of FORCE_BLOCKS iterations would
     # run on one thread: the loop has BLOCK_STRIDE iterations per block and the first of each
