@@ -326,3 +326,17 @@ def test_example_sweep_file_loads():
     sw, opts = fsweep.load(os.path.join(ROOT, "examples", "sweep_friction.toml"))
     assert len(sw) == 6 and opts["workers"] == 2 and opts["output"] == "out/sweep_friction_cli.csv"
     assert sw.param_cols == ["materials.rock.friction", "materials.rock.penalty"]
+
+
+def test_local_workers_share_the_cores():
+    """Local workers split the usable cores (the parallel strategy of a large point must not
+    oversubscribe the CPU); an explicit thread count or another arch is left as given."""
+    import os
+    from taichi_fdem.sweep.runner import worker_init
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    assert worker_init({}, 1)["cpu_max_num_threads"] == cores
+    assert worker_init({}, cores)["cpu_max_num_threads"] == 1
+    assert worker_init({}, 4 * cores)["cpu_max_num_threads"] == 1
+    assert worker_init({"precision": "f32"}, 1) == {"precision": "f32", "cpu_max_num_threads": cores}
+    assert worker_init({"cpu_max_num_threads": 3}, 2) == {"cpu_max_num_threads": 3}
+    assert "cpu_max_num_threads" not in worker_init({"arch": "cuda"}, 2)

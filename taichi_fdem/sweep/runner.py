@@ -23,6 +23,16 @@ __all__ = ["Sweep"]
 # ----------------------------------------------------------------------------------------------
 # the sweep
 # ----------------------------------------------------------------------------------------------
+def worker_init(init: dict, workers: int) -> dict:
+    """The :func:`taichi_fdem.init` arguments of each of ``workers`` local worker processes:
+    ``init``, with ``cpu_max_num_threads`` = usable cores // workers (at least 1) unless given."""
+    init = dict(init)
+    if "cpu_max_num_threads" not in init and init.get("arch", "cpu") == "cpu":
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        init["cpu_max_num_threads"] = max(1, cores // max(1, workers))
+    return init
+
+
 class Sweep:
     """A parameter sweep: a base scene, points (a grid of ``axes`` or a list of ``points``),
     a metrics function and a simulated duration per point.
@@ -131,7 +141,10 @@ class Sweep:
 
         Parameters
         ----------
-        workers : local worker processes (ignored with ``scheduler``).
+        workers : local worker processes (ignored with ``scheduler``).  Unless ``init`` sets
+            ``cpu_max_num_threads``, each local worker gets the usable cores divided by the
+            workers (at least 1), so that workers whose scenes run the parallel strategy do not
+            oversubscribe the CPU.
         output : the CSV path (its folder is created).
         resume : keep the ``ok`` rows of an existing ``output`` and skip their points;
             False overwrites it.
@@ -192,13 +205,14 @@ class Sweep:
         import multiprocessing as mp
         from multiprocessing.connection import wait
         payloads = {i: self._payload(i) for i in todo}
+        init = worker_init(self.init, min(workers, len(todo)))
         ctx = mp.get_context("spawn")
         pending = deque(todo)
         pool: list[dict] = []
 
         def start():
             parent, child = ctx.Pipe()
-            proc = ctx.Process(target=_worker_main, args=(child, self.init), daemon=True,
+            proc = ctx.Process(target=_worker_main, args=(child, init), daemon=True,
                                name="taichi-fdem-sweep-worker")
             proc.start()
             child.close()
