@@ -12,7 +12,7 @@ steps per launch on one core; the parallel one launches once per step (~0.35 ms 
 loop overhead, measured) and sums the forces without atomics (block copies on the CPU).  On the
 2-core CPU (benchmarks/pile.py, benchmarks/fracture.py) the parallel strategy on 2 threads
 beats the serial one once a step has ~100,000 items to evaluate (triangles + joints + contact
-couples): 1.2× on the 10k-triangle plate impact (113k items), 1.15× on the 100k-triangle pile;
+couples): 1.24× on the 10k-triangle plate impact (113k items), 1.17× on the 100k-triangle pile;
 below that the launch overhead wins (the 10k pile, 30k items, runs twice as fast serial).
 "auto" therefore picks parallel on the CPU when there are at least 2 threads and
 :data:`AUTO_PARALLEL_ITEMS` items at build, serial otherwise, and parallel on GPU back ends
@@ -160,7 +160,7 @@ class Simulation(SimulationResults):
         """How the parallel strategy sums the nodal forces without atomic float adds (it has no
         effect on the serial strategy):
 
-        * "blocks" (default on the CPU): one parallel loop over FORCE_BLOCKS (4) blocks of
+        * "blocks" (default on the CPU): one parallel loop over FORCE_BLOCKS (2) blocks of
           items, each adding into its own copy of the nodal forces, summed per node in block
           order;
         * "slots" (default on GPUs): every triangle, joint and couple writes its forces into its
