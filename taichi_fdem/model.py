@@ -605,7 +605,8 @@ def grow_couples(md: Model, st: State, capacity: int) -> None:
     st.couple_max = capacity
 
 
-def allocate_scratch(md: Model, st: State, parallel: bool = False, blocks: bool = True) -> Scratch:
+def allocate_scratch(md: Model, st: State, parallel: bool = False, blocks: bool = True,
+                     force_blocks: int = FORCE_BLOCKS) -> Scratch:
     """Detection work arrays sized for the model's contact triangles and the state's couple
     buffer, and (``parallel``) the assembly arrays of the parallel strategy: the block copies of
     the nodal forces (``blocks``, the CPU default) or the force slots and node lists."""
@@ -613,6 +614,7 @@ def allocate_scratch(md: Model, st: State, parallel: bool = False, blocks: bool 
     sw = Scratch()
     sw.parallel = bool(parallel)
     sw.blocks = bool(blocks)
+    sw.force_blocks = int(force_blocks)
     K = md.ctri_count if md.contact else 1
     H = _next_pow2(2 * K) if md.contact else 1
     sw.det_circle = ti.Vector.ndarray(3, rti, shape=K)
@@ -642,7 +644,7 @@ def size_couple_scratch(md: Model, st: State, sw: Scratch) -> None:
 def size_assembly(md: Model, st: State, sw: Scratch) -> None:
     """The parallel strategy's assembly arrays (1-element placeholders otherwise).
 
-    Blocks (``sw.blocks``): FORCE_BLOCKS copies of the nodal forces, block-major
+    Blocks (``sw.blocks``): ``sw.force_blocks`` copies of the nodal forces, block-major
     (asm_force[b * N + n]), then one entry per block for its dissipated contact work; all zero
     between steps (the gather resets them).  Slots:
     one force slot per triangle node (3) and couple node (6), and the node lists (3 per
@@ -651,7 +653,7 @@ def size_assembly(md: Model, st: State, sw: Scratch) -> None:
     rti = backend.real_ti()
     N = md.node_count
     if sw.parallel and sw.blocks:
-        sw.asm_force = ti.Vector.ndarray(2, rti, shape=FORCE_BLOCKS * (N + 1))
+        sw.asm_force = ti.Vector.ndarray(2, rti, shape=sw.force_blocks * (N + 1))
         sw.asm_node_slots = ti.ndarray(ti.i32, shape=1)
         sw.asm_node_start = ti.ndarray(ti.i32, shape=1)
     elif sw.parallel:

@@ -32,8 +32,9 @@ import taichi as ti
 from . import backend, guards
 from .engine import step as kernels
 from .engine.diagnostics import overlap_areas
+from .engine.tiutil import launch_cached
 from .guards import SimulationError
-from .engine.groups import COUPLES, DACC, DACC_FORCE, DETECTIONS, FOUND, SWITCH_BC
+from .engine.groups import COUPLES, DACC, DACC_FORCE, DETECTIONS, FORCE_BLOCKS, FOUND, SWITCH_BC
 from .model import (allocate_scratch, allocate_state, build_model, counter, enable_parallel, grow_couples,
                     pack_groups, set_counter, size_assembly, size_couple_scratch)
 from .cracks import CrackEventLog
@@ -93,8 +94,9 @@ class Simulation(SimulationResults):
             strategy = "serial" if backend.arch() == "cpu" else "parallel"
         self.strategy = strategy
         self._assembly = "blocks" if backend.arch() == "cpu" else "slots"
+        self._force_blocks = FORCE_BLOCKS
         self.scratch = allocate_scratch(self.model, self.state, parallel=strategy == "parallel",
-                                        blocks=self._assembly == "blocks")
+                                        blocks=self._assembly == "blocks", force_blocks=self._force_blocks)
         self._repack()
         self.step_count = 0
         self.launches: dict[str, int] = {}
@@ -160,7 +162,7 @@ class Simulation(SimulationResults):
         """How the parallel strategy sums the nodal forces without atomic float adds (it has no
         effect on the serial strategy):
 
-        * "blocks" (default on the CPU): one parallel loop over FORCE_BLOCKS (2) blocks of
+        * "blocks" (default on the CPU): one parallel loop over :attr:`force_blocks` blocks of
           items, each adding into its own copy of the nodal forces, summed per node in block
           order;
         * "slots" (default on GPUs): every triangle, joint and couple writes its forces into its
@@ -184,10 +186,31 @@ class Simulation(SimulationResults):
             if self.strategy == "parallel":
                 self._build_node_slots()
 
+    @property
+    def force_blocks(self) -> int:
+        """Blocks of the block assembly (default 2): at most this many threads share the force
+        work of a parallel step.  The results depend on it (the blocks' sums are added in block
+        order), not on the thread count; each block costs a copy of the nodal forces written and
+        cleared per step, so on 2 cores 2 beat 4 (benchmarks/README.md).  Set it to the cores
+        of a bigger machine (untested here: 2 cores).  May be changed between calls."""
+        return self._force_blocks
+
+    @force_blocks.setter
+    def force_blocks(self, value: int) -> None:
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+            raise ValueError(f"force_blocks must be an integer >= 1, got {value!r}")
+        self._force_blocks = int(value)
+        sw = self.__dict__.get("scratch")
+        if sw is not None and sw.force_blocks != self._force_blocks:
+            sw.force_blocks = self._force_blocks
+            size_assembly(self.model, self.state, sw)
+            self._repack()
+
     def _after_restore(self) -> None:
         """Re-derive scratch sizes, argpacks and node lists after the state was replaced
         (checkpoint load, restore_last_good)."""
         self.scratch.blocks = self.__dict__.get("_assembly", "blocks") == "blocks"
+        self.scratch.force_blocks = self.__dict__.get("_force_blocks", FORCE_BLOCKS)
         size_couple_scratch(self.model, self.state, self.scratch)
         if np.any(self.state.tri_intact.to_numpy() < 0):
             self._apply_removal()                 # the rebuilt model lacks the excavations
@@ -302,26 +325,10 @@ class Simulation(SimulationResults):
         return kernel(*args)
 
     def _launch_cached(self, name, kernel, *args):
-        """:meth:`_launch` for the kernel launched once per step (the parallel strategy).
-
-        Taichi's ``Kernel.__call__`` derives the compiled variant's key from the arguments on
-        every call: for the step's seven argpacks that is ~125 µs of a ~0.5 ms launch
-        (measured).  The key depends only on the argpacks' array types and on the template
-        arguments, so it is kept while the same argpacks (identity) and equal template arguments
-        come back; :meth:`_repack` clears it.
-        """
+        """:meth:`_launch` for the kernel launched once per step (the parallel strategy), without
+        Taichi's per-call variant lookup (:func:`taichi_fdem.engine.tiutil.launch_cached`)."""
         self.launches[name] = self.launches.get(name, 0) + 1
-        hit = self._launch_cache.get(name)
-        if hit is None or len(hit[0]) != len(args) or not all(
-                a is b or (not isinstance(a, ti.lang.argpack.ArgPack) and type(a) is type(b) and a == b)
-                for a, b in zip(hit[0], args)):
-            prim = getattr(kernel, "_primal", None)
-            if prim is None or not hasattr(prim, "launch_kernel"):
-                return kernel(*args)                 # another Taichi version: the plain call
-            key = prim.ensure_compiled(*args)
-            hit = (args, prim, prim.compiled_kernels[key])
-            self._launch_cache[name] = hit
-        return hit[1].launch_kernel(hit[2], *args)
+        return launch_cached(self._launch_cache, name, kernel, *args)
 
     @property
     def time(self) -> float:

@@ -21,6 +21,7 @@ from taichi_fdem.verification import fragment_plate_scene
 sim, (plate, ball) = fragment_plate_scene(h_plate=0.025, h_ball=0.02, friction=0.5)
 sim = sim.scene.build(strategy="parallel")
 sim.assembly = sys.argv[2]
+sim.force_blocks = int(sys.argv[3])
 sim.run(0.004, progress=False)
 x, v = sim.node_positions(), sim.node_velocities()
 e = sim.energies()
@@ -30,19 +31,19 @@ print(json.dumps({"hash": hashlib.sha1(x.tobytes() + v.tobytes()).hexdigest(),
 """
 
 
-def _run(threads: int, assembly: str) -> dict:
-    r = subprocess.run([sys.executable, "-c", SCRIPT, str(threads), assembly], capture_output=True, text=True,
-                       timeout=900)
+def _run(threads: int, assembly: str, blocks: int = 2) -> dict:
+    r = subprocess.run([sys.executable, "-c", SCRIPT, str(threads), assembly, str(blocks)], capture_output=True,
+                       text=True, timeout=900)
     assert r.returncode == 0, r.stderr[-3000:]
     return json.loads(r.stdout.strip().splitlines()[-1])
 
 
-@pytest.mark.parametrize("assembly", ["blocks", "slots"])
-def test_parallel_is_bit_identical_across_thread_counts(assembly):
+@pytest.mark.parametrize("assembly,blocks", [("blocks", 2), ("blocks", 3), ("slots", 2)])
+def test_parallel_is_bit_identical_across_thread_counts(assembly, blocks):
     """A fragmenting impact (joints breaking, couples changing, friction) on 1 and 2 threads:
     the same bits, positions and velocities and (blocks: summed in block order) the friction
-    work and the joints' work too."""
-    one, two = _run(1, assembly), _run(2, assembly)
+    work and the joints' work too; for 3 blocks as well (more blocks than threads)."""
+    one, two = _run(1, assembly, blocks), _run(2, assembly, blocks)
     assert one["broken"] > 0 and one["couples"] > 0 and float.fromhex(one["friction"]) > 0.0
     if assembly == "slots":                     # its friction work is summed with atomics
         one.pop("friction"), two.pop("friction")
@@ -151,3 +152,29 @@ def test_assembly_can_change_between_calls():
     assert np.abs(runs[0][0] - runs[1][0]).max() <= 1e-9 * np.abs(runs[0][0]).max()
     with pytest.raises(ValueError, match="assembly"):
         sim.assembly = "atomic"
+
+
+def test_force_blocks_agree_and_are_checked(tmp_path):
+    """Any number of blocks gives the serial result to round-off (each item's forces land in one
+    block, every block is gathered); the count survives a checkpoint; a bad count is refused."""
+    from taichi_fdem.verification import fragment_plate_scene
+    sim, _ = fragment_plate_scene(h_plate=0.025, h_ball=0.02, friction=0.5)
+    scene = sim.scene
+    ref = scene.build(strategy="serial")
+    ref.step(400)
+    for blocks in (1, 3, 5):
+        par = scene.build(strategy="parallel")
+        par.force_blocks = blocks
+        par.step(400)
+        assert par.broken_joint_count == ref.broken_joint_count
+        assert np.abs(par.node_positions() - ref.node_positions()).max() <= 1e-9 * np.abs(ref.node_positions()).max()
+        assert par.energies()["friction"] == pytest.approx(ref.energies()["friction"], rel=1e-6)
+    par.save(tmp_path / "c")
+    back = fdem.Simulation.load(tmp_path / "c")
+    assert back.force_blocks == 5 and back.strategy == "parallel"
+    back.step(10)
+    par.step(10)
+    np.testing.assert_array_equal(back.node_positions(), par.node_positions())
+    for bad in (0, -1, 2.5, True, "2"):
+        with pytest.raises(ValueError, match="force_blocks"):
+            par.force_blocks = bad

@@ -97,9 +97,10 @@ GROUPS = {"nodes": (NodeGroup, NODE_MEMBERS), "tris": (TriGroup, TRI_MEMBERS), "
 
 # Block assembly of the parallel strategy on the CPU (FDEM_SPEC §6.1; see engine.step): the items
 # (triangles, joints, couples) are dealt in granules of BLOCK_GRAIN, granule g to block
-# g % FORCE_BLOCKS, and each block adds its forces into its own copy of the nodal forces.  Both
-# are fixed numbers, not the thread count, so that the sums, and the results, are the same bits
-# for any number of threads.
+# g % blocks, and each block adds its forces into its own copy of the nodal forces.  The number
+# of blocks is a property of the simulation (``Simulation.force_blocks``, FORCE_BLOCKS by
+# default), not the thread count, so that the sums, and the results, are the same bits for any
+# number of threads; at most that many threads share the force work.
 FORCE_BLOCKS = 2
 BLOCK_GRAIN = 64
 BLOCK_STRIDE = 1024       # loop iterations per block (see engine.step.phase_blocks)

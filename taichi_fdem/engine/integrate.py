@@ -13,7 +13,7 @@ step_real[WORK_LOCAL].
 """
 import taichi as ti
 
-from .groups import (DACC, FORCE_BLOCKS, NONFINITE, QS_ALPHA, SWITCH_BC, SWITCH_BC_WORK, TIME, VMAX, WORK_BOUNDARY,
+from .groups import (DACC, NONFINITE, QS_ALPHA, SWITCH_BC, SWITCH_BC_WORK, TIME, VMAX, WORK_BOUNDARY,
                      WORK_CDAMPING, WORK_FRICTION, WORK_LOCAL)
 from .tiutil import vec2
 
@@ -120,7 +120,7 @@ def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.templat
                     f += _slot_force(asm.asm_node_slots[a], joints, asm)
             if ti.static(gathered == 2):
                 # the node's block copies in block order, each reset for the next step
-                for b in ti.static(range(FORCE_BLOCKS)):
+                for b in range(asm.asm_force.shape[0] // (N + 1)):
                     f += asm.asm_force[b * N + i]
                     asm.asm_force[b * N + i] = vec2(0.0, 0.0)
             s, w, lw, b = integrate_node(i, f, nodes, dt, g, bc, bc_work, alpha, local_damping)
@@ -139,11 +139,12 @@ def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.templat
     for _ in range(1):
         if ti.static(gathered == 2):
             # the blocks' dissipated contact work, in block order (engine.step.phase_blocks)
-            for b in ti.static(range(FORCE_BLOCKS)):
-                w = asm.asm_force[FORCE_BLOCKS * N + b]
+            nb = asm.asm_force.shape[0] // (N + 1)
+            for b in range(nb):
+                w = asm.asm_force[nb * N + b]
                 step.step_real[WORK_FRICTION] += w[0]
                 step.step_real[WORK_CDAMPING] += w[1]
-                asm.asm_force[FORCE_BLOCKS * N + b] = vec2(0.0, 0.0)
+                asm.asm_force[nb * N + b] = vec2(0.0, 0.0)
         # re-detection trigger D_acc += 2 Δt v_max (§4.1)
         step.step_real[DACC] += 2.0 * dt * step.step_real[VMAX]
         step.step_real[TIME] += dt

@@ -23,8 +23,9 @@ both strategies:
   ``node_f`` directly.
 * **parallel** (large scenes, several cores, GPUs): per step, one launch with three parallel
   loops and no atomic float add on the forces.  (a) Forces: on the CPU, the **block assembly**
-  (:func:`phase_blocks`): triangles, joints and couples are dealt in granules to
-  FORCE_BLOCKS fixed blocks, each adding into its own copy of the nodal forces; on GPUs the
+  (:func:`phase_blocks`): triangles, joints and couples are dealt in granules to a fixed
+  number of blocks (``Simulation.force_blocks``), each adding into its own copy of the nodal
+  forces; on GPUs the
   **slot assembly** (:func:`phase_slots`): every triangle, joint and couple writes its nodal
   forces into its own slots.  (b) Every node sums its block copies in block order, or its slots
   through a sorted list (rebuilt at each detection by :func:`build_node_slots`), and integrates
@@ -46,7 +47,7 @@ from .tiutil import vec2
 from .contact import book_contact_work, couple_forces, eval_couple
 from .detection import bin_circle, prepare_circle, scan_partners
 from .elastic import eval_tri_elastic, tri_forces
-from .groups import (BLOCK_GRAIN, BLOCK_STRIDE, COUPLES, DACC, FORCE_BLOCKS, DETECTIONS, FOUND, INVERTED, NONFINITE, RMAX, VMAX, AssemblyGroup, ContactGroup,
+from .groups import (BLOCK_GRAIN, BLOCK_STRIDE, COUPLES, DACC, DETECTIONS, FOUND, INVERTED, NONFINITE, RMAX, VMAX, AssemblyGroup, ContactGroup,
                      DetectGroup, JointGroup, MaterialGroup, NodeGroup, StepGroup, TriGroup)
 from .integrate import integrate_nodes, integrate_nodes_gathered
 from .joints import add_joint_work, eval_joint
@@ -247,17 +248,17 @@ def phase_slots(nodes: ti.template(), tris: ti.template(), mats: ti.template(), 
 
 
 @ti.func
-def asm_nodes(asm: ti.template()):
-    """Nodes of the block assembly.  asm_force holds FORCE_BLOCKS copies of the nodal forces,
+def asm_blocks(nodes: ti.template(), asm: ti.template()):
+    """Blocks of the block assembly.  asm_force holds one copy of the nodal forces per block,
     block-major (two blocks share no cache line but at their ends), then one entry per block:
-    its dissipated contact work (friction, contact damping) [J/m]."""
-    return asm.asm_force.shape[0] // FORCE_BLOCKS - 1
+    its dissipated contact work (friction, contact damping) [J/m]; N + 1 entries per block."""
+    return asm.asm_force.shape[0] // (nodes.node_x.shape[0] + 1)
 
 
 @ti.func
-def add_block_force(asm: ti.template(), b, n, f):
+def add_block_force(nodes: ti.template(), asm: ti.template(), b, n, f):
     """Add f to node n's copy of block b: a plain read and write (one thread runs a block)."""
-    k = b * asm_nodes(asm) + n
+    k = b * nodes.node_x.shape[0] + n
     asm.asm_force[k] = asm.asm_force[k] + f
 
 
@@ -265,19 +266,20 @@ def add_block_force(asm: ti.template(), b, n, f):
 def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
                  joints: ti.template(), step: ti.template(), asm: ti.template(), contact: ti.template(),
                  friction: ti.template(), fracture: ti.template()):
-    """Phases 2–4 of the parallel strategy on the CPU, as one parallel loop over FORCE_BLOCKS
-    blocks.  Triangles, joints and couples are each dealt in granules of BLOCK_GRAIN, granule g
-    to block g % FORCE_BLOCKS (which spreads the costly couples of a compressed region over the
+    """Phases 2–4 of the parallel strategy on the CPU, as one parallel loop over the blocks
+    (:func:`asm_blocks`).  Triangles, joints and couples are each dealt in granules of BLOCK_GRAIN, granule g
+    to block g % blocks (which spreads the costly couples of a compressed region over the
     blocks), and each block adds its items' forces into its own copy of the nodal forces
     (asm_force[b * N + n]) in item order, without atomics; its dissipated contact work goes to
-    asm_force[FORCE_BLOCKS * N + b].  The gather sums the copies in block order, so the result
+    asm_force[blocks * N + b].  The gather sums the copies in block order, so the result
     does not depend on the thread count."""
     T, J, C = item_counts(tris, joints, step, contact, fracture)
     # Taichi 1.7's CPU range-for hands each thread tasks of at least 512 iterations (its adaptive
-    # block_dim; loop_config(block_dim) is overridden), so a loop of FORCE_BLOCKS iterations would
+    # block_dim; loop_config(block_dim) is overridden), so a loop of a few iterations would
     # run on one thread: the loop has BLOCK_STRIDE iterations per block and the first of each
     # does the block's work, which puts every block in its own task
-    for t in range(FORCE_BLOCKS * BLOCK_STRIDE):
+    nblk = asm_blocks(nodes, asm)
+    for t in range(nblk * BLOCK_STRIDE):
         if t % BLOCK_STRIDE == 0:
             b = t // BLOCK_STRIDE
             g = b
@@ -285,10 +287,10 @@ def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(),
                 for e in range(g * BLOCK_GRAIN, ti.min(T, g * BLOCK_GRAIN + BLOCK_GRAIN)):
                     f0, f1, f2 = tri_forces(e, nodes, tris, mats, step)
                     n = tris.tri_nodes[e]
-                    add_block_force(asm, b, n[0], f0)
-                    add_block_force(asm, b, n[1], f1)
-                    add_block_force(asm, b, n[2], f2)
-                g += FORCE_BLOCKS
+                    add_block_force(nodes, asm, b, n[0], f0)
+                    add_block_force(nodes, asm, b, n[1], f1)
+                    add_block_force(nodes, asm, b, n[2], f2)
+                g += nblk
             if ti.static(fracture):
                 g = b
                 while g * BLOCK_GRAIN < J:
@@ -299,11 +301,11 @@ def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(),
                             nd = joints.joint_nodes[j]
                             g0 = vec2(gj[0], gj[1])
                             g1 = vec2(gj[2], gj[3])
-                            add_block_force(asm, b, nd[0], -g0)
-                            add_block_force(asm, b, nd[1], -g1)
-                            add_block_force(asm, b, nd[2], g1)
-                            add_block_force(asm, b, nd[3], g0)
-                    g += FORCE_BLOCKS
+                            add_block_force(nodes, asm, b, nd[0], -g0)
+                            add_block_force(nodes, asm, b, nd[1], -g1)
+                            add_block_force(nodes, asm, b, nd[2], g1)
+                            add_block_force(nodes, asm, b, nd[3], g0)
+                    g += nblk
             if ti.static(contact):
                 bwork = vec2(0.0, 0.0)
                 g = b
@@ -315,10 +317,10 @@ def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(),
                             na = tris.tri_nodes[con.couple_a[c]]
                             nb = tris.tri_nodes[con.couple_b[c]]
                             for r in ti.static(range(3)):
-                                add_block_force(asm, b, na[r], vec2(gA[r, 0], gA[r, 1]))
-                                add_block_force(asm, b, nb[r], vec2(gB[r, 0], gB[r, 1]))
-                    g += FORCE_BLOCKS
-                asm.asm_force[FORCE_BLOCKS * asm_nodes(asm) + b] = bwork
+                                add_block_force(nodes, asm, b, na[r], vec2(gA[r, 0], gA[r, 1]))
+                                add_block_force(nodes, asm, b, nb[r], vec2(gB[r, 0], gB[r, 1]))
+                    g += nblk
+                asm.asm_force[nblk * nodes.node_x.shape[0] + b] = bwork
 
 
 @ti.func
