@@ -626,12 +626,6 @@ def allocate_scratch(md: Model, st: State, parallel: bool = False, blocks: bool 
     return sw
 
 
-def enable_parallel(md: Model, st: State, sw: Scratch) -> None:
-    """Allocate the parallel strategy's assembly arrays (a simulation switched to it)."""
-    sw.parallel = True
-    size_assembly(md, st, sw)
-
-
 def size_couple_scratch(md: Model, st: State, sw: Scratch) -> None:
     """Scratch sized by the couple buffer: the previous-couple copies that carry friction history
     over, and the assembly arrays (:func:`size_assembly`)."""

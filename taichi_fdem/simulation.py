@@ -35,7 +35,7 @@ from .engine.diagnostics import overlap_areas
 from .engine.tiutil import launch_cached
 from .guards import SimulationError
 from .engine.groups import COUPLES, DACC, DACC_FORCE, DETECTIONS, FORCE_BLOCKS, FOUND, SWITCH_BC
-from .model import (allocate_scratch, allocate_state, build_model, counter, enable_parallel, grow_couples,
+from .model import (allocate_scratch, allocate_state, build_model, counter, grow_couples,
                     pack_groups, set_counter, size_assembly, size_couple_scratch)
 from .cracks import CrackEventLog
 from .results import History, SimulationResults
@@ -151,11 +151,7 @@ class Simulation(SimulationResults):
         if value not in ("serial", "parallel"):
             raise ValueError(f"strategy must be 'serial' or 'parallel', got {value!r}")
         self._strategy = value
-        sw = self.__dict__.get("scratch")
-        if value == "parallel" and sw is not None and not sw.parallel:
-            enable_parallel(self.model, self.state, sw)
-            self._repack()
-            self._build_node_slots()
+        self._sync_assembly()
 
     @property
     def assembly(self) -> str:
@@ -178,13 +174,7 @@ class Simulation(SimulationResults):
         if value not in ("blocks", "slots"):
             raise ValueError(f"assembly must be 'blocks' or 'slots', got {value!r}")
         self._assembly = value
-        sw = self.__dict__.get("scratch")
-        if sw is not None and sw.blocks != (value == "blocks"):
-            sw.blocks = value == "blocks"
-            size_assembly(self.model, self.state, sw)
-            self._repack()
-            if self.strategy == "parallel":
-                self._build_node_slots()
+        self._sync_assembly()
 
     @property
     def force_blocks(self) -> int:
@@ -200,11 +190,22 @@ class Simulation(SimulationResults):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
             raise ValueError(f"force_blocks must be an integer >= 1, got {value!r}")
         self._force_blocks = int(value)
+        self._sync_assembly()
+
+    def _sync_assembly(self) -> None:
+        """Make the scratch's assembly arrays follow strategy, assembly and force_blocks (once
+        parallel, they stay allocated), and rebuild what depends on them."""
         sw = self.__dict__.get("scratch")
-        if sw is not None and sw.force_blocks != self._force_blocks:
-            sw.force_blocks = self._force_blocks
-            size_assembly(self.model, self.state, sw)
-            self._repack()
+        if sw is None:
+            return                               # during __init__, before the scratch exists
+        want = (sw.parallel or self._strategy == "parallel", self._assembly == "blocks", self._force_blocks)
+        if (sw.parallel, sw.blocks, sw.force_blocks) == want:
+            return
+        sw.parallel, sw.blocks, sw.force_blocks = want
+        size_assembly(self.model, self.state, sw)
+        self._repack()
+        if self._strategy == "parallel":
+            self._build_node_slots()
 
     def _after_restore(self) -> None:
         """Re-derive scratch sizes, argpacks and node lists after the state was replaced
