@@ -79,6 +79,11 @@ def arch() -> str:
     return _state["arch"]
 
 
+def usable_cores() -> int:
+    """CPU cores this process may run on (its affinity set where the OS tells it)."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
 def cpu_threads() -> int:
     """Threads of the CPU back end (Taichi's cpu_max_num_threads)."""
     ensure_init()

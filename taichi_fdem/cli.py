@@ -179,7 +179,7 @@ def cmd_info(args) -> int:
     import taichi as ti
     from . import __version__, backend
     _init(args)
-    threads = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    threads = backend.usable_cores()
     optional = []
     for mod, extra in (("dask.distributed", "distributed"), ("matplotlib", "plot")):
         try:

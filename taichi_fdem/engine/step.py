@@ -25,9 +25,8 @@ both strategies:
   loops and no atomic float add on the forces.  (a) Forces: on the CPU, the **block assembly**
   (:func:`phase_blocks`): triangles, joints and couples are dealt in granules to a fixed
   number of blocks (``Simulation.force_blocks``), each adding into its own copy of the nodal
-  forces; on GPUs the
-  **slot assembly** (:func:`phase_slots`): every triangle, joint and couple writes its nodal
-  forces into its own slots.  (b) Every node sums its block copies in block order, or its slots
+  forces; on GPUs the **slot assembly** (:func:`phase_slots`): every triangle, joint and
+  couple writes its nodal forces into its own slots.  (b) Every node sums its block copies in block order, or its slots
   through a sorted list (rebuilt at each detection by :func:`build_node_slots`), and integrates
   (:func:`phase_gather_integrate`).  (c) The joints' work.  Sums run in a fixed order, so
   results are bit-identical from run to run and for any thread count.
@@ -47,8 +46,9 @@ from .tiutil import vec2
 from .contact import book_contact_work, couple_forces, eval_couple
 from .detection import bin_circle, prepare_circle, scan_partners
 from .elastic import eval_tri_elastic, tri_forces
-from .groups import (BLOCK_GRAIN, BLOCK_STRIDE, COUPLES, DACC, DETECTIONS, FOUND, INVERTED, NONFINITE, RMAX, VMAX, AssemblyGroup, ContactGroup,
-                     DetectGroup, JointGroup, MaterialGroup, NodeGroup, StepGroup, TriGroup)
+from .groups import (BLOCK_GRAIN, BLOCK_STRIDE, COUPLES, DACC, DETECTIONS, FOUND, INVERTED, NONFINITE, RMAX, VMAX,
+                     AssemblyGroup, ContactGroup, DetectGroup, JointGroup, MaterialGroup, NodeGroup, StepGroup,
+                     TriGroup)
 from .integrate import integrate_nodes, integrate_nodes_gathered
 from .joints import add_joint_work, eval_joint
 from .loads import apply_loads, book_load_work
@@ -267,9 +267,9 @@ def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(),
                  joints: ti.template(), step: ti.template(), asm: ti.template(), contact: ti.template(),
                  friction: ti.template(), fracture: ti.template()):
     """Phases 2–4 of the parallel strategy on the CPU, as one parallel loop over the blocks
-    (:func:`asm_blocks`).  Triangles, joints and couples are each dealt in granules of BLOCK_GRAIN, granule g
-    to block g % blocks (which spreads the costly couples of a compressed region over the
-    blocks), and each block adds its items' forces into its own copy of the nodal forces
+    (:func:`asm_blocks`).  Triangles, joints and couples are each dealt in granules of
+    BLOCK_GRAIN, granule g to block g % blocks (which spreads the costly couples of a compressed
+    region over the blocks), and each block adds its items' forces into its own copy of the nodal forces
     (asm_force[b * N + n]) in item order, without atomics; its dissipated contact work goes to
     asm_force[blocks * N + b].  The gather sums the copies in block order, so the result
     does not depend on the thread count."""

@@ -28,8 +28,8 @@ def worker_init(init: dict, workers: int) -> dict:
     ``init``, with ``cpu_max_num_threads`` = usable cores // workers (at least 1) unless given."""
     init = dict(init)
     if "cpu_max_num_threads" not in init and init.get("arch", "cpu") == "cpu":
-        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-        init["cpu_max_num_threads"] = max(1, cores // max(1, workers))
+        from .. import backend
+        init["cpu_max_num_threads"] = max(1, backend.usable_cores() // max(1, workers))
     return init
 
 
