@@ -638,16 +638,18 @@ def size_couple_scratch(md: Model, st: State, sw: Scratch) -> None:
 def size_assembly(md: Model, st: State, sw: Scratch) -> None:
     """The parallel strategy's assembly arrays (1-element placeholders otherwise).
 
-    Blocks (``sw.blocks``): ``sw.force_blocks`` copies of the nodal forces, block-major
-    (asm_force[b * N + n]), then one entry per block for its dissipated contact work; all zero
-    between steps (the gather resets them).  Slots:
+    Blocks (``sw.blocks``): a copy of the nodal forces for each block but the first (which adds
+    into node_f), block-major (asm_force[(b − 1) N + n]), then one entry per block for its
+    dissipated contact work; all zero
+    between steps (the gather resets them); the barrier counter and per-block partials of
+    :func:`taichi_fdem.engine.step.run_steps_blocks` (asm_sync, asm_part).  Slots:
     one force slot per triangle node (3) and couple node (6), and the node lists (3 per
     triangle, 4 per joint, 6 per couple) with their starts.
     """
     rti = backend.real_ti()
     N = md.node_count
     if sw.parallel and sw.blocks:
-        sw.asm_force = ti.Vector.ndarray(2, rti, shape=sw.force_blocks * (N + 1))
+        sw.asm_force = ti.Vector.ndarray(2, rti, shape=(sw.force_blocks - 1) * N + sw.force_blocks)
         sw.asm_node_slots = ti.ndarray(ti.i32, shape=1)
         sw.asm_node_start = ti.ndarray(ti.i32, shape=1)
     elif sw.parallel:
@@ -659,6 +661,9 @@ def size_assembly(md: Model, st: State, sw: Scratch) -> None:
         sw.asm_force = ti.Vector.ndarray(2, rti, shape=1)
         sw.asm_node_slots = ti.ndarray(ti.i32, shape=1)
         sw.asm_node_start = ti.ndarray(ti.i32, shape=1)
+    team = sw.force_blocks if sw.parallel and sw.blocks else 0
+    sw.asm_sync = ti.ndarray(ti.i32, shape=2 + team)
+    sw.asm_part = ti.ndarray(rti, shape=max(1, 3 * team))
 
 
 def pack_groups(md: Model, st: State, sw: Scratch) -> dict:

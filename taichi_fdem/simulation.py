@@ -23,7 +23,6 @@ from __future__ import annotations
 import math
 import sys
 import time as _time
-import warnings
 from contextlib import closing as _closing, nullcontext
 
 import numpy as np
@@ -31,7 +30,6 @@ import taichi as ti
 
 from . import backend, guards
 from .engine import step as kernels
-from .engine.diagnostics import overlap_areas
 from .engine.tiutil import launch_cached
 from .guards import SimulationError
 from .engine.groups import COUPLES, DACC, DACC_FORCE, DETECTIONS, FORCE_BLOCKS, FOUND, SWITCH_BC
@@ -68,6 +66,11 @@ class Simulation(SimulationResults):
     #: ``factory(sim, video, fps, png_dir, renderer, cracks=False) -> (writer, draw)`` used by :meth:`run`
     #: for ``video=``; installed by the package (the renderer sits above the simulation).
     video_sink_factory = None
+    #: parallel strategy on the CPU: run many steps per launch in a team of
+    #: min(:attr:`force_blocks`, threads) worker threads, the phases separated by barriers
+    #: (:func:`taichi_fdem.engine.step.run_steps_blocks`); False: one launch per step.  The same
+    #: bits either way.
+    team_steps = True
     #: the checkpoint module (``save(sim, path)``, ``load(path)``); installed by the package,
     #: since checkpoints (I/O) sit above the simulation and rebuild it from its scene
     checkpoint_io = None
@@ -104,7 +107,7 @@ class Simulation(SimulationResults):
         if self.model.contact:
             self._detect()
             if check_overlap:
-                self._warn_overlaps()
+                guards.warn_overlaps(self)
         elif strategy == "parallel":
             self._build_node_slots()             # no contact: the node lists never change
         if auto and self.strategy == "serial" and self._parallel_pays():
@@ -376,25 +379,6 @@ class Simulation(SimulationResults):
             self._build_node_slots()
         self._stats["wall_detect"] += _time.perf_counter() - t0
 
-    def _warn_overlaps(self) -> None:
-        n = self.couple_count
-        if n == 0:
-            return
-        st, md = self.state, self.model
-        out = ti.ndarray(backend.real_ti(), shape=n)
-        overlap_areas(st.node_x, md.tri_nodes, st.couple_a, st.couple_b, n, out)
-        area = out.to_numpy()
-        tol = 1e-9 * float(np.abs(md.tri_area0_np).mean())
-        bad = np.nonzero(area > tol)[0]
-        if len(bad):
-            a = st.couple_a.to_numpy()[bad]
-            b = st.couple_b.to_numpy()[bad]
-            pairs = sorted({tuple(sorted((int(md.tri_body_np[i]), int(md.tri_body_np[j])))) for i, j in zip(a, b)})
-            names = ", ".join(f"{self.bodies[i].name}–{self.bodies[j].name}" for i, j in pairs[:5])
-            warnings.warn(f"bodies overlap at the start ({len(bad)} triangle pairs, total overlap "
-                          f"{area[bad].sum():.3g} m²): {names}. Contact will push them apart violently.",
-                          RuntimeWarning, stacklevel=4)
-
     # ------------------------------------------------------------------------------------------
     # stepping
     # ------------------------------------------------------------------------------------------
@@ -414,9 +398,32 @@ class Simulation(SimulationResults):
         st = self.state
         return bool(self.model.contact and counter(st.step_real, DACC) >= self.model.buffer)
 
+    def _team(self) -> int:
+        """Workers of a parallel team launch (:func:`engine.step.run_steps_blocks`), 0 for one
+        launch per step; a worker waiting at a barrier holds its thread: min(blocks, threads)."""
+        if not (self.scratch.blocks and backend.arch() == "cpu" and self.team_steps):
+            return 0
+        return min(self._force_blocks, backend.cpu_threads())
+
     def _step_parallel(self, n: int) -> None:
         switches = self._switches()
         due = self._detect_due()
+        nwork = self._team()
+        if nwork:
+            per_launch = self.steps_per_launch()
+            while n > 0:
+                if due:
+                    self._detect()
+                chunk = min(n, per_launch)
+                ret = self._launch("run_steps_blocks", kernels.run_steps_blocks, chunk, nwork,
+                                   *self._groups["parallel"], *switches)
+                done = ret & (kernels.UNSTABLE_BIT - 1)
+                self.step_count += done
+                n -= done
+                due = bool(self.model.contact and ret & kernels.DUE_BIT)
+                if ret & kernels.UNSTABLE_BIT:
+                    guards.raise_unstable(self)
+            return
         for _ in range(n):
             if due:
                 self._detect()

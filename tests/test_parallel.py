@@ -178,3 +178,61 @@ def test_force_blocks_agree_and_are_checked(tmp_path):
     for bad in (0, -1, 2.5, True, "2"):
         with pytest.raises(ValueError, match="force_blocks"):
             par.force_blocks = bad
+
+
+def _loaded_pair(strategy="parallel"):
+    """A bar under every kind of load and constraint, pressed by a sliding block: a curve-driven
+    prescribed velocity (its work booked), a traction, a pressure, a point force, an absorbing
+    boundary, the local (quasi-static) damping, and contact with friction."""
+    mat = fdem.Material(density=1000.0, young=1e7, poisson=0.25, friction=0.4)
+    scene = fdem.Scene(gravity=(0.0, -9.81))
+    bar = scene.add_body(fdem.mesh.rectangle(0.4, 0.1, 0.025), mat)
+    block = scene.add_body(fdem.mesh.rectangle(0.1, 0.05, 0.025, origin=(-0.05, 0.0505)), mat, velocity=(1.0, -0.3))
+    scene.fix_nodes(lambda x, y: x < -0.199, body=bar, velocity=(0.05, 0.0), curve=fdem.Curve.ramp(0.005))
+    scene.apply_traction(lambda x, y: x > 0.199, (0.0, -2e3), body=bar, curve=fdem.Curve([0, 0.01], [0, 1]))
+    scene.apply_pressure(lambda x, y: y > 0.049, 300.0, body=bar)
+    scene.apply_force(lambda x, y: (x > 0.049) & (y > 0.1), (5.0, 0.0), body=block)
+    scene.absorbing_boundary(lambda x, y: y < -0.049, body=bar)
+    return scene.build(strategy=strategy, quasi_static=0.3)
+
+
+def test_team_steps_give_the_same_bits_as_one_launch_per_step():
+    """The parallel strategy on the CPU runs many steps per launch, one thread per block and
+    barriers between the phases (``run_steps_blocks``); with ``team_steps = False`` it launches
+    once per step.  Loads, constraints, local damping, contact and friction: the same positions
+    and velocities bit for bit, the same energy terms (the constraint and local-damping work
+    are summed in another order: round-off)."""
+    out = {}
+    for team in (True, False):
+        sim = _loaded_pair()
+        sim.team_steps = team
+        sim.run(0.02, progress=False)
+        assert ("run_steps_blocks" in sim.launches) == team
+        assert ("step_parallel" in sim.launches) != team
+        out[team] = sim
+    a, b = out[True], out[False]
+    assert a.step_count == b.step_count and a.detection_count == b.detection_count > 1
+    assert np.array_equal(a.node_positions(), b.node_positions())
+    assert np.array_equal(a.node_velocities(), b.node_velocities())
+    ea, eb = a.energies(), b.energies()
+    for key in ("load_work", "boundary_work", "absorbed", "local_damping", "friction"):
+        assert abs(eb[key]) > 0.0, key
+    for key, val in eb.items():
+        assert ea[key] == pytest.approx(val, rel=1e-12, abs=1e-15), key
+
+
+def test_team_steps_stop_at_the_unstable_step():
+    """A time step 4× the stable limit: the team launch stops after the first unstable step,
+    as the per-step launches do, and the run ends with a diagnosis."""
+    steps = {}
+    for team in (True, False):
+        mat = fdem.Material(density=1000.0, young=1e7, poisson=0.25)
+        scene = fdem.Scene(gravity=(0.0, 0.0))
+        scene.add_body(fdem.mesh.rectangle(0.2, 0.1, 0.025), mat, angular_velocity=3.0)
+        sim = scene.build(strategy="parallel", dt=None)
+        sim = scene.build(strategy="parallel", dt=4.0 * sim.dt_limit, force_dt=True)
+        sim.team_steps = team
+        with pytest.raises(fdem.SimulationError):
+            sim.step(5000)
+        steps[team] = sim.step_count
+    assert steps[True] == steps[False] < 5000

@@ -30,8 +30,11 @@ detect     ctri (contact triangles), body_flags (bit 0 self-contact, bit 1 fully
            [m]), sort (ivec3 per contact triangle k: hashed cell of k, slot of k in it, and the k at
            sorted position k), bucket (ivec2: first, count), cnew (counts, then their exclusive
            prefix; cnew[K] = couples found), old_start, old_b, old_hist (the previous couples)
-asm        force slots of the parallel strategy (no atomics): force (vec2: 3 per triangle, then 6
-           per couple [N/m]), node_start (N+1) and node_slots (each node's slots, sorted)
+asm        the parallel strategy's assembly (no atomics).  Slots: force (vec2: 3 per triangle, then
+           6 per couple [N/m]), node_start (N+1) and node_slots (each node's slots, sorted).
+           Blocks: force (a copy of the nodal forces per block, then each block's contact work);
+           sync (i32: the barrier counter, the result, each block's non-finite flag) and part
+           (3 per block: max |v|², constraint work, local-damping work) of run_steps_blocks
 joints     nodes (vec4 i32), tris (ivec2: triangles A, B), prop (vec6: f_t, c, tan φ, G_I, G_II, p_f
            of each joint, §13.2–13.3); state (0 intact, else the failure mode at breakage), dmax
            (vec3), fs (vec3 [Pa]), work [J/m], brk (vec3: time, x, y), g (vec4: nodal forces [N/m])
@@ -71,7 +74,7 @@ MAT_MEMBERS = ("mat_mu", "mat_lam", "mat_pair")
 CONTACT_MEMBERS = ("couple_a", "couple_b", "couple_hist")
 DETECT_MEMBERS = ("contact_tri", "body_flags", "couple_start", "det_circle", "det_sort", "det_bucket", "det_cnew",
                   "det_old_start", "det_old_b", "det_old_hist")
-ASSEMBLY_MEMBERS = ("asm_force", "asm_node_start", "asm_node_slots")
+ASSEMBLY_MEMBERS = ("asm_force", "asm_node_start", "asm_node_slots", "asm_sync", "asm_part")
 JOINT_MEMBERS = ("joint_nodes", "joint_tris", "joint_prop", "joint_state", "joint_dmax", "joint_fs", "joint_work",
                  "joint_break", "joint_g")
 STEP_PARAMS = ("step_dt", "step_gravity", "step_buffer", "step_vlimit", "step_switches")

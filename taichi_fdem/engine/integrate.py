@@ -93,6 +93,53 @@ def _slot_force(s, joints: ti.template(), asm: ti.template()):
 
 
 @ti.func
+def asm_blocks(N, asm: ti.template()):
+    """Blocks of the block assembly (:func:`taichi_fdem.engine.step.phase_blocks`) in a scene of N
+    nodes.  Block 0 adds its forces into node_f; asm_force holds a copy of the nodal forces for
+    each further block, block-major (two blocks share no cache line but at their ends), then one
+    entry per block for its dissipated contact work (friction, contact damping) [J/m]:
+    (blocks − 1) N + blocks entries."""
+    return (asm.asm_force.shape[0] + N) // (N + 1)
+
+
+@ti.func
+def block_work_slot(N, nblk, b):
+    """The asm_force entry of block b's dissipated contact work (see :func:`asm_blocks`)."""
+    return (nblk - 1) * N + b
+
+
+@ti.func
+def integrate_span(lo, hi, nodes: ti.template(), joints: ti.template(), asm: ti.template(), dt, g, bc, bc_work, alpha,
+                   gathered: ti.template(), local_damping: ti.template()):
+    """Integrate nodes lo..hi-1 (:func:`integrate_node`), each under node_f plus (``gathered``
+    1) its slots or (2) its block copies, which are reset.  Returns the span's (max |v|²,
+    largest bad index + 1, constraint work, local-damping work)."""
+    N = nodes.node_x.shape[0]
+    vmax2 = 0.0
+    bad = 0
+    work = 0.0
+    local = 0.0
+    for i in range(lo, hi):
+        f = nodes.node_f[i]
+        if ti.static(gathered == 1):
+            # the node's slots, in the sorted order of build_node_slots: a fixed summation order
+            for a in range(asm.asm_node_start[i], asm.asm_node_start[i + 1]):
+                f += _slot_force(asm.asm_node_slots[a], joints, asm)
+        if ti.static(gathered == 2):
+            # node_f holds block 0's sum (then the loads); add the other blocks' copies in block
+            # order, each reset for the next step
+            for b in range(1, asm_blocks(N, asm)):
+                f += asm.asm_force[(b - 1) * N + i]
+                asm.asm_force[(b - 1) * N + i] = vec2(0.0, 0.0)
+        s, w, lw, bd = integrate_node(i, f, nodes, dt, g, bc, bc_work, alpha, local_damping)
+        work += w
+        local += lw
+        bad = ti.max(bad, bd)
+        vmax2 = ti.max(vmax2, s)
+    return vmax2, bad, work, local
+
+
+@ti.func
 def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
                    gathered: ti.template(), local_damping: ti.template()):
     """gathered: 0 = node_f only (serial), 1 = plus the node's slots, 2 = plus its block copies."""
@@ -108,26 +155,8 @@ def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.templat
     for _ in range(1):
         step.step_real[VMAX] = 0.0
     for chunk in range((N + CHUNK - 1) // CHUNK):
-        vmax2 = 0.0
-        bad = 0
-        work = 0.0
-        local = 0.0
-        for i in range(chunk * CHUNK, ti.min(N, chunk * CHUNK + CHUNK)):
-            f = nodes.node_f[i]
-            if ti.static(gathered == 1):
-                # the node's slots, in the sorted order of build_node_slots: a fixed summation order
-                for a in range(asm.asm_node_start[i], asm.asm_node_start[i + 1]):
-                    f += _slot_force(asm.asm_node_slots[a], joints, asm)
-            if ti.static(gathered == 2):
-                # the node's block copies in block order, each reset for the next step
-                for b in range(asm.asm_force.shape[0] // (N + 1)):
-                    f += asm.asm_force[b * N + i]
-                    asm.asm_force[b * N + i] = vec2(0.0, 0.0)
-            s, w, lw, b = integrate_node(i, f, nodes, dt, g, bc, bc_work, alpha, local_damping)
-            work += w
-            local += lw
-            bad = ti.max(bad, b)
-            vmax2 = ti.max(vmax2, s)
+        vmax2, bad, work, local = integrate_span(chunk * CHUNK, ti.min(N, chunk * CHUNK + CHUNK), nodes, joints, asm,
+                                                 dt, g, bc, bc_work, alpha, gathered, local_damping)
         ti.atomic_max(step.step_real[VMAX], ti.sqrt(vmax2))
         if bad > 0:
             ti.atomic_max(step.step_int[NONFINITE], bad)
@@ -139,12 +168,12 @@ def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.templat
     for _ in range(1):
         if ti.static(gathered == 2):
             # the blocks' dissipated contact work, in block order (engine.step.phase_blocks)
-            nb = asm.asm_force.shape[0] // (N + 1)
+            nb = asm_blocks(N, asm)
             for b in range(nb):
-                w = asm.asm_force[nb * N + b]
+                w = asm.asm_force[block_work_slot(N, nb, b)]
                 step.step_real[WORK_FRICTION] += w[0]
                 step.step_real[WORK_CDAMPING] += w[1]
-                asm.asm_force[nb * N + b] = vec2(0.0, 0.0)
+                asm.asm_force[block_work_slot(N, nb, b)] = vec2(0.0, 0.0)
         # re-detection trigger D_acc += 2 Δt v_max (§4.1)
         step.step_real[DACC] += 2.0 * dt * step.step_real[VMAX]
         step.step_real[TIME] += dt

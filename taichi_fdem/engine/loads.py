@@ -59,57 +59,81 @@ def curve_value(curve_points: ti.template(), c0, cn, t):
 
 
 @ti.func
+def apply_load(k, t, dt, nodes: ti.template(), step: ti.template()):
+    """Load entry k at time t [s]: add its forces at t to nodes.node_f, or set its curve-driven
+    prescribed velocity for t + Δt/2; book the first half of its work."""
+    ld = nodes.load_nodes[k]
+    kind = ld[0]
+    i = ld[1]
+    j = ld[2]
+    val = nodes.load_vals[k]
+    if kind == LOAD_VELOCITY:
+        a = curve_value(nodes.curve_points, ld[3], ld[4], t + 0.5 * dt)
+        if j == 0:
+            nodes.node_vbc[i][0] = a * val[0]
+        else:
+            nodes.node_vbc[i][1] = a * val[0]
+    else:
+        a = curve_value(nodes.curve_points, ld[3], ld[4], t)
+        fi = vec2(0.0, 0.0)
+        fj = vec2(0.0, 0.0)
+        vi = nodes.node_v[i]
+        vj = vec2(0.0, 0.0)
+        if kind == LOAD_FORCE:
+            fi = a * vec2(val[0], val[1])
+        else:
+            vj = nodes.node_v[j]
+            if kind == LOAD_TRACTION:
+                fi = a * vec2(val[0], val[1])
+                fj = fi
+            else:
+                d = nodes.node_x[j] - nodes.node_x[i]
+                nL = vec2(d[1], -d[0])              # outward normal × L (the body on the left)
+                if kind == LOAD_PRESSURE:
+                    fi = -0.5 * a * val[0] * nL
+                    fj = fi
+                elif kind == LOAD_ABSORB:
+                    L = d.norm()
+                    nh = nL / L
+                    sh = d / L
+                    fi = -0.5 * L * (val[0] * vi.dot(nh) * nh + val[1] * vi.dot(sh) * sh)
+                    fj = -0.5 * L * (val[0] * vj.dot(nh) * nh + val[1] * vj.dot(sh) * sh)
+            ti.atomic_add(nodes.node_f[j], fj)
+        ti.atomic_add(nodes.node_f[i], fi)
+        nodes.load_force[k] = ti.Vector([fi[0], fi[1], fj[0], fj[1]], dt=float)
+        w = 0.5 * dt * (fi.dot(vi) + fj.dot(vj))
+        if kind == LOAD_ABSORB:
+            ti.atomic_sub(step.step_real[WORK_ABSORB], w)
+        else:
+            ti.atomic_add(step.step_real[WORK_LOAD], w)
+
+
+@ti.func
 def apply_loads(nodes: ti.template(), step: ti.template()):
     """Add the forces of every load entry at t_n to nodes.node_f; set curve-driven prescribed
-    velocities for t_n + Δt/2; book the first half of the loads' work."""
+    velocities for t_n + Δt/2; book the first half of the loads' work (:func:`apply_load`)."""
     t = step.step_real[TIME]
     dt = step.step_dt[None]
     ti.loop_config(serialize=True)   # few entries: a parallel loop's launch (~75 µs) costs more
     for k in range(nodes.load_nodes.shape[0]):
-        ld = nodes.load_nodes[k]
-        kind = ld[0]
-        i = ld[1]
-        j = ld[2]
-        val = nodes.load_vals[k]
-        if kind == LOAD_VELOCITY:
-            a = curve_value(nodes.curve_points, ld[3], ld[4], t + 0.5 * dt)
-            if j == 0:
-                nodes.node_vbc[i][0] = a * val[0]
-            else:
-                nodes.node_vbc[i][1] = a * val[0]
+        apply_load(k, t, dt, nodes, step)
+
+
+@ti.func
+def book_load(k, dt, nodes: ti.template(), step: ti.template()):
+    """Second half of load entry k's work over the step, with the new velocities."""
+    ld = nodes.load_nodes[k]
+    kind = ld[0]
+    if kind != LOAD_VELOCITY:
+        f = nodes.load_force[k]
+        w = f[0] * nodes.node_v[ld[1]][0] + f[1] * nodes.node_v[ld[1]][1]
+        if kind != LOAD_FORCE:
+            w += f[2] * nodes.node_v[ld[2]][0] + f[3] * nodes.node_v[ld[2]][1]
+        w *= 0.5 * dt
+        if kind == LOAD_ABSORB:
+            ti.atomic_sub(step.step_real[WORK_ABSORB], w)
         else:
-            a = curve_value(nodes.curve_points, ld[3], ld[4], t)
-            fi = vec2(0.0, 0.0)
-            fj = vec2(0.0, 0.0)
-            vi = nodes.node_v[i]
-            vj = vec2(0.0, 0.0)
-            if kind == LOAD_FORCE:
-                fi = a * vec2(val[0], val[1])
-            else:
-                vj = nodes.node_v[j]
-                if kind == LOAD_TRACTION:
-                    fi = a * vec2(val[0], val[1])
-                    fj = fi
-                else:
-                    d = nodes.node_x[j] - nodes.node_x[i]
-                    nL = vec2(d[1], -d[0])              # outward normal × L (the body on the left)
-                    if kind == LOAD_PRESSURE:
-                        fi = -0.5 * a * val[0] * nL
-                        fj = fi
-                    elif kind == LOAD_ABSORB:
-                        L = d.norm()
-                        nh = nL / L
-                        sh = d / L
-                        fi = -0.5 * L * (val[0] * vi.dot(nh) * nh + val[1] * vi.dot(sh) * sh)
-                        fj = -0.5 * L * (val[0] * vj.dot(nh) * nh + val[1] * vj.dot(sh) * sh)
-                ti.atomic_add(nodes.node_f[j], fj)
-            ti.atomic_add(nodes.node_f[i], fi)
-            nodes.load_force[k] = ti.Vector([fi[0], fi[1], fj[0], fj[1]], dt=float)
-            w = 0.5 * dt * (fi.dot(vi) + fj.dot(vj))
-            if kind == LOAD_ABSORB:
-                ti.atomic_sub(step.step_real[WORK_ABSORB], w)
-            else:
-                ti.atomic_add(step.step_real[WORK_LOAD], w)
+            ti.atomic_add(step.step_real[WORK_LOAD], w)
 
 
 @ti.func
@@ -118,18 +142,7 @@ def book_load_work(nodes: ti.template(), step: ti.template()):
     dt = step.step_dt[None]
     ti.loop_config(serialize=True)   # few entries: a parallel loop's launch (~75 µs) costs more
     for k in range(nodes.load_nodes.shape[0]):
-        ld = nodes.load_nodes[k]
-        kind = ld[0]
-        if kind != LOAD_VELOCITY:
-            f = nodes.load_force[k]
-            w = f[0] * nodes.node_v[ld[1]][0] + f[1] * nodes.node_v[ld[1]][1]
-            if kind != LOAD_FORCE:
-                w += f[2] * nodes.node_v[ld[2]][0] + f[3] * nodes.node_v[ld[2]][1]
-            w *= 0.5 * dt
-            if kind == LOAD_ABSORB:
-                ti.atomic_sub(step.step_real[WORK_ABSORB], w)
-            else:
-                ti.atomic_add(step.step_real[WORK_LOAD], w)
+        book_load(k, dt, nodes, step)
 
 
 @ti.kernel
