@@ -577,9 +577,9 @@ class Scene:
         buffer : contact buffer b [m] (§4.1); default ¼ of the mean edge length of the
             contact triangles.
         strategy : "auto", "serial" (one launch runs many steps on one core: small scenes) or
-            "parallel" (one launch per step, parallel loops: large scenes, several cores, GPUs).
+            "parallel" (forces summed without atomics by several threads: larger scenes, GPUs).
             "auto" (default) is parallel on GPUs, and on the CPU when it has at least 2 threads
-            and the scene at least ``AUTO_PARALLEL_ITEMS`` (100,000) triangles + joints +
+            and the scene at least ``AUTO_PARALLEL_ITEMS`` (20,000) triangles + joints +
             contact couples; serial otherwise (:mod:`taichi_fdem.simulation`).
         check_overlap : warn when bodies overlap at the start.
         speed_limit : a node speed [m/s] above which the run stops as unstable (default: 2× the

@@ -8,15 +8,16 @@ estimates live in :mod:`taichi_fdem.timestep`, the stability guards in
 accessors in :mod:`taichi_fdem.results`.
 
 Execution strategy (see :mod:`taichi_fdem.engine.step`).  The serial strategy runs thousands of
-steps per launch on one core; the parallel one launches once per step (~0.35 ms of launch and
-loop overhead, measured) and sums the forces without atomics (block copies on the CPU).  On the
-2-core CPU (benchmarks/pile.py, benchmarks/fracture.py) the parallel strategy on 2 threads
-beats the serial one once a step has ~100,000 items to evaluate (triangles + joints + contact
-couples): 1.24× on the 10k-triangle plate impact (113k items), 1.17× on the 100k-triangle pile;
-below that the launch overhead wins (the 10k pile, 30k items, runs twice as fast serial).
+steps per launch on one core; the parallel one sums the forces without atomics (block copies
+on the CPU) and, on the CPU, runs thousands of steps per launch too, in a team of worker
+threads separated by barriers (:attr:`Simulation.team_steps`), returning to the host at each
+contact detection.  On the 2-core CPU (benchmarks/) it is about as fast as the serial strategy
+on one thread and 1.4-1.8× faster on two; each detection costs it ~1.5 ms of host work and a
+new launch, so small scenes whose contacts change often run faster serial (a 1k pile that
+re-detects every ~135 steps: serial 2.4× faster; the 10k pile: parallel 1.5×).
 "auto" therefore picks parallel on the CPU when there are at least 2 threads and
-:data:`AUTO_PARALLEL_ITEMS` items at build, serial otherwise, and parallel on GPU back ends
-(untested: no GPU here).
+:data:`AUTO_PARALLEL_ITEMS` items (triangles + joints + couples) at build, serial otherwise,
+and parallel on GPU back ends (untested: no GPU here).
 """
 from __future__ import annotations
 
@@ -43,7 +44,7 @@ __all__ = ["Simulation", "SimulationError", "SERIAL_MAX_STEPS", "SERIAL_TRI_STEP
 
 SERIAL_MAX_STEPS = 2000          # at most this many steps per serial launch
 SERIAL_TRI_STEPS = 2_000_000     # ~50 ms of work per serial launch: responsive progress and Ctrl-C
-AUTO_PARALLEL_ITEMS = 100_000    # triangles + joints + couples from which "auto" runs parallel on >= 2 CPU threads
+AUTO_PARALLEL_ITEMS = 20_000     # triangles + joints + couples from which "auto" runs parallel on >= 2 CPU threads
 
 # Names the simulation answered before the model/state split (kept for scripts that reach the
 # arrays directly; new code uses sim.model.* and sim.state.*).
@@ -401,9 +402,8 @@ class Simulation(SimulationResults):
     def _team(self) -> int:
         """Workers of a parallel team launch (:func:`engine.step.run_steps_blocks`), 0 for one
         launch per step; a worker waiting at a barrier holds its thread: min(blocks, threads)."""
-        if not (self.scratch.blocks and backend.arch() == "cpu" and self.team_steps):
-            return 0
-        return min(self._force_blocks, backend.cpu_threads())
+        team = self.scratch.blocks and backend.arch() == "cpu" and self.team_steps
+        return min(self._force_blocks, backend.cpu_threads()) if team else 0
 
     def _step_parallel(self, n: int) -> None:
         switches = self._switches()
