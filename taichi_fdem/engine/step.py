@@ -94,6 +94,21 @@ def phase_detect_count(nodes: ti.template(), tris: ti.template(), det: ti.templa
     for k in range(K):
         bn = det.det_sort[k]
         det.det_sort[det.det_bucket[bn[0]][0] + bn[1]][2] = k
+    for h in range(H):
+        # each cell's triangles in increasing k: the order of a serial binning, whatever order the
+        # parallel one took its slots in, so that the couple list (and every sum over it) is the
+        # same for any thread count
+        lo = det.det_bucket[h][0]
+        for a in range(lo + 1, lo + det.det_bucket[h][1]):
+            key = det.det_sort[a][2]
+            b = a - 1
+            while b >= lo:
+                if det.det_sort[b][2] > key:
+                    det.det_sort[b + 1][2] = det.det_sort[b][2]
+                    b -= 1
+                else:
+                    break
+            det.det_sort[b + 1][2] = key
     for k in range(K):
         det.det_cnew[k] = scan_partners(k, True, det, con, tris, step, 0, False)
     ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
