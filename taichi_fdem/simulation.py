@@ -44,6 +44,8 @@ __all__ = ["Simulation", "SimulationError", "SERIAL_MAX_STEPS", "SERIAL_TRI_STEP
 
 SERIAL_MAX_STEPS = 2000          # at most this many steps per serial launch
 SERIAL_TRI_STEPS = 2_000_000     # ~50 ms of work per serial launch: responsive progress and Ctrl-C
+TEAM_CPU_SHARE = 0.6            # a team launch that got less CPU than this share of its workers...
+TEAM_PAUSE = 5.0                # ...makes the parallel strategy launch once per step for this long [s]
 AUTO_PARALLEL_ITEMS = 20_000     # triangles + joints + couples from which "auto" runs parallel on >= 2 CPU threads
 
 # Names the simulation answered before the model/state split (kept for scripts that reach the
@@ -402,8 +404,22 @@ class Simulation(SimulationResults):
     def _team(self) -> int:
         """Workers of a parallel team launch (:func:`engine.step.run_steps_blocks`), 0 for one
         launch per step; a worker waiting at a barrier holds its thread: min(blocks, threads)."""
-        team = self.scratch.blocks and backend.arch() == "cpu" and self.team_steps
+        team = (self.scratch.blocks and backend.arch() == "cpu" and self.team_steps
+                and _time.perf_counter() >= self._team_pause)
         return min(self._force_blocks, backend.cpu_threads()) if team else 0
+
+    _team_pause = 0.0      # perf_counter time until which the team waits (oversubscribed CPU)
+    _team_seen = False
+
+    def _check_team(self, nwork: int, wall: float, cpu: float) -> None:
+        """After a team launch of ``wall`` seconds that used ``cpu`` seconds of this process: its
+        workers spin at the barriers, so a process that got much less than ``nwork`` cores was
+        sharing them (another busy process); spinning then waits for descheduled workers (a
+        10k pile ran 30× slower next to a second one, measured).  Launch once per step (the
+        thread pool blocks instead of spinning: the same bits) for TEAM_PAUSE seconds."""
+        if nwork > 1 and wall > 0.02 and cpu < TEAM_CPU_SHARE * nwork * wall and self._team_seen:
+            self._team_pause = _time.perf_counter() + TEAM_PAUSE
+        self._team_seen = True    # (not the first launch: it may compile, on one thread)
 
     def _step_parallel(self, n: int) -> None:
         switches = self._switches()
@@ -411,19 +427,20 @@ class Simulation(SimulationResults):
         nwork = self._team()
         if nwork:
             per_launch = self.steps_per_launch()
-            while n > 0:
+            while n > 0 and self._team():
                 if due:
                     self._detect()
                 chunk = min(n, per_launch)
+                w0, c0 = _time.perf_counter(), _time.process_time()
                 ret = self._launch("run_steps_blocks", kernels.run_steps_blocks, chunk, nwork,
                                    *self._groups["parallel"], *switches)
+                self._check_team(nwork, _time.perf_counter() - w0, _time.process_time() - c0)
                 done = ret & (kernels.UNSTABLE_BIT - 1)
                 self.step_count += done
                 n -= done
                 due = bool(self.model.contact and ret & kernels.DUE_BIT)
                 if ret & kernels.UNSTABLE_BIT:
                     guards.raise_unstable(self)
-            return
         for _ in range(n):
             if due:
                 self._detect()
@@ -477,46 +494,10 @@ class Simulation(SimulationResults):
         return f
 
     def profile(self, steps: int = 100) -> dict:
-        """Run ``steps`` steps with one launch per phase and time each phase [s].
-
-        Returns {"elastic", "joints", "detection", "contact", "integration", "total", "steps"}:
-        wall seconds spent in each phase (the state advances exactly as with :meth:`step`).
-        """
-        md = self.model
-        t = {"elastic": 0.0, "joints": 0.0, "detection": 0.0, "contact": 0.0, "integration": 0.0}
-        pc = _time.perf_counter
-        due = self._detect_due()
-        for _ in range(int(steps)):
-            if due:
-                t0 = pc(); self._detect(); t["detection"] += pc() - t0
-            p = self._packs
-            t0 = pc()
-            kernels.eval_elastic(p["nodes"], p["tris"], p["mats"], p["step"])
-            t1 = pc(); t["elastic"] += t1 - t0
-            if md.fracture:
-                kernels.eval_joints(p["nodes"], p["tris"], p["mats"], p["joints"], p["step"])
-                t0, t1 = t1, pc(); t["joints"] += t1 - t0
-            if md.contact:
-                kernels.eval_contact(p["nodes"], p["tris"], p["mats"], p["contact"], p["step"], md.friction,
-                                     md.fracture)
-            t2 = pc(); t["contact"] += t2 - t1
-            if md.loads:
-                kernels.eval_loads(p["nodes"], p["step"])
-            code = kernels.integrate(p["nodes"], p["step"], md.local_damping)
-            if md.fracture:
-                kernels.book_joint_work(p["nodes"], p["tris"], p["joints"], p["step"])
-            if md.loads:
-                kernels.book_loads_work(p["nodes"], p["step"])
-            t["integration"] += pc() - t2
-            self.step_count += 1
-            due = md.contact and bool(code & 1)
-            if code & 2:
-                guards.raise_unstable(self)
-        if guards.is_unstable(self):
-            guards.raise_unstable(self)
-        t["total"] = sum(t.values())
-        t["steps"] = int(steps)
-        return t
+        """Run ``steps`` steps with one launch per phase and time each phase [s]
+        (:func:`taichi_fdem.profiling.profile`)."""
+        from .profiling import profile
+        return profile(self, steps)
 
     # ---- last good state (run's checks) ---------------------------------------------------------
     _last_good = None

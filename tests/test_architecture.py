@@ -14,7 +14,7 @@ LAYERS = [
     ("backend", "material", "mesh", "discontinuity"),
     ("engine",),
     ("timestep", "model"),
-    ("guards", "energies", "cracks", "results", "simulation"),
+    ("guards", "energies", "cracks", "results", "profiling", "simulation"),
     ("scene",),
     ("render", "io", "viewer", "cli", "sweep", "verification", "stability", "__init__"),
 ]

@@ -196,12 +196,14 @@ def _loaded_pair(strategy="parallel"):
     return scene.build(strategy=strategy, quasi_static=0.3)
 
 
-def test_team_steps_give_the_same_bits_as_one_launch_per_step():
+def test_team_steps_give_the_same_bits_as_one_launch_per_step(monkeypatch):
     """The parallel strategy on the CPU runs many steps per launch, one thread per block and
     barriers between the phases (``run_steps_blocks``); with ``team_steps = False`` it launches
     once per step.  Loads, constraints, local damping, contact and friction: the same positions
     and velocities bit for bit, the same energy terms (the constraint and local-damping work
     are summed in another order: round-off)."""
+    import taichi_fdem.simulation as simmod
+    monkeypatch.setattr(simmod, "TEAM_CPU_SHARE", 0.0)     # a busy machine must not pause the team here
     out = {}
     for team in (True, False):
         sim = _loaded_pair()
@@ -221,9 +223,11 @@ def test_team_steps_give_the_same_bits_as_one_launch_per_step():
         assert ea[key] == pytest.approx(val, rel=1e-12, abs=1e-15), key
 
 
-def test_team_steps_stop_at_the_unstable_step():
+def test_team_steps_stop_at_the_unstable_step(monkeypatch):
     """A time step 4× the stable limit: the team launch stops after the first unstable step,
     as the per-step launches do, and the run ends with a diagnosis."""
+    import taichi_fdem.simulation as simmod
+    monkeypatch.setattr(simmod, "TEAM_CPU_SHARE", 0.0)
     steps = {}
     for team in (True, False):
         mat = fdem.Material(density=1000.0, young=1e7, poisson=0.25)
@@ -263,3 +267,21 @@ def test_parallel_detection_lists_the_couples_in_the_serial_order():
     sim.step(1)                                   # the serial kernel detects from the same positions
     ser = sim.couples()
     assert len(par) > 2_000 and np.array_equal(par, ser)
+
+
+def test_team_gives_way_on_a_shared_cpu():
+    """A team launch whose process got much less CPU time than its workers' share (another busy
+    process on the cores: spinning workers would wait for descheduled ones) switches the
+    simulation to one launch per step for a while; a launch with its cores does not."""
+    sim = _loaded_pair()
+    sim.step(5)                                     # the first launch compiles: never judged
+    nwork = sim._team()
+    assert nwork >= 1
+    sim._check_team(2, wall=0.5, cpu=1.0)           # 2 workers, both busy: no pause
+    assert sim._team() == nwork
+    sim._check_team(2, wall=0.5, cpu=0.5)           # one core's worth for two workers
+    assert sim._team() == 0
+    before = dict(sim.launches)
+    sim.step(3)
+    assert sim.launches.get("step_parallel", 0) == before.get("step_parallel", 0) + 3
+    assert sim.launches.get("run_steps_blocks") == before.get("run_steps_blocks")

@@ -18,18 +18,21 @@ The maths of each phase is one function per entity (``elastic.tri_forces``,
 ``joints.eval_joint``, ``contact.couple_forces``, ``integrate.integrate_node``) shared by
 both strategies:
 
-* **serial** (default on the CPU for small and mid-size scenes): one launch runs up to
+* **serial** (default on the CPU for small scenes and one thread): one launch runs up to
   thousands of steps in a serialised loop, detection included; forces are added to
   ``node_f`` directly.
-* **parallel** (large scenes, several cores, GPUs): per step, one launch with three parallel
-  loops and no atomic float add on the forces.  (a) Forces: on the CPU, the **block assembly**
-  (:func:`phase_blocks`): triangles, joints and couples are dealt in granules to a fixed
-  number of blocks (``Simulation.force_blocks``), each adding into its own copy of the nodal
-  forces; on GPUs the **slot assembly** (:func:`phase_slots`): every triangle, joint and
-  couple writes its nodal forces into its own slots.  (b) Every node sums its block copies in block order, or its slots
-  through a sorted list (rebuilt at each detection by :func:`build_node_slots`), and integrates
-  (:func:`phase_gather_integrate`).  (c) The joints' work.  Sums run in a fixed order, so
-  results are bit-identical from run to run and for any thread count.
+* **parallel** (larger scenes on several cores, GPUs): no atomic float add on the forces.
+  (a) Forces: on the CPU, the **block assembly** (:func:`phase_blocks`): triangles, joints and
+  couples are dealt in granules to a fixed number of blocks (``Simulation.force_blocks``),
+  block 0 adding into ``node_f`` and every other block into its own copy of the nodal forces;
+  on GPUs the **slot assembly** (:func:`phase_slots`): every triangle, joint and couple writes
+  its nodal forces into its own slots.  (b) Every node adds its block copies in block order,
+  or sums its slots through a sorted list (rebuilt at each detection by
+  :func:`build_node_slots`), and integrates (:func:`phase_gather_integrate`).  (c) The joints'
+  work.  On the CPU, :func:`run_steps_blocks` runs up to thousands of such steps in one
+  launch, in a team of worker threads that meet at a barrier between (a), (b) and (c);
+  otherwise :func:`step_parallel` runs one step per launch in three parallel loops.  Sums run
+  in a fixed order, so results are bit-identical from run to run and for any thread count.
 
 Every kernel takes the array groups of :mod:`taichi_fdem.engine.groups`.  ``contact``,
 ``friction``, ``fracture``, ``loads`` and ``local_damping`` (the quasi-static option) are
@@ -599,7 +602,10 @@ def run_steps_blocks(nsteps: ti.i32, nwork: ti.i32, nodes: NodeGroup, tris: TriG
     for t in range(nwork * BLOCK_STRIDE):
         if t % BLOCK_STRIDE == 0:
             team_worker(t // BLOCK_STRIDE, nwork, nsteps, nodes, tris, mats, con, joints, step, asm, feat)
-    return asm.asm_sync[1]
+    ret = asm.asm_sync[1]
+    asm.asm_sync[0] = 0              # the scratch left as it was found: a restart reproduces it
+    asm.asm_sync[1] = 0
+    return ret
 
 
 @ti.kernel
