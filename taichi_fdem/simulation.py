@@ -164,9 +164,10 @@ class Simulation(SimulationResults):
         """How the parallel strategy sums the nodal forces without atomic float adds (it has no
         effect on the serial strategy):
 
-        * "blocks" (default on the CPU): one parallel loop over :attr:`force_blocks` blocks of
-          items, each adding into its own copy of the nodal forces, summed per node in block
-          order;
+        * "blocks" (default on the CPU): the items are dealt to :attr:`force_blocks` blocks,
+          block 0 adding into the nodal forces and every other block into its own copy, added
+          per node in block order; run by a team of worker threads, many steps per launch
+          (:attr:`team_steps`);
         * "slots" (default on GPUs): every triangle, joint and couple writes its forces into its
           own slots, summed per node through sorted lists rebuilt at each detection.
 
@@ -186,8 +187,8 @@ class Simulation(SimulationResults):
     def force_blocks(self) -> int:
         """Blocks of the block assembly (default 2): at most this many threads share the force
         work of a parallel step.  The results depend on it (the blocks' sums are added in block
-        order), not on the thread count; each block costs a copy of the nodal forces written and
-        cleared per step, so on 2 cores 2 beat 4 (benchmarks/README.md).  Set it to the cores
+        order), not on the thread count; each block after the first costs a copy of the nodal
+        forces written and cleared per step, so on 2 cores 2 beat 4 (benchmarks/README.md).  Set it to the cores
         of a bigger machine (untested here: 2 cores).  May be changed between calls."""
         return self._force_blocks
 
