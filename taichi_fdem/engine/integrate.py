@@ -109,6 +109,18 @@ def block_work_slot(N, nblk, b):
 
 
 @ti.func
+def book_block_work(N, nblk, asm: ti.template(), step: ti.template()):
+    """Add the blocks' dissipated contact work (friction, contact damping) [J/m] to the step
+    counters in block order, and reset each block's entry."""
+    for b in range(nblk):
+        k = block_work_slot(N, nblk, b)
+        w = asm.asm_force[k]
+        step.step_real[WORK_FRICTION] += w[0]
+        step.step_real[WORK_CDAMPING] += w[1]
+        asm.asm_force[k] = vec2(0.0, 0.0)
+
+
+@ti.func
 def integrate_span(lo, hi, nodes: ti.template(), joints: ti.template(), asm: ti.template(), dt, g, bc, bc_work, alpha,
                    gathered: ti.template(), local_damping: ti.template()):
     """Integrate nodes lo..hi-1 (:func:`integrate_node`), each under node_f plus (``gathered``
@@ -168,12 +180,7 @@ def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.templat
     for _ in range(1):
         if ti.static(gathered == 2):
             # the blocks' dissipated contact work, in block order (engine.step.phase_blocks)
-            nb = asm_blocks(N, asm)
-            for b in range(nb):
-                w = asm.asm_force[block_work_slot(N, nb, b)]
-                step.step_real[WORK_FRICTION] += w[0]
-                step.step_real[WORK_CDAMPING] += w[1]
-                asm.asm_force[block_work_slot(N, nb, b)] = vec2(0.0, 0.0)
+            book_block_work(N, asm_blocks(N, asm), asm, step)
         # re-detection trigger D_acc += 2 Δt v_max (§4.1)
         step.step_real[DACC] += 2.0 * dt * step.step_real[VMAX]
         step.step_real[TIME] += dt

@@ -50,10 +50,11 @@ from .contact import book_contact_work, couple_forces, eval_couple
 from .detection import bin_circle, prepare_circle, scan_partners
 from .elastic import eval_tri_elastic, tri_forces
 from .groups import (BLOCK_GRAIN, BLOCK_STRIDE, COUPLES, DACC, DETECTIONS, FOUND, INVERTED, NONFINITE, QS_ALPHA, RMAX,
-                     SWITCH_BC, SWITCH_BC_WORK, TIME, VMAX, WORK_BOUNDARY, WORK_CDAMPING, WORK_FRICTION, WORK_LOCAL,
+                     SWITCH_BC, SWITCH_BC_WORK, TIME, VMAX, WORK_BOUNDARY, WORK_LOCAL,
                      AssemblyGroup, ContactGroup, DetectGroup, JointGroup, MaterialGroup, NodeGroup, StepGroup,
                      TriGroup)
-from .integrate import asm_blocks, block_work_slot, integrate_nodes, integrate_nodes_gathered, integrate_span
+from .integrate import (asm_blocks, block_work_slot, book_block_work, integrate_nodes, integrate_nodes_gathered,
+                        integrate_span)
 from .joints import add_joint_work, eval_joint
 from .loads import apply_load, apply_loads, book_load, book_load_work
 
@@ -65,9 +66,9 @@ DUE_BIT = 1 << 25        # added to run_steps_blocks' return value: contact dete
 #: the quasi-static damping compiles none of their code.
 Features = namedtuple("Features", "contact friction fracture loads local_damping")
 
-__all__ = ["UNSTABLE_BIT", "DUE_BIT", "Features", "run_steps_blocks", "detect_count", "detect_fill", "build_node_slots", "step_parallel", "run_steps_serial",
-           "eval_elastic", "eval_joints", "eval_contact", "eval_loads", "integrate", "book_joint_work",
-           "book_loads_work"]
+__all__ = ["UNSTABLE_BIT", "DUE_BIT", "Features", "detect_count", "detect_fill", "build_node_slots", "step_parallel",
+           "run_steps_blocks", "run_steps_serial", "eval_elastic", "eval_joints", "eval_contact", "eval_loads",
+           "integrate", "book_joint_work", "book_loads_work"]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -553,10 +554,7 @@ def team_worker(w, nwork, nsteps, nodes: ti.template(), tris: ti.template(), mat
                     step.step_real[WORK_BOUNDARY] += asm.asm_part[3 * q + 1]
                 if ti.static(feat.local_damping):
                     step.step_real[WORK_LOCAL] += asm.asm_part[3 * q + 2]
-                wq = asm.asm_force[block_work_slot(N, nblk, q)]
-                step.step_real[WORK_FRICTION] += wq[0]
-                step.step_real[WORK_CDAMPING] += wq[1]
-                asm.asm_force[block_work_slot(N, nblk, q)] = vec2(0.0, 0.0)
+            book_block_work(N, nblk, asm, step)
             step.step_real[DACC] = dacc
             step.step_real[TIME] = time
             if ti.static(feat.loads):
