@@ -579,6 +579,12 @@ def team_worker(w, nwork, nsteps, nodes: ti.template(), tris: ti.template(), mat
             break
     if w == 0:
         asm.asm_sync[1] = done + ti.select(code >= 2, UNSTABLE_BIT, 0) + ti.select(code & 1, DUE_BIT, 0)
+        # every worker read the partials before the last barrier: clear them, so that the scratch
+        # does not depend on how the steps were launched (a restart compares it)
+        for q in range(nblk):
+            asm.asm_sync[2 + q] = 0
+            for r in ti.static(range(3)):
+                asm.asm_part[3 * q + r] = 0.0
 
 
 @ti.kernel
