@@ -174,7 +174,13 @@ def build(short: bool):
     tol = 1e-6
     scene.fix_nodes(lambda x, y: y < tol)                                   # the base
     scene.fix_nodes(lambda x, y: (x < tol) & (y > tol), velocity=(0.0, None))   # rollers at the back
-    sim = scene.build(quasi_static=True)
+    # joined_pairs="contact": contact is evaluated between the faces of intact joints too.  Its
+    # friction springs stiffen those faces in shear, and the wedge's release depends on it: with
+    # the default "joint" (the joints carry the contact's share of compression and strength,
+    # not that stiffness) the joints spread their damage wider and the wedge stays on its
+    # partly damaged joints (short mode: 3 triangles moved, 15 joints broken, instead of 34 and
+    # 21; measured)
+    sim = scene.build(quasi_static=True, joined_pairs="contact")
     return sim, body, dict(poly=poly, j1=j1, j2=j2, h=h, mesh=mesh, gap=gap)
 
 

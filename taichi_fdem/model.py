@@ -27,6 +27,7 @@ import taichi as ti
 from . import backend, timestep
 from .engine.groups import (COUPLES, DACC, DACC_FORCE, FORCE_BLOCKS, GROUPS, INT_COUNTERS, QS_ALPHA, REAL_COUNTERS,
                             SWITCH_BC, SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING, SWITCH_PRESTRESS)
+from .engine.joints import initial_intact
 from .engine.loads import LOAD_ABSORB, LOAD_FORCE, LOAD_PRESSURE, LOAD_TRACTION, LOAD_VELOCITY
 
 
@@ -98,13 +99,16 @@ class Scratch(_Arrays):
 
 
 def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_limit=None,
-                quasi_static: float = 0.0) -> Model:
+                quasi_static: float = 0.0, joined_pairs: str = "joint") -> Model:
     """Compute the :class:`Model` of ``scene`` (validating the time step against its limit)."""
+    if joined_pairs not in ("joint", "contact"):
+        raise ValueError(f"Scene.build: joined_pairs must be 'joint' or 'contact', got {joined_pairs!r}")
     if not scene.bodies:
         raise ValueError("Scene.build: the scene has no bodies; add one with scene.add_body(...)")
     if not (0.0 < float(safety) <= 1.0):
         raise ValueError(f"Scene.build: safety must be in (0, 1], got {safety}")
     md = Model()
+    md.joined_pairs = joined_pairs
     real, rti = backend.real_np(), backend.real_ti()
     bodies = list(scene.bodies)
     md.bodies = bodies
@@ -560,9 +564,13 @@ def allocate_state(md: Model) -> State:
     st.node_react = v2(np.zeros_like(md.node_rest) if md.has_bc else np.zeros((1, 2)))
     st.load_force = _ndarray(np.zeros((max(md.load_count, 1), 4), real), rti, vec=4)
     st.tri_diss = sc(np.zeros(md.tri_count if md.damping else 1))
-    # a triangle of a fracturing body starts intact: while it and a mesh neighbour both are, the
-    # joint's compression law carries the pair and contact is not evaluated (engine.contact)
-    st.tri_intact = i32(md.tri_fracturing.astype(np.int32))
+    # a pair that would have no contact couple has no contact share for its joint to carry: a
+    # body without self-contact, or whose every node is prescribed (engine.detection.is_excluded)
+    flags = md.body_flags.to_numpy()[md.tri_body_np]
+    couples = ((flags & 1) != 0) & ((flags & 2) == 0) & md.contact & (md.joined_pairs == "joint")
+    jn = md.joint_nodes.to_numpy()[: md.joint_count]
+    st.tri_intact = i32(initial_intact(md.tri_nodes_np, jn, md.joint_tris_np, md.tri_fracturing & couples,
+                                       md.tri_fracturing))
     nj = md.joint_nodes.shape[0]
     st.joint_state = i32(np.zeros(nj))
     st.joint_dmax = _ndarray(np.zeros((nj, 3), real), rti, vec=3)

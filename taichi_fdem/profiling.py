@@ -36,7 +36,7 @@ def profile(sim, steps: int = 100) -> dict:
             kernels.eval_loads(p["nodes"], p["step"])
         code = kernels.integrate(p["nodes"], p["step"], md.local_damping)
         if md.fracture:
-            kernels.book_joint_work(p["nodes"], p["tris"], p["joints"], p["step"])
+            kernels.book_joint_work(p["nodes"], p["tris"], p["mats"], p["joints"], p["step"])
         if md.loads:
             kernels.book_loads_work(p["nodes"], p["step"])
         t["integration"] += pc() - t2

@@ -85,14 +85,14 @@ class Simulation(SimulationResults):
         return cls.checkpoint_io
 
     def __init__(self, scene, dt=None, safety=0.2, force_dt=False, buffer=None, strategy="auto",
-                 check_overlap=True, speed_limit=None, quasi_static=0.0):
+                 check_overlap=True, speed_limit=None, quasi_static=0.0, joined_pairs="joint"):
         backend.ensure_init()
         if strategy not in ("auto", "serial", "parallel"):
             raise ValueError(f"Scene.build: strategy must be 'auto', 'serial' or 'parallel', got {strategy!r}")
         self.scene = scene
         self.thickness = scene.thickness
         self.model = build_model(scene, dt=dt, safety=safety, force_dt=force_dt, buffer=buffer,
-                                 speed_limit=speed_limit, quasi_static=quasi_static)
+                                 speed_limit=speed_limit, quasi_static=quasi_static, joined_pairs=joined_pairs)
         self.bodies = self.model.bodies
         self.state = allocate_state(self.model)
         auto = strategy == "auto"

@@ -93,8 +93,12 @@ def test_base_scene_values(tmp_path):
     assert spec.solver["duration"] == 0.001 and spec.solver["safety"] == 0.2 and spec.solver["dt"] is None
     rock = spec.materials["rock"]
     assert (rock.density, rock.young, rock.friction, rock.penalty) == (2000.0, 1.0e7, 0.5, None)
+    assert spec.solver["joined_pairs"] == "joint"
     sim, settings = spec.build()
     assert settings.video is None and settings.duration == 0.001
+    assert sim.model.joined_pairs == "joint"
+    sim2, _ = scenefile.load(write(tmp_path, BASE + 'joined_pairs = "contact"\n', "b.toml")).build()
+    assert sim2.model.joined_pairs == "contact"
     floor, block = sim.bodies
     assert floor.fixed and not block.fixed
     # the block's centroid is placed at (0, 0.05) m
@@ -225,6 +229,7 @@ def test_unknown_table(tmp_path):
     ("duration = 0.001", "duration = -1.0", [r"duration must be >= 0 \[s\]"]),
     ("duration = 0.001", "duration = 0.001\nsafety = 1.5", [r"safety must be <= 1"]),
     ("duration = 0.001", 'duration = 0.001\nstrategy = "fast"', [r"strategy must be one of 'auto', 'serial', 'parallel'"]),
+    ("duration = 0.001", 'duration = 0.001\njoined_pairs = "joints"', [r"joined_pairs must be one of 'joint', 'contact'"]),
     ('name = "block"', 'name = "floor"', [r"body name 'floor' is used twice"]),
     ("fixed = true", "fixed = 1", [r"fixed must be true or false"]),
     ('[scene]\ngravity = [0.0, -9.81]', '[scene]\nplane = "stres"', [r"plane must be one of", "did you mean 'stress'"]),

@@ -10,7 +10,8 @@ the contactor nodes, so that force and moment are conserved to round-off.
 """
 import taichi as ti
 
-from .groups import SWITCH_CDAMPING, WORK_CDAMPING, WORK_FRICTION
+from .groups import DAMAGED, INTACT, SWITCH_CDAMPING, WORK_CDAMPING, WORK_FRICTION
+from .joints import pair_carried
 from .tiutil import mat32_rows, vec2, vec3
 
 
@@ -146,11 +147,13 @@ def rel_velocity(s, a, b, W, ui, uj):
 
 
 @ti.func
-def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, friction: ti.template(), cdamping):
+def contact_pass(C, U, T, W, inv2Ac, inv2At, p, kt, mu, cn, dt, hist: ti.template(), hslot, friction: ti.template(),
+                 cdamping):
     """One pass: contactor triangle C against target triangle T (§2.3.2 CONTACT_PASS).
 
     C, T: 3×2 matrices of node positions (row r = node r) [m]; U, W: their node velocities
-    [m/s] (used with friction or contact damping only).  Returns (gC, gT), the 3×2 nodal
+    [m/s] (used with friction or contact damping only); inv2Ac, inv2At: 1/(2A) of C and T
+    [1/m²] (computed once per couple, for both passes).  Returns (gC, gT), the 3×2 nodal
     forces per unit thickness [N/m] on contactor and target, and the work dissipated over the
     step (friction, contact damping) [J/m] as a 2-vector.  ``hist[hslot + i]`` holds the elastic
     slip [m] of contactor edge i.
@@ -158,8 +161,6 @@ def contact_pass(C, U, T, W, p, kt, mu, cn, dt, hist: ti.template(), hslot, fric
     t0 = vec2(T[0, 0], T[0, 1])
     t1 = vec2(T[1, 0], T[1, 1])
     t2 = vec2(T[2, 0], T[2, 1])
-    inv2At = 1.0 / (t1 - t0).cross(t2 - t0)
-    inv2Ac = 1.0 / vec2(C[1, 0] - C[0, 0], C[1, 1] - C[0, 1]).cross(vec2(C[2, 0] - C[0, 0], C[2, 1] - C[0, 1]))
     Bm = ti.Matrix.zero(float, 3, 3)          # row r: target barycentrics of contactor node r
     for r in ti.static(range(3)):
         br = barycentric(vec2(C[r, 0], C[r, 1]), t0, t1, t2, inv2At)
@@ -265,30 +266,51 @@ def boxes_overlap(a0, a1, a2, b0, b1, b2):
 
 
 @ti.func
-def is_bonded(A, B, tris: ti.template()):
-    """Triangles A and B of a fracturing body meet at one corner of the unexploded mesh (corner
-    neighbours: they share one original node, not an edge), and both are still intact (every
-    joint of each undamaged).
+def shared_vertices(o, other):
+    """(count, r) for a triangle with original nodes o and another with original nodes other:
+    how many of o are also nodes of other, and the last vertex r of o that is not (−1: none)."""
+    count = 0
+    r = -1
+    for i in ti.static(range(3)):
+        if o[i] == other[0] or o[i] == other[1] or o[i] == other[2]:
+            count += 1
+        else:
+            r = i
+    return count, r
 
-    Such a pair is held in place by the intact joints around the shared corner, and contact is
-    not evaluated for it (FDEM_SPEC §7.10).  The first damage of any joint of A or B hands the
-    pair over to contact.  The overlap two corners can build while both triangles are intact is
-    bounded by the joints' elastic compression o ~ σL/p_f, so the contact energy that appears at
-    the handover is of order p·o³/h per pair (a corner overlap has area ~o² and depth ~o), far
-    below the joints' own elastic energy.  Pairs joined along an edge keep full contact: their
-    overlap is a strip of area ~L·o, and dropping its contact made the compressed joints hand
-    over ~10 % of a plate impact's energy at damage onset (measured, benchmarks/fracture.py).
+
+@ti.func
+def is_bonded(A, B, tris: ti.template()):
+    """Is the pair (A, B) of a fracturing body held by intact joints, so that contact is not
+    evaluated for it (FDEM_SPEC §7.10)?  Two cases, read from the ``tri_intact`` bits (set at the
+    end of a step, :func:`taichi_fdem.engine.joints.add_joint_work`):
+
+    * **edge neighbours** (they share an edge of the unexploded mesh): while the joint on that
+      edge is undamaged (:func:`taichi_fdem.engine.joints.pair_carried`).  That joint then adds
+      the contact's compression stiffness 3p(1/h_A + 1/h_B) to its own
+      (:func:`taichi_fdem.engine.joints.carry_stiffness`): a thin overlap strip along the edge
+      gives the same force and energy as the contact kernel (within 0.3 %, measured), and at
+      the first damage the joint hands the energy that stiffness holds over to contact, which
+      takes the pair from the next step on.  These pairs were most of the contact cost after an
+      impact (~10k of the 22k couples on the full path of the 10k-triangle plate).
+    * **corner neighbours** (they share one original node): while no joint of either triangle
+      is damaged.  Such a pair is held in place by the intact joints around the shared corner;
+      the overlap two corners can build meanwhile is bounded by the joints' elastic compression
+      o ~ σL/p_f, so the contact energy that appears at the handover is of order p·o³/h per pair
+      (a corner overlap has area ~o² and depth ~o), far below the joints' own elastic energy.
     """
     bonded = False
-    if tris.tri_intact[A] > 0 and tris.tri_intact[B] > 0:
+    va = tris.tri_intact[A]
+    vb = tris.tri_intact[B]
+    if va >= INTACT and vb >= INTACT:
         oa = tris.tri_origin[A]
         ob = tris.tri_origin[B]
-        shared = 0
-        for i in ti.static(range(3)):
-            for k in ti.static(range(3)):
-                if oa[i] == ob[k]:
-                    shared += 1
-        bonded = shared == 1
+        shared, ra = shared_vertices(oa, ob)
+        if shared == 1:
+            bonded = (va & DAMAGED) == 0 and (vb & DAMAGED) == 0
+        elif shared == 2:
+            _, rb = shared_vertices(ob, oa)
+            bonded = pair_carried(va, (ra + 1) % 3, vb, (rb + 1) % 3)
     return bonded
 
 
@@ -333,11 +355,13 @@ def couple_forces(c, nodes: ti.template(), tris: ti.template(), mats: ti.templat
                 VB[r, 0], VB[r, 1] = vb[0], vb[1]
         # pass 0: contactor B, target A; pass 1: contactor A, target B (a runtime loop: one
         # copy of the pass code, which keeps compile time down)
+        inv2A = 1.0 / (a1 - a0).cross(a2 - a0)
+        inv2B = 1.0 / (b1 - b0).cross(b2 - b0)
         for ps in range(2):
-            C, U, T, W = XB, VB, XA, VA
+            C, U, T, W, iC, iT = XB, VB, XA, VA, inv2B, inv2A
             if ps == 1:
-                C, U, T, W = XA, VA, XB, VB
-            gC, gT, w = contact_pass(C, U, T, W, prop[0], prop[1], prop[2], prop[3], dt,
+                C, U, T, W, iC, iT = XA, VA, XB, VB, inv2A, inv2B
+            gC, gT, w = contact_pass(C, U, T, W, iC, iT, prop[0], prop[1], prop[2], prop[3], dt,
                                      con.couple_hist, c * 6 + 3 * ps, friction, cdamping)
             work += w
             if ps == 0:

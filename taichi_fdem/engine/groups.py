@@ -19,8 +19,9 @@ nodes      x [m], v [m/s], f [N/m] (vec2); mass [kg/m]; free (vec2: 1 free, 0 pr
 tris       nodes (vec3 i32); rest_inv (2×2, F0⁻¹ [1/m]; A0 = ½ / det F0⁻¹); mat, body (i32);
            visc (viscous coefficient k_s [Pa·s]); diss (damping work [J/m]); origin (vec3 i32: the
            nodes before a fracturing body was exploded, globally numbered: mesh neighbours share
-           one); intact (1 while every joint of a fracturing triangle is undamaged, else 0; −1 once
-           the triangle is removed by an excavation); prestress (vec3: initial 2nd Piola–Kirchhoff
+           one); intact (bits, see :data:`INTACT`: a bonded triangle of a fracturing body, which of
+           its edges carry no undamaged joint, whether any of its joints is damaged; 0 for the
+           other triangles; −1 once the triangle is removed by an excavation); prestress (vec3: initial 2nd Piola–Kirchhoff
            stress S⁰ = (xx, yy, xy) [Pa], §12.4)
 mats       mu, lam (Lamé μ, λ_Y [Pa]); pair ((M, M) vec4: penalty p [Pa], tangential penalty
            k_t [Pa/m], friction μ, normal damping c_n)
@@ -107,6 +108,15 @@ GROUPS = {"nodes": (NodeGroup, NODE_MEMBERS), "tris": (TriGroup, TRI_MEMBERS), "
 FORCE_BLOCKS = 2
 BLOCK_GRAIN = 64
 BLOCK_STRIDE = 1024       # loop iterations per block (see engine.step.phase_blocks)
+
+# tris.tri_intact of a triangle of a fracturing body (FDEM_SPEC §7.10; engine.joints.pair_carried):
+# INTACT | (EDGE_FREE << e for every edge e without an undamaged joint) | (DAMAGED once any of its
+# joints has damage); 0: a triangle that is not bonded (other bodies, or at a pre-existing crack);
+# −1: removed by an excavation.  The bits are set at the end of a step (add_joint_work) and only
+# ever set, so every item of a step reads the same values.
+INTACT = 1
+EDGE_FREE = 2             # EDGE_FREE << e, e = 0, 1, 2: edge e (nodes e, e + 1) has no undamaged joint
+DAMAGED = 16
 
 # Stored in step.dacc to force a contact detection at the next step.
 DACC_FORCE = 1e30

@@ -163,9 +163,10 @@ def phase_joints(nodes: ti.template(), tris: ti.template(), mats: ti.template(),
 
 
 @ti.func
-def phase_joint_work(nodes: ti.template(), tris: ti.template(), joints: ti.template(), step: ti.template()):
+def phase_joint_work(nodes: ti.template(), tris: ti.template(), mats: ti.template(), joints: ti.template(),
+                     step: ti.template()):
     for j in range(joints.joint_nodes.shape[0]):
-        add_joint_work(j, joints, tris, nodes, step)
+        add_joint_work(j, joints, tris, mats, nodes, step)
 
 
 @ti.func
@@ -221,7 +222,7 @@ def phases_forces_integrate(nodes: ti.template(), tris: ti.template(), mats: ti.
         phase_loads(nodes, step)
     phase_integrate(nodes, step, feat.local_damping)
     if ti.static(feat.fracture):
-        phase_joint_work(nodes, tris, joints, step)
+        phase_joint_work(nodes, tris, mats, joints, step)
     if ti.static(feat.loads):
         phase_load_work(nodes, step)
 
@@ -373,7 +374,7 @@ def phases_parallel(nodes: ti.template(), tris: ti.template(), mats: ti.template
         phase_loads(nodes, step)
     phase_gather_integrate(nodes, joints, step, asm, blocks, feat.local_damping)
     if ti.static(feat.fracture):
-        phase_joint_work(nodes, tris, joints, step)
+        phase_joint_work(nodes, tris, mats, joints, step)
     if ti.static(feat.loads):
         phase_load_work(nodes, step)
 
@@ -564,7 +565,7 @@ def team_worker(w, nwork, nsteps, nodes: ti.template(), tris: ti.template(), mat
             b = w
             while b < nblk:
                 for j in range(b * J // nblk, (b + 1) * J // nblk):
-                    add_joint_work(j, joints, tris, nodes, step)
+                    add_joint_work(j, joints, tris, mats, nodes, step)
                 b += nwork
         done += 1
         code = 0
@@ -679,5 +680,5 @@ def book_loads_work(nodes: NodeGroup, step: StepGroup):
 
 
 @ti.kernel
-def book_joint_work(nodes: NodeGroup, tris: TriGroup, joints: JointGroup, step: StepGroup):
-    phase_joint_work(nodes, tris, joints, step)
+def book_joint_work(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, joints: JointGroup, step: StepGroup):
+    phase_joint_work(nodes, tris, mats, joints, step)

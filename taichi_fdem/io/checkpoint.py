@@ -42,6 +42,7 @@ import numpy as np
 import taichi as ti
 
 from .. import backend
+from ..engine.groups import EDGE_FREE
 
 __all__ = ["save", "load", "CheckpointError", "FORMAT", "FORMAT_VERSION"]
 
@@ -198,7 +199,7 @@ def save(sim, path) -> None:
     md = sim.model
     plain = {"driver": driver, "state": state_plain,
              "build": {"dt": md.dt, "buffer": md.buffer, "speed_limit": md.speed_limit,
-                       "quasi_static": getattr(md, "qs_alpha", 0.0)}}
+                       "quasi_static": getattr(md, "qs_alpha", 0.0), "joined_pairs": md.joined_pairs}}
     try:
         scene_bytes = pickle.dumps(_scene_bundle(sim), protocol=pickle.HIGHEST_PROTOCOL)
     except Exception as exc:
@@ -306,7 +307,8 @@ def load(path):
     strategy = driver.get("_strategy", driver.get("strategy", "auto"))
     sim = scene.build(dt=build["dt"], force_dt=True, strategy=strategy,
                       buffer=build["buffer"], speed_limit=build["speed_limit"], check_overlap=False,
-                      quasi_static=build.get("quasi_static", 0.0) or False)
+                      quasi_static=build.get("quasi_static", 0.0) or False,
+                      joined_pairs=build.get("joined_pairs", "contact"))     # (older checkpoints: "contact")
     st = sim.state
     for name, value in state_plain.items():
         setattr(st, name, value)
@@ -327,6 +329,10 @@ def load(path):
     for key, values in data.items():
         if key.startswith("np."):
             setattr(st, key[3:], values)
+    if "joined_pairs" not in build and sim.model.fracture:
+        # a checkpoint from before the tri_intact bits (1 intact, 0 damaged): no edge carried
+        v = st.tri_intact.to_numpy()
+        st.tri_intact.from_numpy(np.where(v >= 1, v | (7 * EDGE_FREE), v).astype(np.int32))
     for name, value in driver.items():
         setattr(sim, name, _unpack(value))
     sim._after_restore()

@@ -108,6 +108,8 @@ strategy       —       "auto", "serial" or "parallel" ["auto"]
 buffer         m       contact detection buffer, ≥ 0 [¼ mean edge of contact triangles]
 force_dt       —       accept a dt above the estimated stable limit [false]
 check_overlap  —       warn when bodies overlap at the start [true]
+joined_pairs   —       "joint" or "contact": who resists the overlap of triangles joined by
+                       an undamaged joint (``Scene.build(joined_pairs=...)``) ["joint"]
 =============  ======  ===================================================================
 
 ``[output]`` (all optional)
@@ -225,6 +227,7 @@ SOLVER_KEYS = {
     "buffer": _F(unit="m", lo=0.0, hi=_LEN),
     "force_dt": _Key("bool", False),
     "check_overlap": _Key("bool", True),
+    "joined_pairs": _Key("choice", "joint", choices=("joint", "contact")),
 }
 COLOR_BY = ("body", "material", "speed", "displacement", "von_mises", "max_principal", "min_principal")
 OUTPUT_KEYS = {

@@ -1,0 +1,140 @@
+"""Pairs of triangles joined along an edge by an intact joint (FDEM_SPEC §7.10, issue 10).
+
+While the joint is undamaged, contact is not evaluated for the pair and the joint carries the
+contact's share of the compression, 3p(1/h_A + 1/h_B) per unit overlap
+(``engine.joints.carry_stiffness``); at the first damage it hands the energy of that share over
+to contact.  The scene: a unit square of two triangles with a joint on the diagonal, every node
+of the square prescribed (exact kinematics), and one free triangle far away in the same body
+(so that the body is not fully fixed and its pairs are contact couples).  References: the same
+pair built with ``joined_pairs="contact"`` (the joint's own law plus the contact kernel), and
+the energy account.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import taichi_fdem as fdem
+from taichi_fdem.engine.groups import DAMAGED, EDGE_FREE, INTACT
+from taichi_fdem.mesh import TriMesh
+
+DT = 1e-4
+
+
+class Square:
+    def __init__(self, carried=True, **matkw):
+        pts = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [5.0, 5.0], [6.0, 5.0], [5.0, 6.0]])
+        mesh = TriMesh(pts, np.array([[0, 1, 2], [0, 2, 3], [4, 5, 6]]))
+        kw = dict(density=1000.0, young=1e8, poisson=0.25, tensile_strength=1e6, fracture_energy=1e4)
+        kw.update(matkw)
+        self.mat = fdem.Material(**kw)
+        scene = fdem.Scene(gravity=(0.0, 0.0))
+        body = scene.add_body(mesh, self.mat, fracture=True)
+        scene.fix_nodes(lambda x, y: x < 2.0, body=body, velocity=(0.0, 0.0))
+        self.sim = scene.build(dt=DT, force_dt=True, joined_pairs="joint" if carried else "contact")
+        jt = self.sim.joint_tris.to_numpy()[0]
+        tn = self.sim.tri_nodes.to_numpy()
+        self.A = tn[jt[0]]
+        jn = self.sim.joint_nodes.to_numpy()[0]
+        x = self.sim.node_positions()
+        e = 0.5 * (x[jn[1]] + x[jn[2]] - x[jn[0]] - x[jn[3]])
+        self.L = float(np.linalg.norm(e))
+        self.e = e / self.L
+        self.n = np.array([-self.e[1], self.e[0]])          # points into A
+        self.tri_a = int(jt[0])
+        self.vbc = self.sim.node_vbc.to_numpy()
+
+    def move_A(self, velocity):
+        self.vbc[self.A] = velocity
+        self.sim.node_vbc.from_numpy(self.vbc)
+
+    def compress(self, overlap, steps=100):
+        self.move_A(-self.n * overlap / (steps * DT))
+        self.sim.step(steps)
+        self.move_A(np.zeros(2))
+
+    def normal_force(self, contact_only=False):
+        return float(self.sim.forces(contact_only=contact_only)[self.A].sum(axis=0) @ self.n)
+
+
+def test_initial_bits_mark_the_joint_edge_only():
+    s = Square()
+    v = s.sim.tri_intact.to_numpy()
+    assert np.all(v & INTACT) and not np.any(v & DAMAGED)
+    free = [sum(bool(x & (EDGE_FREE << e)) for e in range(3)) for x in v]
+    assert free == [2, 2, 3]          # one joint edge (the diagonal) in each half of the square
+
+
+def test_carried_compression_matches_contact_force_and_energy():
+    """The joint carrying the pair gives the normal force and the stored energy of the joint plus
+    the contact kernel within 0.5 %; the contact share is most of it (the check can fail)."""
+    c, r = Square(True), Square(False)
+    c.compress(1e-3, steps=2000)       # the joints' work is a path integral: error ~ 1 / steps
+    r.compress(1e-3, steps=2000)
+    fc, fr, frc = c.normal_force(), r.normal_force(), r.normal_force(contact_only=True)
+    print(f"\ncarried normal force {fc:.6g} N/m; joint + contact {fr:.6g} (contact {frc:.6g})")
+    assert c.normal_force(contact_only=True) == 0.0               # contact not evaluated
+    assert abs(frc) > 0.5 * abs(fr)
+    assert fc == pytest.approx(fr, rel=5e-3)
+    ec, er = c.sim.energies(), r.sim.energies()
+    print(f"stored: carried {ec['joints']:.6g} J, joint + contact {er['joints'] + er['contact']:.6g} J")
+    assert ec["contact"] == 0.0
+    assert ec["joints"] == pytest.approx(er["joints"] + er["contact"], rel=5e-3)
+
+
+def test_handover_at_first_damage_keeps_the_energy():
+    """Compress, then shear until the joint damages: contact takes the pair over with the energy
+    the joint carried (the account changes by < 1 % of the contact energy handed over)."""
+    s = Square(cohesion=0.5e6, fracture_energy_shear=1e4)
+    s.compress(1e-3)
+    s.move_A(s.e * 2e-5 / DT)
+    totals, contact = [s.sim.energies()["total"]], []
+    for _ in range(3000):
+        s.sim.step(1)
+        e = s.sim.energies()
+        totals.append(e["total"])
+        contact.append(e["contact"])
+        if s.sim.tri_intact.to_numpy()[s.tri_a] & DAMAGED:
+            break
+    else:
+        pytest.fail("the joint did not damage")
+    jumps = np.abs(np.diff(totals))
+    handed = contact[-1]
+    print(f"\nhandover after {len(contact)} steps: contact energy {handed:.6g} J; change of the energy "
+          f"account over that step {jumps[-1]:.3g} J (largest before {jumps[:-1].max():.3g} J)")
+    assert contact[-2] == 0.0 and handed > 0.1 * s.sim.energies()["joints"]
+    assert jumps[-1] < 0.01 * handed
+    s.sim.step(1)                                     # from now on contact acts on the pair
+    assert s.normal_force(contact_only=True) != 0.0
+
+
+def test_joined_pairs_contact_mode_and_bad_value():
+    s = Square(carried=False)
+    v = s.sim.tri_intact.to_numpy()
+    assert np.all(v & (7 * EDGE_FREE) == 7 * EDGE_FREE)          # no edge carried
+    with pytest.raises(ValueError, match="joined_pairs"):
+        fdem.Scene().build(joined_pairs="none")
+
+
+def test_carried_pair_shear_strength_includes_the_contact_friction_share():
+    """Mohr–Coulomb of a carried joint: c − σ_j tan φ − μ σ_x, σ_j = p_f o / L its own normal
+    stress and σ_x = 3p(1/h_A + 1/h_B) o the carried share (on which contact friction μ acted
+    before): the peak shear traction to 0.1 %."""
+    s = Square(cohesion=0.5e6, friction_angle=30.0, fracture_energy_shear=1e4, friction=0.5)
+    ft, c, tanphi, gI, gII, pf = s.mat.joint_properties()
+    overlap = 1e-3
+    s.compress(overlap, steps=200)
+    o = -overlap
+    sig_j = pf * o / s.L
+    sig_x = 3.0 * s.mat.contact_penalty * 2.0 * (2.0 / s.L) * o          # h = L/2 on both sides
+    fs = c - sig_j * tanphi - 0.5 * sig_x
+    sp = 2.0 * s.L * fs / pf
+    s.move_A(s.e * (sp / 200) / DT)
+    tau = []
+    for _ in range(400):
+        s.sim.step(1)
+        if s.sim.tri_intact.to_numpy()[s.tri_a] & DAMAGED:
+            break
+        tau.append(abs(s.sim.forces()[s.A].sum(axis=0) @ s.e) / s.L)
+    print(f"\npeak τ / (c − σ_j tanφ − μ σ_x) = {max(tau) / fs:.6f} (c − σ_j tanφ alone: {(c - sig_j * tanphi) / fs:.3f})")
+    assert max(tau) == pytest.approx(fs, rel=1e-3)
