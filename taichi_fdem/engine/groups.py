@@ -21,8 +21,8 @@ tris       nodes (vec3 i32); rest_inv (2×2, F0⁻¹ [1/m]; A0 = ½ / det F0⁻�
            nodes before a fracturing body was exploded, globally numbered: mesh neighbours share
            one); intact (bits, see :data:`INTACT`: a bonded triangle of a fracturing body, which of
            its edges carry no undamaged joint, whether any of its joints is damaged; 0 for the
-           other triangles; −1 once the triangle is removed by an excavation); prestress (vec3: initial 2nd Piola–Kirchhoff
-           stress S⁰ = (xx, yy, xy) [Pa], §12.4)
+           other triangles; −1 once the triangle is removed by an excavation); prestress (vec3:
+           initial 2nd Piola–Kirchhoff stress S⁰ = (xx, yy, xy) [Pa], §12.4)
 mats       mu, lam (Lamé μ, λ_Y [Pa]); pair ((M, M) vec4: penalty p [Pa], tangential penalty
            k_t [Pa/m], friction μ, normal damping c_n)
 contact    the couples: a, b (triangles), hist (6 slip values per couple [m])
