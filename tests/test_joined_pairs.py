@@ -2,7 +2,7 @@
 
 While the joint is undamaged, contact is not evaluated for the pair and the joint carries the
 contact's share of the compression, 3p(1/h_A + 1/h_B) per unit overlap
-(``engine.joints.carry_stiffness``); at the first damage it hands the energy of that share over
+(``engine.joints.carried_share``); at the first damage it hands the energy of that share over
 to contact.  The scene: a unit square of two triangles with a joint on the diagonal, every node
 of the square prescribed (exact kinematics), and one free triangle far away in the same body
 (so that the body is not fully fixed and its pairs are contact couples).  References: the same

@@ -266,17 +266,27 @@ def boxes_overlap(a0, a1, a2, b0, b1, b2):
 
 
 @ti.func
-def shared_vertices(o, other):
-    """(count, r) for a triangle with original nodes o and another with original nodes other:
-    how many of o are also nodes of other, and the last vertex r of o that is not (−1: none)."""
+def shared_vertices(oa, ob):
+    """(count, ra, rb) for two triangles with original nodes oa and ob: how many nodes they share,
+    and the last vertex of each that the other does not have (−1: none)."""
     count = 0
-    r = -1
+    ra = -1
+    hit_b = ti.Vector([0, 0, 0])
     for i in ti.static(range(3)):
-        if o[i] == other[0] or o[i] == other[1] or o[i] == other[2]:
+        found = False
+        for k in ti.static(range(3)):
+            if oa[i] == ob[k]:
+                found = True
+                hit_b[k] = 1
+        if found:
             count += 1
         else:
-            r = i
-    return count, r
+            ra = i
+    rb = -1
+    for k in ti.static(range(3)):
+        if hit_b[k] == 0:
+            rb = k
+    return count, ra, rb
 
 
 @ti.func
@@ -288,7 +298,7 @@ def is_bonded(A, B, tris: ti.template()):
     * **edge neighbours** (they share an edge of the unexploded mesh): while the joint on that
       edge is undamaged (:func:`taichi_fdem.engine.joints.pair_carried`).  That joint then adds
       the contact's compression stiffness 3p(1/h_A + 1/h_B) to its own
-      (:func:`taichi_fdem.engine.joints.carry_stiffness`): a thin overlap strip along the edge
+      (:func:`taichi_fdem.engine.joints.carried_share`): a thin overlap strip along the edge
       gives the same force and energy as the contact kernel (within 0.3 %, measured), and at
       the first damage the joint hands the energy that stiffness holds over to contact, which
       takes the pair from the next step on.  These pairs were most of the contact cost after an
@@ -305,11 +315,10 @@ def is_bonded(A, B, tris: ti.template()):
     if va >= INTACT and vb >= INTACT:
         oa = tris.tri_origin[A]
         ob = tris.tri_origin[B]
-        shared, ra = shared_vertices(oa, ob)
+        shared, ra, rb = shared_vertices(oa, ob)
         if shared == 1:
             bonded = (va & DAMAGED) == 0 and (vb & DAMAGED) == 0
         elif shared == 2:
-            _, rb = shared_vertices(ob, oa)
             bonded = pair_carried(va, (ra + 1) % 3, vb, (rb + 1) % 3)
     return bonded
 

@@ -78,26 +78,34 @@ def pair_carried(va, ea, vb, eb):
     compression alone (FDEM_SPEC §7.10)?  va, vb: their ``tri_intact`` words.  True while both
     are bonded triangles of a fracturing body and the joint on that edge is undamaged; contact
     is not evaluated for such a pair (engine.contact.is_bonded), the joint adds the contact's
-    share of the compression stiffness instead (:func:`carry_stiffness`)."""
+    share of the compression stiffness instead (:func:`carried_share`)."""
     return va >= INTACT and vb >= INTACT and (va & (EDGE_FREE << ea)) == 0 and (vb & (EDGE_FREE << eb)) == 0
 
 
 @ti.func
-def carried_friction(A, B, tris: ti.template(), mats: ti.template()):
-    """Contact friction coefficient μ of the pair (A, B): the carried share of the compression
-    adds μ|σ_x| to the joint's shear strength, as contact friction did on the pair's faces."""
-    return mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]][2]
+def carried_share(A, B, L, tris: ti.template(), mats: ti.template()):
+    """(k_x, μ): the normal stiffness [Pa/m] that contact adds across a joined edge of length L
+    [m] when the two triangles overlap by a thin strip, and the pair's contact friction μ.  The
+    potential φ = 3β of each triangle gives a traction 3 p o / h on each side, so
+    k_x = 3 p (1/h_A + 1/h_B) = 3 p L (1/(2A_A) + 1/(2A_B)) with the rest areas
+    (det F0⁻¹ = 1/(2A0)); measured against the contact kernel: within 0.3 % in force and energy
+    (tests/test_joined_pairs.py).  The carried joint also adds μ|σ_x| to its shear strength, as
+    contact friction did on the pair's faces."""
+    prop = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]]
+    kx = 3.0 * prop[0] * L * (tris.tri_rest_inv[A].determinant() + tris.tri_rest_inv[B].determinant())
+    return kx, prop[2]
 
 
 @ti.func
-def carry_stiffness(A, B, L, tris: ti.template(), mats: ti.template()):
-    """Normal stiffness [Pa/m] that contact adds across a joined edge of length L [m] when the
-    two triangles overlap by a thin strip: the potential φ = 3β of each triangle gives a traction
-    3 p o / h on each side, so k = 3 p (1/h_A + 1/h_B) = 3 p L (1/(2A_A) + 1/(2A_B)) with the rest
-    areas (det F0⁻¹ = 1/(2A0)); measured against the contact kernel: within 0.3 % in force and
-    energy (tests/test_joined_pairs.py)."""
-    p = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]][0]
-    return 3.0 * p * L * (tris.tri_rest_inv[A].determinant() + tris.tri_rest_inv[B].determinant())
+def joint_frame(nd, nodes: ti.template()):
+    """(L, ê, n̂, d0, d1, centre) of the joint with nodes nd (§7.2): its mean edge length [m], unit
+    tangent and normal (n̂ points into A), the relative displacements d0 = x0 − x3 and
+    d1 = x1 − x2 of its two node pairs [m], and the centre of its four nodes [m]."""
+    x0, x1, x2, x3 = nodes.node_x[nd[0]], nodes.node_x[nd[1]], nodes.node_x[nd[2]], nodes.node_x[nd[3]]
+    e = 0.5 * (x1 + x2 - x0 - x3)
+    L = e.norm()
+    eh = e / L
+    return L, eh, vec2(-eh[1], eh[0]), x0 - x3, x1 - x2, 0.25 * (x0 + x1 + x2 + x3)
 
 
 @ti.func
@@ -125,13 +133,7 @@ def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(
     jt0 = joints.joint_tris[j]
     if joints.joint_state[j] == 0 and tris.tri_intact[jt0[0]] >= 0 and tris.tri_intact[jt0[1]] >= 0:
         nd = joints.joint_nodes[j]
-        x0, x1, x2, x3 = nodes.node_x[nd[0]], nodes.node_x[nd[1]], nodes.node_x[nd[2]], nodes.node_x[nd[3]]
-        e = 0.5 * (x1 + x2 - x0 - x3)
-        L = e.norm()
-        eh = e / L
-        nh = vec2(-eh[1], eh[0])                     # points into A
-        d0 = x0 - x3
-        d1 = x1 - x2
+        L, eh, nh, d0, d1, centre = joint_frame(nd, nodes)      # nh points into A
         dm = 0.5 * (d0 + d1)
         # undamaged joint of a bonded pair: it carries the contact's compression stiffness too
         A = jt0[0]
@@ -140,8 +142,7 @@ def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(
         mux = 0.0
         if pair_carried(tris.tri_intact[A], edge_between(tris.tri_nodes[A], nd[0], nd[1]),
                         tris.tri_intact[B], edge_between(tris.tri_nodes[B], nd[2], nd[3])):
-            kx = carry_stiffness(A, B, L, tris, mats)
-            mux = carried_friction(A, B, tris, mats)
+            kx, mux = carried_share(A, B, L, tris, mats)
         prop = joints.joint_prop[j]                   # (f_t, c, tan φ, G_I, G_II, p_f) of this joint
         ft, coh, tanphi, gI, gII, pf = prop[0], prop[1], prop[2], prop[3], prop[4], prop[5]
         dp = 2.0 * L * ft / pf                        # opening at peak (§7.4)
@@ -218,8 +219,7 @@ def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(
             elif gII_done:
                 mode = MODE_II
             joints.joint_state[j] = mode                   # non-zero: broken, and how
-            c = 0.25 * (x0 + x1 + x2 + x3)
-            joints.joint_break[j] = ti.Vector([step.step_real[TIME], c[0], c[1]], dt=float)
+            joints.joint_break[j] = ti.Vector([step.step_real[TIME], centre[0], centre[1]], dt=float)
             ti.atomic_add(step.step_int[BROKEN], 1)
             joints.joint_g[j] = ti.Vector([0.0, 0.0, 0.0, 0.0], dt=float)
         else:
@@ -273,13 +273,8 @@ def add_joint_work(j, joints: ti.template(), tris: ti.template(), mats: ti.templ
         if set_a or set_b:
             if set_a and set_b:
                 # it carried the pair until now: hand the carried energy over to contact
-                x0, x1, x2, x3 = nodes.node_x[nd[0]], nodes.node_x[nd[1]], nodes.node_x[nd[2]], nodes.node_x[nd[3]]
-                e = 0.5 * (x1 + x2 - x0 - x3)
-                L = e.norm()
-                nh = vec2(-e[1], e[0]) / L
-                d0 = x0 - x3
-                d1 = x1 - x2
-                kx = carry_stiffness(jt[0], jt[1], L, tris, mats)
+                L, _, nh, d0, d1, _ = joint_frame(nd, nodes)
+                kx, _ = carried_share(jt[0], jt[1], L, tris, mats)
                 joints.joint_work[j] = joints.joint_work[j] - carried_energy(
                     kx, d0.dot(nh), (0.5 * (d0 + d1)).dot(nh), d1.dot(nh), L)
             if set_a:
