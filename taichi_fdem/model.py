@@ -625,7 +625,7 @@ def allocate_scratch(md: Model, st: State, parallel: bool = False, blocks: bool 
     sw.force_blocks = int(force_blocks)
     K = md.ctri_count if md.contact else 1
     H = _next_pow2(2 * K) if md.contact else 1
-    sw.det_circle = ti.Vector.ndarray(3, rti, shape=K)
+    sw.det_bound = ti.Vector.ndarray(7, rti, shape=K)   # circle (c, r) and box (lo, hi)
     sw.det_sort = ti.Vector.ndarray(3, ti.i32, shape=K)
     sw.det_bucket = ti.Vector.ndarray(2, ti.i32, shape=H)
     for name, n in (("cnew", K + 1), ("old_start", K + 1 if md.friction else 1)):

@@ -240,14 +240,19 @@ def bounding_circles(x, tris):
 def brute_force_couples(x, tris, candidates, tri_body, buffer, self_contact_bodies=(), fixed_bodies=(),
                         margin=None):
     """Set of sorted triangle pairs (a, b) among ``candidates`` with |c_a − c_b| < r_a + r_b + margin
-    (default margin = buffer), excluding pairs in the same body (unless self-contact), pairs of
-    two fully fixed bodies and pairs sharing a node.  O(N²)."""
+    (default margin = buffer) whose bounding boxes are less than ``margin`` apart along both axes,
+    excluding pairs in the same body (unless self-contact), pairs of two fully fixed bodies and
+    pairs sharing a node.  O(N²)."""
     margin = buffer if margin is None else margin
     cand = np.asarray(candidates)
     c, r = bounding_circles(x, tris[cand])
     d2 = ((c[:, None, :] - c[None, :, :]) ** 2).sum(-1)
     reach = r[:, None] + r[None, :] + margin
     close = d2 < reach * reach
+    P = x[tris[cand]]
+    lo, hi = P.min(axis=1), P.max(axis=1)
+    for ax in range(2):
+        close &= (lo[None, :, ax] < hi[:, None, ax] + margin) & (lo[:, None, ax] < hi[None, :, ax] + margin)
     iu = np.triu_indices(len(cand), 1)
     mask = close[iu]
     ia, ib = iu[0][mask], iu[1][mask]

@@ -149,7 +149,9 @@ def test_assembly_can_change_between_calls():
             sim.step(150)
         runs.append((sim.node_positions(), sim.broken_joint_count))
     assert runs[0][1] == runs[1][1] > 0
-    assert np.abs(runs[0][0] - runs[1][0]).max() <= 1e-9 * np.abs(runs[0][0]).max()
+    # blocks and slots sum a node's forces in different orders: round-off, which the breaking
+    # joints of 600 steps amplify to ~1e-9 of the plate size at a few nodes (3e-10 m measured)
+    assert np.abs(runs[0][0] - runs[1][0]).max() <= 1e-8 * np.abs(runs[0][0]).max()
     with pytest.raises(ValueError, match="assembly"):
         sim.assembly = "atomic"
 

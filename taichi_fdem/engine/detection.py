@@ -2,13 +2,14 @@
 
 Linear in the number of contact-participating triangles.  Each detection:
 
-1. bounding circles (centroid c_e, radius r_e = max |x_v − c_e|) and r_max;
+1. bounding circles (centroid c_e, radius r_e = max |x_v − c_e|) and boxes, and r_max;
 2. cell size d = 2 r_max + b (b = buffer), so that any pair with |c_a − c_b| < r_a + r_b + b
    lies in the same or an adjacent cell; cells are hashed into a table of fixed size H ≥ 2K,
    so memory stays O(K) however sparse the scene is;
 3. counting sort of the triangles by hashed cell;
 4. for each triangle, scan the 9 neighbouring cells (a hashed bucket is visited once) for
-   partners with a larger index, apply the couple criterion and the exclusions (same
+   partners with a larger index, apply the couple criterion (circles within reach,
+   |c_a − c_b| < r_a + r_b + b, and boxes less than b apart along both axes) and the exclusions (same
    non-self-contacting body, shared node, both on fully fixed bodies), count, prefix-sum, and
    fill.  Couples are grouped by their first triangle, which gives each triangle's old couples
    in O(1) for carrying friction history over from the previous detection.
@@ -36,12 +37,15 @@ def hash_cell(ix, iy, H):
 
 @ti.func
 def prepare_circle(k, det: ti.template(), tris: ti.template(), nodes: ti.template(), step: ti.template()):
-    """Bounding circle of contact triangle k; the largest radius into step_real[RMAX]."""
+    """Bounding circle and box of contact triangle k, det_bound[k] = (c_x, c_y, r, x_min, y_min,
+    x_max, y_max); the largest radius into step_real[RMAX]."""
     n = tris.tri_nodes[det.contact_tri[k]]
     x0, x1, x2 = nodes.node_x[n[0]], nodes.node_x[n[1]], nodes.node_x[n[2]]
     c = (x0 + x1 + x2) / 3.0
     r = ti.sqrt(ti.max((x0 - c).norm_sqr(), ti.max((x1 - c).norm_sqr(), (x2 - c).norm_sqr())))
-    det.det_circle[k] = ti.Vector([c[0], c[1], r], dt=float)
+    lo = ti.min(x0, ti.min(x1, x2))
+    hi = ti.max(x0, ti.max(x1, x2))
+    det.det_bound[k] = ti.Vector([c[0], c[1], r, lo[0], lo[1], hi[0], hi[1]], dt=float)
     ti.atomic_max(step.step_real[RMAX], r)
 
 
@@ -55,7 +59,7 @@ def cell_size(step: ti.template()):
 def bin_circle(k, det: ti.template(), step: ti.template()):
     """Hashed cell of contact triangle k and its slot in the cell (counting sort, pass 1)."""
     H = det.det_bucket.shape[0]
-    ck = det.det_circle[k]
+    ck = det.det_bound[k]
     ix, iy = cell_of(vec2(ck[0], ck[1]), cell_size(step))
     h = hash_cell(ix, iy, H)
     det.det_sort[k][0] = h
@@ -104,7 +108,7 @@ def scan_partners(k, count_only: ti.template(), det: ti.template(), con: ti.temp
     H = det.det_bucket.shape[0]
     d = cell_size(step)
     b = step.step_buffer[None]
-    cc = det.det_circle[k]
+    cc = det.det_bound[k]
     ck = vec2(cc[0], cc[1])
     rk = cc[2]
     ta = det.contact_tri[k]
@@ -124,10 +128,17 @@ def scan_partners(k, count_only: ti.template(), det: ti.template(), con: ti.temp
             for m in range(bk[0], bk[0] + bk[1]):
                 k2 = det.det_sort[m][2]
                 if k2 > k:
-                    c2 = det.det_circle[k2]
+                    c2 = det.det_bound[k2]
                     dc = vec2(c2[0], c2[1]) - ck
                     reach = rk + c2[2] + b
-                    if dc.norm_sqr() < reach * reach:
+                    # circles within reach and boxes less than b apart: until the next detection
+                    # (due when the nodes have moved by b relative to each other) a pair that
+                    # fails either cannot touch.  The box test drops most of the pairs whose
+                    # circles overlap but whose triangles stay apart (second neighbours in a
+                    # mesh, the flanks of touching disks), which the contact pass would reject
+                    # by their boxes at every step
+                    if (dc.norm_sqr() < reach * reach and c2[3] < cc[5] + b and cc[3] < c2[5] + b
+                            and c2[4] < cc[6] + b and cc[4] < c2[6] + b):
                         tb = det.contact_tri[k2]
                         if not is_excluded(ta, tb, tris, det):
                             if ti.static(not count_only):

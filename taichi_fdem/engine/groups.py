@@ -73,7 +73,7 @@ TRI_MEMBERS = ("tri_nodes", "tri_rest_inv", "tri_mat", "tri_body", "tri_visc", "
                "tri_intact", "tri_prestress")
 MAT_MEMBERS = ("mat_mu", "mat_lam", "mat_pair")
 CONTACT_MEMBERS = ("couple_a", "couple_b", "couple_hist")
-DETECT_MEMBERS = ("contact_tri", "body_flags", "couple_start", "det_circle", "det_sort", "det_bucket", "det_cnew",
+DETECT_MEMBERS = ("contact_tri", "body_flags", "couple_start", "det_bound", "det_sort", "det_bucket", "det_cnew",
                   "det_old_start", "det_old_b", "det_old_hist")
 ASSEMBLY_MEMBERS = ("asm_force", "asm_node_start", "asm_node_slots", "asm_sync", "asm_part")
 JOINT_MEMBERS = ("joint_nodes", "joint_tris", "joint_prop", "joint_state", "joint_dmax", "joint_fs", "joint_work",
