@@ -72,7 +72,8 @@ def max_couple_penetration(sim) -> dict:
         cache = (ti.ndarray(backend.real_ti(), shape=cap), ti.ndarray(backend.real_ti(), shape=cap))
         sim._pen_buffers = cache
     st = sim.state
-    couple_penetrations(st.node_x, sim.model.tri_nodes, st.couple_a, st.couple_b, n, cache[0], cache[1])
+    couple_penetrations(st.node_x, sim.model.tri_nodes, st.couple_a, st.couple_b, n, st.tri_nb_on,
+                        sim.model.nb_count, cache[0], cache[1])
     frac = cache[1].to_numpy()[:n]
     k = int(np.argmax(frac))
     depth = float(cache[0].to_numpy()[k])
@@ -197,7 +198,7 @@ def warn_overlaps(sim) -> None:
         return
     st, md = sim.state, sim.model
     out = ti.ndarray(backend.real_ti(), shape=n)
-    overlap_areas(st.node_x, md.tri_nodes, st.couple_a, st.couple_b, n, out)
+    overlap_areas(st.node_x, md.tri_nodes, st.couple_a, st.couple_b, n, st.tri_nb_on, md.nb_count, out)
     area = out.to_numpy()
     tol = 1e-9 * float(np.abs(md.tri_area0_np).mean())
     bad = np.nonzero(area > tol)[0]

@@ -10,8 +10,8 @@ In the spirit of Warp/Newton's builder → model → state:
   snapshots save the state generically (every ndarray in it), and rebuild the model.
 * :class:`Scratch` — work arrays of contact detection, rewritten at every detection.
 
-:func:`pack_groups` bundles model, state and scratch into the argpacks of
-:mod:`taichi_fdem.engine.groups` that the kernels take.
+:mod:`taichi_fdem.state` allocates the state and the scratch of a model, and bundles model,
+state and scratch into the argpacks of :mod:`taichi_fdem.engine.groups` that the kernels take.
 
 The scene is read duck-typed (bodies, constraints, interactions, gravity, plane, thickness):
 this module does not import the scene builder that sits above it.
@@ -25,9 +25,8 @@ import numpy as np
 import taichi as ti
 
 from . import backend, timestep
-from .engine.groups import (COUPLES, DACC, DACC_FORCE, FORCE_BLOCKS, GROUPS, INT_COUNTERS, QS_ALPHA, REAL_COUNTERS,
-                            SWITCH_BC, SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING, SWITCH_PRESTRESS)
-from .engine.joints import initial_intact
+from .engine.groups import SWITCH_BC, SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING, SWITCH_PRESTRESS
+from .engine.joints import initial_intact, neighbour_pairs
 from .engine.loads import LOAD_ABSORB, LOAD_FORCE, LOAD_PRESSURE, LOAD_TRACTION, LOAD_VELOCITY
 
 
@@ -303,6 +302,19 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     md.step_switches = _scalar(SWITCH_DAMPING * md.damping + SWITCH_CDAMPING * md.contact_damping
                                + SWITCH_BC * md.has_bc + SWITCH_BC_WORK * md.has_bc_work
                                + SWITCH_PRESTRESS * md.prestress, ti.i32)
+    # the initial tri_intact bits.  A pair that would have no contact couple has no contact share
+    # for its joint to carry: a body without self-contact, or whose every node is prescribed
+    # (engine.detection.is_excluded)
+    tflags = body_flags[tri_body]
+    couples = ((tflags & 1) != 0) & ((tflags & 2) == 0) & md.contact
+    md.tri_intact0_np = initial_intact(tris, joint_nodes[: md.joint_count], md.joint_tris_np,
+                                       md.tri_fracturing & couples & (md.joined_pairs == "joint"), md.tri_fracturing)
+    # the neighbour pairs: bonded triangles of such bodies that share an original node
+    in_ctri = np.zeros(len(tris), bool)
+    in_ctri[ctri] = md.contact
+    md.nb_pairs_np, tri_nb = neighbour_pairs(origin, md.tri_fracturing & couples & in_ctri)
+    md.nb_count = len(md.nb_pairs_np)
+    md.tri_nb = i32(tri_nb if md.fracture else np.zeros(1, np.int32))
     return md
 
 
@@ -545,149 +557,3 @@ def _joint_prop(b) -> np.ndarray:
     if jp is None or len(jp) != b.joint_count:
         jp = np.tile(np.asarray(b.material.joint_properties(), float), (b.joint_count, 1))
     return np.asarray(jp, np.float64)
-
-
-# -------------------------------------------------------------------------------------------------
-# state and scratch
-# -------------------------------------------------------------------------------------------------
-def allocate_state(md: Model) -> State:
-    """The initial :class:`State` of a model: rest positions, initial velocities, no couples."""
-    real, rti = backend.real_np(), backend.real_ti()
-    st = State()
-    v2 = lambda a: _ndarray(np.asarray(a, real), rti, vec=2)
-    sc = lambda a: _ndarray(np.asarray(a, real), rti)
-    i32 = lambda a: _ndarray(np.asarray(a, np.int32), ti.i32)
-    st.node_x = v2(md.node_rest)
-    st.node_v = v2(md.node_velocity0)
-    st.node_f = v2(np.zeros_like(md.node_rest))
-    st.node_vbc = v2(md.node_vbc0 if md.has_bc else np.zeros((1, 2)))
-    st.node_react = v2(np.zeros_like(md.node_rest) if md.has_bc else np.zeros((1, 2)))
-    st.load_force = _ndarray(np.zeros((max(md.load_count, 1), 4), real), rti, vec=4)
-    st.tri_diss = sc(np.zeros(md.tri_count if md.damping else 1))
-    # a pair that would have no contact couple has no contact share for its joint to carry: a
-    # body without self-contact, or whose every node is prescribed (engine.detection.is_excluded)
-    flags = md.body_flags.to_numpy()[md.tri_body_np]
-    couples = ((flags & 1) != 0) & ((flags & 2) == 0) & md.contact & (md.joined_pairs == "joint")
-    jn = md.joint_nodes.to_numpy()[: md.joint_count]
-    st.tri_intact = i32(initial_intact(md.tri_nodes_np, jn, md.joint_tris_np, md.tri_fracturing & couples,
-                                       md.tri_fracturing))
-    nj = md.joint_nodes.shape[0]
-    st.joint_state = i32(np.zeros(nj))
-    st.joint_dmax = _ndarray(np.zeros((nj, 3), real), rti, vec=3)
-    st.joint_fs = _ndarray(md.joint_fs0.astype(real), rti, vec=3)
-    st.joint_work = sc(np.zeros(nj))
-    st.joint_break = _ndarray(np.zeros((nj, 3), real), rti, vec=3)
-    st.joint_g = _ndarray(np.zeros((nj, 4), real), rti, vec=4)
-    K = md.ctri_count if md.contact else 1
-    st.couple_start = i32(np.zeros(K + 1 if md.friction else 1))
-    st.couple_max = 0
-    grow_couples(md, st, 2 * K + 64 if md.contact else 1)
-    st.step_real = ti.ndarray(rti, shape=REAL_COUNTERS)          # slots: engine.groups.TIME, ...
-    st.step_real.fill(0)
-    st.step_int = ti.ndarray(ti.i32, shape=INT_COUNTERS)         # slots: engine.groups.COUPLES, ...
-    st.step_int.fill(0)
-    set_counter(st.step_real, QS_ALPHA, md.qs_alpha)
-    if md.contact:
-        set_counter(st.step_real, DACC, DACC_FORCE)                   # detect at the first step
-    return st
-
-
-def grow_couples(md: Model, st: State, capacity: int) -> None:
-    """(Re)allocate the couple buffer of ``st`` with room for ``capacity`` couples, keeping its
-    content (couples and their friction history)."""
-    rti = backend.real_ti()
-    keep = counter(st.step_int, COUPLES) if st.couple_max else 0
-    old = None
-    if keep:
-        old = (st.couple_a.to_numpy()[:keep], st.couple_b.to_numpy()[:keep],
-               st.couple_hist.to_numpy()[:6 * keep] if md.friction else None)
-    st.couple_a = ti.ndarray(ti.i32, shape=capacity)
-    st.couple_b = ti.ndarray(ti.i32, shape=capacity)
-    hcap = 6 * capacity if md.friction else 1
-    st.couple_hist = ti.ndarray(rti, shape=hcap)
-    if old is not None:
-        a = np.zeros(capacity, np.int32); a[:keep] = old[0]; st.couple_a.from_numpy(a)
-        b = np.zeros(capacity, np.int32); b[:keep] = old[1]; st.couple_b.from_numpy(b)
-        if md.friction:
-            h = np.zeros(hcap, backend.real_np()); h[:6 * keep] = old[2]; st.couple_hist.from_numpy(h)
-    st.couple_max = capacity
-
-
-def allocate_scratch(md: Model, st: State, parallel: bool = False, blocks: bool = True,
-                     force_blocks: int = FORCE_BLOCKS) -> Scratch:
-    """Detection work arrays sized for the model's contact triangles and the state's couple
-    buffer, and (``parallel``) the assembly arrays of the parallel strategy: the block copies of
-    the nodal forces (``blocks``, the CPU default) or the force slots and node lists."""
-    rti = backend.real_ti()
-    sw = Scratch()
-    sw.parallel = bool(parallel)
-    sw.blocks = bool(blocks)
-    sw.force_blocks = int(force_blocks)
-    K = md.ctri_count if md.contact else 1
-    H = _next_pow2(2 * K) if md.contact else 1
-    sw.det_bound = ti.Vector.ndarray(7, rti, shape=K)   # circle (c, r) and box (lo, hi)
-    sw.det_sort = ti.Vector.ndarray(3, ti.i32, shape=K)
-    sw.det_bucket = ti.Vector.ndarray(2, ti.i32, shape=H)
-    for name, n in (("cnew", K + 1), ("old_start", K + 1 if md.friction else 1)):
-        setattr(sw, "det_" + name, ti.ndarray(ti.i32, shape=n))
-    size_couple_scratch(md, st, sw)
-    return sw
-
-
-def size_couple_scratch(md: Model, st: State, sw: Scratch) -> None:
-    """Scratch sized by the couple buffer: the previous-couple copies that carry friction history
-    over, and the assembly arrays (:func:`size_assembly`)."""
-    cap = st.couple_max
-    sw.det_old_b = ti.ndarray(ti.i32, shape=cap if md.friction else 1)
-    sw.det_old_hist = ti.ndarray(backend.real_ti(), shape=6 * cap if md.friction else 1)
-    size_assembly(md, st, sw)
-
-
-def size_assembly(md: Model, st: State, sw: Scratch) -> None:
-    """The parallel strategy's assembly arrays (1-element placeholders otherwise).
-
-    Blocks (``sw.blocks``): a copy of the nodal forces for each block but the first (which adds
-    into node_f), block-major (asm_force[(b − 1) N + n]), then one entry per block for its
-    dissipated contact work; all zero
-    between steps (the gather resets them); the barrier counter and per-block partials of
-    :func:`taichi_fdem.engine.step.run_steps_blocks` (asm_sync, asm_part).  Slots:
-    one force slot per triangle node (3) and couple node (6), and the node lists (3 per
-    triangle, 4 per joint, 6 per couple) with their starts.
-    """
-    rti = backend.real_ti()
-    N = md.node_count
-    if sw.parallel and sw.blocks:
-        sw.asm_force = ti.Vector.ndarray(2, rti, shape=(sw.force_blocks - 1) * N + sw.force_blocks)
-        sw.asm_node_slots = ti.ndarray(ti.i32, shape=1)
-        sw.asm_node_start = ti.ndarray(ti.i32, shape=1)
-    elif sw.parallel:
-        ncap = st.couple_max if md.contact else 0
-        sw.asm_force = ti.Vector.ndarray(2, rti, shape=3 * md.tri_count + 6 * ncap)
-        sw.asm_node_slots = ti.ndarray(ti.i32, shape=3 * md.tri_count + 4 * md.joint_count + 6 * ncap)
-        sw.asm_node_start = ti.ndarray(ti.i32, shape=N + 1)
-    else:
-        sw.asm_force = ti.Vector.ndarray(2, rti, shape=1)
-        sw.asm_node_slots = ti.ndarray(ti.i32, shape=1)
-        sw.asm_node_start = ti.ndarray(ti.i32, shape=1)
-    team = sw.force_blocks if sw.parallel and sw.blocks else 0
-    sw.asm_sync = ti.ndarray(ti.i32, shape=2 + team)
-    sw.asm_part = ti.ndarray(rti, shape=max(1, 3 * team))
-
-
-def pack_groups(md: Model, st: State, sw: Scratch) -> dict:
-    """The argpacks the kernels take, {group name: ArgPack}, drawn from model, state and scratch.
-
-    Build again after any array of the state is reallocated (the couple buffer grows).
-    """
-    packs = {}
-    for group, (ptype, names) in GROUPS.items():
-        arrays = {}
-        for name in names:
-            arr = getattr(st, name, None)
-            if arr is None:
-                arr = getattr(md, name, None)
-            if arr is None:
-                arr = getattr(sw, name)
-            arrays[name] = arr
-        packs[group] = ptype(**arrays)
-    return packs

@@ -228,7 +228,10 @@ class SimulationResults(CrackResults):
         return row
 
     def couples(self) -> np.ndarray:
-        """Current couple list as (c, 2) triangle indices (first < second in detection order)."""
+        """Current couple list as (c, 2) triangle indices.  The first ``model.nb_count`` are the
+        neighbour pairs of fracturing bodies (two bonded triangles sharing a node of the unsplit
+        mesh; contact skips them while ``state.tri_nb_on`` is 0), then the couples found by the
+        last detection (first < second in detection order)."""
         n = self.couple_count
         return np.stack([self.state.couple_a.to_numpy()[:n], self.state.couple_b.to_numpy()[:n]], axis=1)
 

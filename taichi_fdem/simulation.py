@@ -34,8 +34,8 @@ from .engine import step as kernels
 from .engine.tiutil import launch_cached
 from .guards import SimulationError
 from .engine.groups import COUPLES, DACC, DACC_FORCE, DETECTIONS, FORCE_BLOCKS, FOUND, SWITCH_BC
-from .model import (allocate_scratch, allocate_state, build_model, counter, grow_couples,
-                    pack_groups, set_counter, size_assembly, size_couple_scratch)
+from .model import build_model, counter, set_counter
+from .state import allocate_scratch, allocate_state, grow_couples, pack_groups, size_assembly, size_couple_scratch
 from .cracks import CrackEventLog
 from .results import History, SimulationResults
 from .timestep import CONTACT_LIMIT_FACTOR  # noqa: F401  (re-exported)
@@ -103,10 +103,11 @@ class Simulation(SimulationResults):
         self._force_blocks = FORCE_BLOCKS
         self.scratch = allocate_scratch(self.model, self.state, parallel=strategy == "parallel",
                                         blocks=self._assembly == "blocks", force_blocks=self._force_blocks)
-        self._repack()
         self.step_count = 0
         self.launches: dict[str, int] = {}
         self._stats = {"wall_steps": 0.0, "wall_detect": 0.0}
+        self._repack()
+        self._refresh_neighbours()
         if self.model.contact:
             self._detect()
             if check_overlap:
@@ -223,8 +224,15 @@ class Simulation(SimulationResults):
         if np.any(self.state.tri_intact.to_numpy() < 0):
             self._apply_removal()                 # the rebuilt model lacks the excavations
         self._repack()
+        self._refresh_neighbours()
         if self.strategy == "parallel":
             self._build_node_slots()
+
+    def _refresh_neighbours(self) -> None:
+        """Which neighbour pairs are no longer bonded (``tri_nb_on``), from the tri_intact bits."""
+        if self.model.contact and self.model.nb_count:
+            p = self._packs
+            self._launch("refresh_neighbours", kernels.refresh_neighbours, p["tris"], p["contact"], p["step"])
 
     # ------------------------------------------------------------------------------------------
     # excavation
@@ -265,6 +273,7 @@ class Simulation(SimulationResults):
         st.tri_intact.from_numpy(intact)
         self._apply_removal()
         self._repack()
+        self._refresh_neighbours()
         self._excavated_energy = getattr(self, "_excavated_energy", 0.0) + before - self.energies()["total"]
         return int(sel.sum())
 

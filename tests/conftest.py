@@ -237,11 +237,24 @@ def bounding_circles(x, tris):
     return c, r
 
 
+def beyond_edges(p, q, margin):
+    """For triangles p, q (m × 3 × 2): does q lie more than ``margin`` beyond the line of an edge
+    of p, on the side away from p's third vertex (a separating axis)?"""
+    sep = np.zeros(len(p), dtype=bool)
+    for e in range(3):
+        a, b, c = p[:, e], p[:, (e + 1) % 3], p[:, (e + 2) % 3]
+        n = np.stack([b[:, 1] - a[:, 1], a[:, 0] - b[:, 0]], -1)
+        n = np.where((((c - a) * n).sum(-1) > 0)[:, None], -n, n)
+        dmin = ((q - a[:, None, :]) * n[:, None, :]).sum(-1).min(axis=1)
+        sep |= dmin > margin * np.linalg.norm(n, axis=1)
+    return sep
+
+
 def brute_force_couples(x, tris, candidates, tri_body, buffer, self_contact_bodies=(), fixed_bodies=(),
                         margin=None):
     """Set of sorted triangle pairs (a, b) among ``candidates`` with |c_a − c_b| < r_a + r_b + margin
-    (default margin = buffer) whose bounding boxes are less than ``margin`` apart along both axes,
-    excluding pairs in the same body (unless self-contact), pairs of two fully fixed bodies and
+    (default margin = buffer) whose bounding boxes are less than ``margin`` apart along both axes
+    and neither of which lies more than ``margin`` beyond an edge line of the other, excluding pairs in the same body (unless self-contact), pairs of two fully fixed bodies and
     pairs sharing a node.  O(N²)."""
     margin = buffer if margin is None else margin
     cand = np.asarray(candidates)
@@ -256,6 +269,8 @@ def brute_force_couples(x, tris, candidates, tri_body, buffer, self_contact_bodi
     iu = np.triu_indices(len(cand), 1)
     mask = close[iu]
     ia, ib = iu[0][mask], iu[1][mask]
+    near = ~beyond_edges(P[ia], P[ib], margin) & ~beyond_edges(P[ib], P[ia], margin)
+    ia, ib = ia[near], ib[near]
     ta, tb = cand[ia], cand[ib]
     bodies = np.asarray(tri_body)
     same = bodies[ta] == bodies[tb]

@@ -13,7 +13,7 @@ PKG = pathlib.Path(__file__).resolve().parent.parent / "taichi_fdem"
 LAYERS = [
     ("backend", "material", "mesh", "discontinuity"),
     ("engine",),
-    ("timestep", "model"),
+    ("timestep", "model", "state"),
     ("guards", "energies", "cracks", "results", "profiling", "simulation"),
     ("scene",),
     ("render", "io", "viewer", "cli", "sweep", "verification", "stability", "__init__"),

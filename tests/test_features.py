@@ -32,11 +32,13 @@ def test_single_body_never_runs_contact(strategy):
 def test_single_body_with_self_contact_does_detect():
     scene = fdem.Scene(gravity=(0.0, 0.0))
     scene.add_body(fdem.mesh.rectangle(0.4, 0.1, 0.05), MAT, self_contact=True)
-    sim = scene.build()
+    # a buffer above the element size (0.05 m), so that triangles of the body at rest are within
+    # reach of each other (with the default, 1/4 of an edge, they all lie beyond an edge line)
+    sim = scene.build(buffer=0.06)
     assert sim.contact is True
     assert sim.detection_count >= 1
-    # self-contact couples exist (surface triangles of the same body near each other) and never
-    # join triangles that share a node
+    # self-contact couples exist (triangles of the same body near each other) and never join
+    # triangles that share a node
     t = np.asarray(sim.scene.bodies[0].mesh.triangles)
     couples = sim.couples()
     assert len(couples) > 0

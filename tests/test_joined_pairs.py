@@ -138,3 +138,58 @@ def test_carried_pair_shear_strength_includes_the_contact_friction_share():
         tau.append(abs(s.sim.forces()[s.A].sum(axis=0) @ s.e) / s.L)
     print(f"\npeak τ / (c − σ_j tanφ − μ σ_x) = {max(tau) / fs:.6f} (c − σ_j tanφ alone: {(c - sig_j * tanphi) / fs:.3f})")
     assert max(tau) == pytest.approx(fs, rel=1e-3)
+
+
+def _bonded_reference(sim, pairs):
+    """Which of ``pairs`` are bonded, from the tri_intact bits and the original nodes (numpy, the
+    rule of engine.contact.is_bonded written out again)."""
+    bits = sim.state.tri_intact.to_numpy()
+    org = sim.model.tri_origin.to_numpy()
+    out = []
+    for a, b in pairs:
+        va, vb = int(bits[a]), int(bits[b])
+        common = set(org[a]) & set(org[b])
+        if va < INTACT or vb < INTACT:
+            out.append(False)
+        elif len(common) == 1:
+            out.append(not (va & DAMAGED) and not (vb & DAMAGED))
+        else:
+            ea = (list(org[a]).index(next(iter(set(org[a]) - common))) + 1) % 3
+            eb = (list(org[b]).index(next(iter(set(org[b]) - common))) + 1) % 3
+            out.append(not (va & (EDGE_FREE << ea)) and not (vb & (EDGE_FREE << eb)))
+    return np.array(out, bool)
+
+
+@pytest.mark.parametrize("mode", ["joint", "contact"])
+def test_neighbour_pairs_are_every_shared_node_pair_and_follow_the_bonds(mode):
+    """The neighbour pairs (the first couples, never detected) are exactly the pairs of bonded
+    triangles that share an original node (brute force over all pairs), none of them is also
+    detected, and through a fragmenting impact tri_nb_on marks exactly those no longer bonded
+    (the bits, read again in numpy), for both ways of treating joined pairs.  In "contact" mode a
+    damaged joint marks both its triangles DAMAGED too, which frees their corner pairs."""
+    from taichi_fdem.verification import fragment_plate_scene
+    sim, _ = fragment_plate_scene(h_plate=0.025, h_ball=0.02, friction=0.5)
+    sim = sim.scene.build(strategy="serial", joined_pairs=mode)
+    md = sim.model
+    org = md.tri_origin.to_numpy()
+    bonded0 = np.nonzero(sim.state.tri_intact.to_numpy() >= INTACT)[0]
+    expected = {(int(a), int(b)) for i, a in enumerate(bonded0) for b in bonded0[i + 1:]
+                if set(org[a]) & set(org[b])}
+    M = md.nb_count
+    assert M == len(expected) > 100
+    cp = sim.couples()
+    assert {(int(a), int(b)) for a, b in cp[:M]} == expected
+    assert not {(int(min(a, b)), int(max(a, b))) for a, b in cp[M:]} & expected
+    seen_on = 0
+    for _ in range(4):
+        sim.step(150)
+        on = sim.state.tri_nb_on.to_numpy()[:M].astype(bool)
+        np.testing.assert_array_equal(on, ~_bonded_reference(sim, cp[:M]))
+        seen_on = int(on.sum())
+    assert sim.broken_joint_count > 0 and seen_on > 0
+    bits = sim.state.tri_intact.to_numpy()
+    jt = md.joint_tris_np
+    damaged = ((sim.state.joint_state.to_numpy()[: len(jt)] != 0)
+               | (sim.state.joint_dmax.to_numpy()[: len(jt)].max(1) > 0))
+    assert damaged.any()
+    assert np.all(bits[jt[damaged]] & DAMAGED)

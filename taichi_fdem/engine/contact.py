@@ -10,7 +10,7 @@ the contactor nodes, so that force and moment are conserved to round-off.
 """
 import taichi as ti
 
-from .groups import DAMAGED, INTACT, SWITCH_CDAMPING, WORK_CDAMPING, WORK_FRICTION
+from .groups import DAMAGED, INTACT, NB_PAIRS, SWITCH_CDAMPING, WORK_CDAMPING, WORK_FRICTION
 from .joints import pair_carried
 from .tiutil import mat32_rows, vec2, vec3
 
@@ -328,8 +328,8 @@ def couple_forces(c, nodes: ti.template(), tris: ti.template(), mats: ti.templat
                   step: ti.template(), friction: ti.template(), fracture: ti.template()):
     """Contact forces of couple c (both passes, §2.3.2 COUPLE): (gA, gB, hit, work); gA, gB are
     3×2 matrices whose row r is the force [N/m] on node r of triangle A, B.  ``hit`` is False,
-    and the forces zero, for a pair bonded by intact joints (:func:`is_bonded`, fracture only)
-    and for pairs whose boxes do not overlap (the common cheap case).  ``work``: the work
+    and the forces zero, for a neighbour pair still bonded by intact joints (:func:`is_bonded`,
+    kept up to date in ``tris.tri_nb_on``; fracture only) and for pairs whose boxes do not overlap (the common cheap case).  ``work``: the work
     dissipated over the step by friction and contact damping [J/m], which the caller books in
     step_real[WORK_FRICTION], step_real[WORK_CDAMPING]."""
     A = con.couple_a[c]
@@ -343,7 +343,8 @@ def couple_forces(c, nodes: ti.template(), tris: ti.template(), mats: ti.templat
     work = vec2(0.0, 0.0)
     bonded = False
     if ti.static(fracture):
-        bonded = is_bonded(A, B, tris)
+        # a neighbour pair (the first couples) is evaluated only once it is no longer bonded
+        bonded = c < step.step_int[NB_PAIRS] and tris.tri_nb_on[c] == 0
     hit = not bonded and boxes_overlap(a0, a1, a2, b0, b1, b2)
     if hit:
         prop = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]]      # (p, k_t, μ_f, c_n)

@@ -2,14 +2,15 @@
 
 Linear in the number of contact-participating triangles.  Each detection:
 
-1. bounding circles (centroid c_e, radius r_e = max |x_v − c_e|) and boxes, and r_max;
+1. bounding circles (centroid c_e, radius r_e = max |x_v − c_e|), boxes and vertices, and r_max;
 2. cell size d = 2 r_max + b (b = buffer), so that any pair with |c_a − c_b| < r_a + r_b + b
    lies in the same or an adjacent cell; cells are hashed into a table of fixed size H ≥ 2K,
    so memory stays O(K) however sparse the scene is;
 3. counting sort of the triangles by hashed cell;
 4. for each triangle, scan the 9 neighbouring cells (a hashed bucket is visited once) for
    partners with a larger index, apply the couple criterion (circles within reach,
-   |c_a − c_b| < r_a + r_b + b, and boxes less than b apart along both axes) and the exclusions (same
+   |c_a − c_b| < r_a + r_b + b, boxes less than b apart along both axes, and no edge line of
+   either triangle with the other more than b beyond it) and the exclusions (same
    non-self-contacting body, shared node, both on fully fixed bodies), count, prefix-sum, and
    fill.  Couples are grouped by their first triangle, which gives each triangle's old couples
    in O(1) for carrying friction history over from the previous detection.
@@ -19,7 +20,7 @@ caller grows the buffer and fills; no couple is ever dropped.
 """
 import taichi as ti
 
-from .groups import RMAX
+from .groups import INTACT, RMAX
 
 from .tiutil import vec2
 
@@ -37,15 +38,16 @@ def hash_cell(ix, iy, H):
 
 @ti.func
 def prepare_circle(k, det: ti.template(), tris: ti.template(), nodes: ti.template(), step: ti.template()):
-    """Bounding circle and box of contact triangle k, det_bound[k] = (c_x, c_y, r, x_min, y_min,
-    x_max, y_max); the largest radius into step_real[RMAX]."""
+    """Bounding circle, box and vertices of contact triangle k, det_bound[k] = (c_x, c_y, r, x_min,
+    y_min, x_max, y_max, x0, y0, x1, y1, x2, y2); the largest radius into step_real[RMAX]."""
     n = tris.tri_nodes[det.contact_tri[k]]
     x0, x1, x2 = nodes.node_x[n[0]], nodes.node_x[n[1]], nodes.node_x[n[2]]
     c = (x0 + x1 + x2) / 3.0
     r = ti.sqrt(ti.max((x0 - c).norm_sqr(), ti.max((x1 - c).norm_sqr(), (x2 - c).norm_sqr())))
     lo = ti.min(x0, ti.min(x1, x2))
     hi = ti.max(x0, ti.max(x1, x2))
-    det.det_bound[k] = ti.Vector([c[0], c[1], r, lo[0], lo[1], hi[0], hi[1]], dt=float)
+    det.det_bound[k] = ti.Vector([c[0], c[1], r, lo[0], lo[1], hi[0], hi[1], x0[0], x0[1], x1[0], x1[1], x2[0],
+                                  x2[1]], dt=float)
     ti.atomic_max(step.step_real[RMAX], r)
 
 
@@ -67,16 +69,35 @@ def bin_circle(k, det: ti.template(), step: ti.template()):
 
 
 @ti.func
+def beyond_edges(p, q, margin):
+    """Does triangle q (det_bound rows) lie more than ``margin`` beyond the line of an edge of
+    triangle p, on the outer side?  Then the two are more than ``margin`` apart (a separating
+    axis), whatever their orientation: the side is the one away from p's third vertex."""
+    sep = False
+    for e in ti.static(range(3)):
+        ax, ay = p[7 + 2 * e], p[8 + 2 * e]
+        bx, by = p[7 + 2 * ((e + 1) % 3)], p[8 + 2 * ((e + 1) % 3)]
+        cx, cy = p[7 + 2 * ((e + 2) % 3)], p[8 + 2 * ((e + 2) % 3)]
+        nx, ny = by - ay, ax - bx                        # a normal of edge a→b, |n| = |b − a|
+        if (cx - ax) * nx + (cy - ay) * ny > 0.0:        # towards the third vertex: turn it round
+            nx, ny = -nx, -ny
+        dmin = (q[7] - ax) * nx + (q[8] - ay) * ny
+        for v in ti.static(range(1, 3)):
+            dmin = ti.min(dmin, (q[7 + 2 * v] - ax) * nx + (q[8 + 2 * v] - ay) * ny)
+        if dmin * dmin > margin * margin * (nx * nx + ny * ny) and dmin > 0.0:
+            sep = True
+    return sep
+
+
+@ti.func
 def is_excluded(ta, tb, tris: ti.template(), det: ti.template()):
     """Couples only between triangles that may touch (§2.3.3).
 
     body_flags[b] bit 0: self-contact allowed; bit 1: every node of the body is fixed.  A
     triangle removed by an excavation (tri_intact < 0) has no couples.
-    Triangles joined by an intact joint (fracture) stay couples, as in Y2D (§7.10): in
-    compression the joint law and contact act together, so when a joint breaks the contact
-    force is already there and no energy appears.  Excluding them (the faster choice) made a
-    compressed joint's overlap turn into contact energy from nothing at breakage: +33 % of the
-    projectile's energy in a measured plate impact.
+    Neighbour pairs (bonded triangles of a fracturing body that share an original node) are not
+    detected: they are the first couples of the list for the whole run
+    (:func:`taichi_fdem.engine.joints.neighbour_pairs`), evaluated once no longer bonded.
     """
     ba = tris.tri_body[ta]
     bb = tris.tri_body[tb]
@@ -94,6 +115,15 @@ def is_excluded(ta, tb, tris: ti.template(), det: ti.template()):
             for j in ti.static(range(3)):
                 if na[i] == nb[j]:
                     excluded = True
+        if not excluded and tris.tri_intact[ta] >= INTACT and tris.tri_intact[tb] >= INTACT:
+            # a neighbour pair (two bonded triangles that share an original node): one of the
+            # first couples for the whole run (engine.joints.neighbour_pairs)
+            oa = tris.tri_origin[ta]
+            ob = tris.tri_origin[tb]
+            for i in ti.static(range(3)):
+                for j in ti.static(range(3)):
+                    if oa[i] == ob[j]:
+                        excluded = True
     return excluded
 
 
@@ -131,14 +161,16 @@ def scan_partners(k, count_only: ti.template(), det: ti.template(), con: ti.temp
                     c2 = det.det_bound[k2]
                     dc = vec2(c2[0], c2[1]) - ck
                     reach = rk + c2[2] + b
-                    # circles within reach and boxes less than b apart: until the next detection
-                    # (due when the nodes have moved by b relative to each other) a pair that
-                    # fails either cannot touch.  The box test drops most of the pairs whose
+                    # circles within reach, boxes less than b apart, and no edge line of either
+                    # with the other more than b beyond it: until the next detection (due when
+                    # the nodes have moved by b relative to each other) a pair that fails any of
+                    # these cannot touch.  The box and edge tests drop most of the pairs whose
                     # circles overlap but whose triangles stay apart (second neighbours in a
-                    # mesh, the flanks of touching disks), which the contact pass would reject
-                    # by their boxes at every step
+                    # mesh, the flanks of touching disks), which the contact pass would test at
+                    # every step
                     if (dc.norm_sqr() < reach * reach and c2[3] < cc[5] + b and cc[3] < c2[5] + b
-                            and c2[4] < cc[6] + b and cc[4] < c2[6] + b):
+                            and c2[4] < cc[6] + b and cc[4] < c2[6] + b
+                            and not beyond_edges(cc, c2, b) and not beyond_edges(c2, cc, b)):
                         tb = det.contact_tri[k2]
                         if not is_excluded(ta, tb, tris, det):
                             if ti.static(not count_only):

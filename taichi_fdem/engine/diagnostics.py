@@ -84,8 +84,8 @@ def energy_terms(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: Con
                  fracture: ti.template()):
     """out = [kinetic, strain, contact (penalty + friction spring), gravity, damping dissipated], J/m.
 
-    Pairs bonded by intact joints (:func:`taichi_fdem.engine.contact.is_bonded`) carry no contact
-    energy, as they carry no contact force.
+    Pairs bonded by intact joints (:func:`taichi_fdem.engine.contact.is_bonded`), and neighbour
+    pairs with a removed triangle, carry no contact energy, as they carry no contact force.
     """
     for i in range(5):
         out[i] = 0.0
@@ -109,7 +109,7 @@ def energy_terms(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: Con
         prop = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]]
         bonded = False
         if ti.static(fracture):
-            bonded = is_bonded(A, B, tris)
+            bonded = is_bonded(A, B, tris) or tris.tri_intact[A] < 0 or tris.tri_intact[B] < 0
         if not bonded and boxes_overlap(a0, a1, a2, b0, b1, b2):
             out[2] += prop[0] * (pass_potential(b0, b1, b2, a0, a1, a2) + pass_potential(a0, a1, a2, b0, b1, b2))
         if ti.static(friction):
@@ -119,27 +119,36 @@ def energy_terms(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: Con
 
 @ti.kernel
 def overlap_areas(node_x: ti.types.ndarray(), tri_nodes: ti.types.ndarray(), couple_a: ti.types.ndarray(),
-                  couple_b: ti.types.ndarray(), couple_count: ti.i32, out: ti.types.ndarray()):
-    """out[c] = overlap area [m²] of the two triangles of couple c."""
+                  couple_b: ti.types.ndarray(), couple_count: ti.i32, nb_on: ti.types.ndarray(), nb_count: ti.i32,
+                  out: ti.types.ndarray()):
+    """out[c] = overlap area [m²] of the two triangles of couple c (0 for a neighbour pair that
+    contact skips: c < nb_count and nb_on[c] = 0)."""
     for c in range(couple_count):
-        na = tri_nodes[couple_a[c]]
-        nb = tri_nodes[couple_b[c]]
-        area, mom = clip_moments(node_x[na[0]], node_x[na[1]], node_x[na[2]],
-                                 node_x[nb[0]], node_x[nb[1]], node_x[nb[2]])
+        area = 0.0
+        if c >= nb_count or nb_on[c] != 0:
+            na = tri_nodes[couple_a[c]]
+            nb = tri_nodes[couple_b[c]]
+            area, mom = clip_moments(node_x[na[0]], node_x[na[1]], node_x[na[2]],
+                                     node_x[nb[0]], node_x[nb[1]], node_x[nb[2]])
         out[c] = area
 
 
 @ti.kernel
 def couple_penetrations(node_x: ti.types.ndarray(), tri_nodes: ti.types.ndarray(), couple_a: ti.types.ndarray(),
-                        couple_b: ti.types.ndarray(), couple_count: ti.i32, depth: ti.types.ndarray(),
-                        fraction: ti.types.ndarray()):
+                        couple_b: ti.types.ndarray(), couple_count: ti.i32, nb_on: ti.types.ndarray(),
+                        nb_count: ti.i32, depth: ti.types.ndarray(), fraction: ti.types.ndarray()):
     """depth[c] = overlap area / mean edge length [m], fraction[c] = depth / mean edge length, per couple.
 
     Penetration measure: for a couple of triangles A, B with overlap area A_ov and mean edge
     length L̄ of the two, d = A_ov / L̄ [m] (exact for a flat face pushed d deep along a whole
-    edge) and the fraction is d / L̄; 0.5 means the overlap covers about half a triangle.
+    edge) and the fraction is d / L̄; 0.5 means the overlap covers about half a triangle.  A
+    neighbour pair that contact skips (c < nb_count and nb_on[c] = 0: bonded, or removed) has 0.
     """
     for c in range(couple_count):
+        if c < nb_count and nb_on[c] == 0:
+            depth[c] = 0.0
+            fraction[c] = 0.0
+            continue
         na = tri_nodes[couple_a[c]]
         nb = tri_nodes[couple_b[c]]
         a0, a1, a2 = node_x[na[0]], node_x[na[1]], node_x[na[2]]

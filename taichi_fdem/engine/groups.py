@@ -22,13 +22,16 @@ tris       nodes (vec3 i32); rest_inv (2×2, F0⁻¹ [1/m]; A0 = ½ / det F0⁻�
            one); intact (bits, see :data:`INTACT`: a bonded triangle of a fracturing body, which of
            its edges carry no undamaged joint, whether any of its joints is damaged; 0 for the
            other triangles; −1 once the triangle is removed by an excavation); prestress (vec3:
-           initial 2nd Piola–Kirchhoff stress S⁰ = (xx, yy, xy) [Pa], §12.4)
+           initial 2nd Piola–Kirchhoff stress S⁰ = (xx, yy, xy) [Pa], §12.4); nb (i32: each
+           triangle's neighbour pairs, engine.joints.neighbour_pairs); nb_on (i32 per neighbour
+           pair: 1 once it is no longer bonded, so that contact is evaluated for it)
 mats       mu, lam (Lamé μ, λ_Y [Pa]); pair ((M, M) vec4: penalty p [Pa], tangential penalty
            k_t [Pa/m], friction μ, normal damping c_n)
-contact    the couples: a, b (triangles), hist (6 slip values per couple [m])
+contact    the couples: a, b (triangles), hist (6 slip values per couple [m]); the first
+           step_int[NB_PAIRS] are the neighbour pairs (engine.joints.neighbour_pairs)
 detect     ctri (contact triangles), body_flags (bit 0 self-contact, bit 1 fully fixed), start
-           (first couple of each ctri); scratch: circle (vec3: bounding-circle centre [m], radius
-           [m]), sort (ivec3 per contact triangle k: hashed cell of k, slot of k in it, and the k at
+           (first couple of each ctri); scratch: bound (13 reals: bounding-circle centre [m],
+           radius [m], box (lo, hi) [m], the three vertices [m]), sort (ivec3 per contact triangle k: hashed cell of k, slot of k in it, and the k at
            sorted position k), bucket (ivec2: first, count), cnew (counts, then their exclusive
            prefix; cnew[K] = couples found), old_start, old_b, old_hist (the previous couples)
 asm        the parallel strategy's assembly (no atomics).  Slots: force (vec2: 3 per triangle, then
@@ -43,11 +46,11 @@ step       parameters set by the host: dt [s], gravity (vec2 [m/s²]), buffer [m
            switches (runtime feature bits, :data:`SWITCH_DAMPING` ...: one compiled variant);
            counters kept by the kernels: real (time [s], dacc [m], rmax [m], vmax [m/s], work
            terms [J/m]; slots :data:`TIME`, :data:`DACC`, ...) and int (couples, found, nonfinite,
-           inverted, detections, broken; slots :data:`COUPLES`, ...)
+           inverted, detections, broken, neighbour pairs; slots :data:`COUPLES`, ...)
 =========  ====================================================================================
 
 Adding an array: declare it in the group below and allocate it in
-:func:`taichi_fdem.model.build_model` (model arrays) or :func:`taichi_fdem.model.allocate_state`
+:func:`taichi_fdem.model.build_model` (model arrays) or :func:`taichi_fdem.state.allocate_state`
 (state arrays).  Nothing else lists it: the kernels receive the group, checkpoints and
 last-good-state snapshots walk the state.
 
@@ -70,7 +73,7 @@ def _group(*names):
 NODE_MEMBERS = ("node_x", "node_v", "node_f", "node_mass", "node_free", "node_vbc", "node_react", "load_nodes",
                 "load_vals", "load_force", "curve_points")
 TRI_MEMBERS = ("tri_nodes", "tri_rest_inv", "tri_mat", "tri_body", "tri_visc", "tri_diss", "tri_origin",
-               "tri_intact", "tri_prestress")
+               "tri_intact", "tri_prestress", "tri_nb", "tri_nb_on")
 MAT_MEMBERS = ("mat_mu", "mat_lam", "mat_pair")
 CONTACT_MEMBERS = ("couple_a", "couple_b", "couple_hist")
 DETECT_MEMBERS = ("contact_tri", "body_flags", "couple_start", "det_bound", "det_sort", "det_bucket", "det_cnew",
@@ -152,6 +155,7 @@ NONFINITE = 2       # 1 + a node whose position or velocity is not finite (0: no
 INVERTED = 3        # 1 + a triangle with non-positive area (0: none)
 DETECTIONS = 4      # detections run
 BROKEN = 5          # joints broken so far
+NB_PAIRS = 6        # neighbour pairs M: the first M couples, never detected (engine.joints.neighbour_pairs)
 INT_COUNTERS = 8    # length of step_int
 
 def _leaves(*groups):

@@ -59,6 +59,78 @@ def initial_intact(tri_nodes, joint_nodes, joint_tris, carries, fracturing) -> n
     return np.where(fracturing, INTACT + bits, 0).astype(np.int32)
 
 
+def neighbour_pairs(tri_origin, eligible) -> tuple[np.ndarray, np.ndarray]:
+    """The neighbour pairs of a model and each triangle's list of them (numpy in and out).
+
+    Neighbour pairs are the pairs (A < B) of ``eligible`` triangles (bonded triangles of a
+    fracturing, self-contacting body) that share an original node: edge neighbours (two shared
+    nodes) and corner neighbours (one).  They are the first M entries of the couple list for the
+    whole run, never detected, and contact is evaluated for one only once it is no longer bonded
+    (``tris.tri_nb_on``, :func:`switch_on_neighbours`), so that the many bonded pairs of an
+    unbroken mesh cost nothing per step.
+
+    Returns (pairs (M × 2, sorted), tri_nb): tri_nb[t] (t < T) is where triangle t's list starts
+    in tri_nb and tri_nb[T] where the lists end; a list holds two entries per pair of the
+    triangle, the other triangle and 2 p + (1 for an edge neighbour), p the pair's index.
+    """
+    tri_origin = np.asarray(tri_origin)
+    T = len(tri_origin)
+    t = np.nonzero(np.asarray(eligible, bool))[0]
+    pairs = np.zeros((0, 2), np.int64)
+    shared = np.zeros(0, np.int64)
+    if len(t) > 1:
+        node = tri_origin[t].ravel()
+        tri = np.repeat(t, 3)
+        order = np.lexsort((tri, node))
+        node, tri = node[order], tri[order]
+        found = []
+        for d in range(1, len(node)):          # d-th next incidence of the same original node
+            same = node[:-d] == node[d:]
+            if not same.any():
+                break
+            found.append(np.stack([tri[:-d][same], tri[d:][same]], axis=1))
+        if found:
+            cand = np.sort(np.concatenate(found), axis=1).astype(np.int64)
+            key, shared = np.unique(cand[:, 0] * T + cand[:, 1], return_counts=True)
+            pairs = np.stack([key // T, key % T], axis=1)
+    M = len(pairs)
+    code = 2 * np.arange(M) + (shared >= 2)
+    owner = np.concatenate([pairs[:, 0], pairs[:, 1]])
+    other = np.concatenate([pairs[:, 1], pairs[:, 0]])
+    codes = np.concatenate([code, code])
+    order = np.argsort(owner, kind="stable")
+    counts = np.bincount(owner, minlength=T)
+    tri_nb = np.empty(T + 1 + 4 * M, np.int64)
+    tri_nb[0] = T + 1
+    tri_nb[1:T + 1] = T + 1 + 2 * np.cumsum(counts)
+    tri_nb[T + 1::2] = other[order]
+    tri_nb[T + 2::2] = codes[order]
+    return pairs.astype(np.int32), tri_nb.astype(np.int32)
+
+
+@ti.func
+def switch_on_neighbours(a, b, tris: ti.template()):
+    """Triangles a and b, joined by a joint that has just been damaged, are no longer bonded:
+    evaluate contact from the next step on for their corner neighbour pairs and for the pair
+    (a, b) itself (:func:`neighbour_pairs`), unless either triangle was removed.  Only ever
+    sets flags to 1, so the order in which the joints of a step do it does not matter."""
+    for side in ti.static(range(2)):
+        t = a
+        u = b
+        if ti.static(side == 1):
+            t = b
+            u = a
+        k0 = tris.tri_nb[t]
+        n = (tris.tri_nb[t + 1] - k0) // 2
+        if tris.tri_intact[t] < 0:
+            n = 0
+        for i in range(n):
+            q = tris.tri_nb[k0 + 2 * i]
+            code = tris.tri_nb[k0 + 2 * i + 1]
+            if ((code & 1) == 0 or q == u) and tris.tri_intact[q] >= 0:
+                tris.tri_nb_on[code >> 1] = 1
+
+
 @ti.func
 def edge_between(n, p, q):
     """Index e of the edge of a triangle with vertices n (a 3-vector of node or original-node
@@ -267,20 +339,23 @@ def add_joint_work(j, joints: ti.template(), tris: ti.template(), mats: ti.templ
         eb = edge_between(tris.tri_nodes[jt[1]], nd[2], nd[3])
         va = tris.tri_intact[jt[0]]
         vb = tris.tri_intact[jt[1]]
+        bits_a = (EDGE_FREE << ea) | DAMAGED
+        bits_b = (EDGE_FREE << eb) | DAMAGED
         # only this joint sets these two edge bits (others may set other bits meanwhile: atomics)
-        set_a = va >= INTACT and (va & (EDGE_FREE << ea)) == 0
-        set_b = vb >= INTACT and (vb & (EDGE_FREE << eb)) == 0
+        set_a = va >= INTACT and (va & bits_a) != bits_a
+        set_b = vb >= INTACT and (vb & bits_b) != bits_b
         if set_a or set_b:
-            if set_a and set_b:
+            if va >= INTACT and vb >= INTACT and pair_carried(va, ea, vb, eb):
                 # it carried the pair until now: hand the carried energy over to contact
                 L, _, nh, d0, d1, _ = joint_frame(nd, nodes)
                 kx, _ = carried_share(jt[0], jt[1], L, tris, mats)
                 joints.joint_work[j] = joints.joint_work[j] - carried_energy(
                     kx, d0.dot(nh), (0.5 * (d0 + d1)).dot(nh), d1.dot(nh), L)
             if set_a:
-                ti.atomic_or(tris.tri_intact[jt[0]], (EDGE_FREE << ea) | DAMAGED)
+                ti.atomic_or(tris.tri_intact[jt[0]], bits_a)
             if set_b:
-                ti.atomic_or(tris.tri_intact[jt[1]], (EDGE_FREE << eb) | DAMAGED)
+                ti.atomic_or(tris.tri_intact[jt[1]], bits_b)
+            switch_on_neighbours(jt[0], jt[1], tris)
     g = joints.joint_g[j]
     if g[0] != 0.0 or g[1] != 0.0 or g[2] != 0.0 or g[3] != 0.0:
         nd = joints.joint_nodes[j]

@@ -46,10 +46,11 @@ import taichi as ti
 
 from .tiutil import vec2
 
-from .contact import book_contact_work, couple_forces, eval_couple
+from .contact import book_contact_work, couple_forces, eval_couple, is_bonded
 from .detection import bin_circle, prepare_circle, scan_partners
 from .elastic import eval_tri_elastic, tri_forces
-from .groups import (BLOCK_GRAIN, BLOCK_STRIDE, COUPLES, DACC, DETECTIONS, FOUND, INVERTED, NONFINITE, QS_ALPHA, RMAX,
+from .groups import (BLOCK_GRAIN, BLOCK_STRIDE, COUPLES, DACC, DETECTIONS, FOUND, INVERTED, NB_PAIRS, NONFINITE,
+                     QS_ALPHA, RMAX,
                      SWITCH_BC, SWITCH_BC_WORK, TIME, VMAX, WORK_BOUNDARY, WORK_LOCAL,
                      AssemblyGroup, ContactGroup, DetectGroup, JointGroup, MaterialGroup, NodeGroup, StepGroup,
                      TriGroup)
@@ -67,8 +68,8 @@ DUE_BIT = 1 << 25        # added to run_steps_blocks' return value: contact dete
 Features = namedtuple("Features", "contact friction fracture loads local_damping")
 
 __all__ = ["UNSTABLE_BIT", "DUE_BIT", "Features", "detect_count", "detect_fill", "build_node_slots", "step_parallel",
-           "run_steps_blocks", "run_steps_serial", "eval_elastic", "eval_joints", "eval_contact", "eval_loads",
-           "integrate", "book_joint_work", "book_loads_work"]
+           "run_steps_blocks", "run_steps_serial", "refresh_neighbours", "eval_elastic", "eval_joints", "eval_contact",
+           "eval_loads", "integrate", "book_joint_work", "book_loads_work"]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -117,7 +118,7 @@ def phase_detect_count(nodes: ti.template(), tris: ti.template(), det: ti.templa
         det.det_cnew[k] = scan_partners(k, True, det, con, tris, step, 0, False)
     ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
     for _ in range(1):
-        s = 0
+        s = step.step_int[NB_PAIRS]     # after the neighbour pairs
         for k in range(K):              # counts -> exclusive prefix, in place
             n = det.det_cnew[k]
             det.det_cnew[k] = s
@@ -393,6 +394,21 @@ def detect_count(nodes: NodeGroup, tris: TriGroup, det: DetectGroup, con: Contac
 def detect_fill(tris: TriGroup, det: DetectGroup, con: ContactGroup, step: StepGroup, friction: ti.template()):
     """Parallel broad phase, second half: write the couples."""
     phase_detect_fill(tris, det, con, step, friction)
+
+
+@ti.kernel
+def refresh_neighbours(tris: TriGroup, con: ContactGroup, step: StepGroup):
+    """tris.tri_nb_on from the tri_intact bits: 1 for a neighbour pair no longer bonded
+    (:func:`taichi_fdem.engine.contact.is_bonded`), 0 for a bonded one or one with a removed
+    triangle.  At build, at a restore and after an excavation; during a run the joints keep it
+    up to date (:func:`taichi_fdem.engine.joints.switch_on_neighbours`)."""
+    for p in range(step.step_int[NB_PAIRS]):
+        A = con.couple_a[p]
+        B = con.couple_b[p]
+        on = 0
+        if tris.tri_intact[A] >= 0 and tris.tri_intact[B] >= 0 and not is_bonded(A, B, tris):
+            on = 1
+        tris.tri_nb_on[p] = on
 
 
 @ti.kernel

@@ -42,7 +42,9 @@ import numpy as np
 import taichi as ti
 
 from .. import backend
-from ..engine.groups import EDGE_FREE
+from ..engine.groups import DAMAGED, EDGE_FREE, INTACT, NB_PAIRS
+from ..model import counter
+from ..state import install_neighbour_pairs
 
 __all__ = ["save", "load", "CheckpointError", "FORMAT", "FORMAT_VERSION"]
 
@@ -330,9 +332,16 @@ def load(path):
         if key.startswith("np."):
             setattr(st, key[3:], values)
     if "joined_pairs" not in build and sim.model.fracture:
-        # a checkpoint from before the tri_intact bits (1 intact, 0 damaged): no edge carried
+        # a checkpoint from before the tri_intact bits (1 intact, 0 damaged): no edge carried,
+        # and a damaged triangle of a fracturing body is bonded to nothing
         v = st.tri_intact.to_numpy()
-        st.tri_intact.from_numpy(np.where(v >= 1, v | (7 * EDGE_FREE), v).astype(np.int32))
+        frac = sim.model.tri_fracturing
+        v = np.where(v >= 1, v | (7 * EDGE_FREE), np.where(frac & (v == 0), INTACT | (7 * EDGE_FREE) | DAMAGED, v))
+        st.tri_intact.from_numpy(v.astype(np.int32))
+    if sim.model.nb_count and counter(st.step_int, NB_PAIRS) != sim.model.nb_count:
+        # a checkpoint from before neighbour pairs: they become the first couples again and the
+        # others are detected anew (the slip history of the saved couples is not carried over)
+        install_neighbour_pairs(sim.model, st)
     for name, value in driver.items():
         setattr(sim, name, _unpack(value))
     sim._after_restore()
