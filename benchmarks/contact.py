@@ -11,10 +11,18 @@ that every triangle of A meets exactly one triangle of B:
   early out of ``contact_pass``);
 * ``touching``: B's corner penetrates A by 1 % of h: both passes clip edges and integrate.
 
-Each case times the contact phase alone (``Simulation.profile``, one launch per phase) on one
-thread and divides by the couple count.  No gravity, no friction unless ``--friction`` (the
-plate impact of ``fracture.py`` has 0.5: the pass then also reads the node velocities); the bodies are held still
-(A prescribed at rest, B free and pushed only over a few steps), so the geometry stays as built.  A benchmark: it asserts nothing.
+Two measures, on one thread:
+
+* **phase**: the contact phase alone (``Simulation.profile``, its own launch, forces added with
+  atomics) divided by the couple count;
+* **step**: what a couple adds to a step of the parallel strategy (team launch, block
+  assembly, no atomics: the path the simulations take), i.e. the step time of the case less
+  that of the same bodies set apart beyond the buffer (``far``: no couples), per couple.
+
+No gravity, no friction unless ``--friction`` (the plate impact of ``fracture.py`` has 0.5:
+the pass then also reads the node velocities); the bodies are held still (A prescribed at rest,
+B free and pushed only over a few steps), so the geometry stays as built.  A benchmark: it
+asserts nothing.
 """
 from __future__ import annotations
 
@@ -50,14 +58,29 @@ def main() -> None:
     args = ap.parse_args()
     import taichi_fdem as fdem
     fdem.init(cpu_max_num_threads=1)
+    import time
     print(f"friction {args.friction}\n")
-    print("| path | couples | ns per couple (contact phase, 1 thread) |\n|:--|---:|---:|")
+    print("| path | couples | ns per couple, phase | ns per couple, step |\n|:--|---:|---:|---:|")
+
+    def step_time(case):
+        sim = scene(fdem, args.pairs, case, friction=args.friction).build(strategy="parallel", check_overlap=False,
+                                                                          force_dt=True)
+        sim.step(50)
+        sim.step(50)                                          # compiled, team engaged
+        t0 = time.perf_counter()
+        sim.step(2 * args.steps)
+        return (time.perf_counter() - t0) / (2 * args.steps)
+
+    base = step_time("far")
     for case in ("box", "early out", "touching"):
-        sim = scene(fdem, args.pairs, case, friction=args.friction).build(strategy="serial", check_overlap=False, force_dt=True)
+        sim = scene(fdem, args.pairs, case, friction=args.friction).build(strategy="serial", check_overlap=False,
+                                                                          force_dt=True)
         sim.profile(5)                                        # compile
         prof = sim.profile(args.steps)
-        ns = prof["contact"] / args.steps / max(1, sim.couple_count) * 1e9
-        print(f"| {case} | {sim.couple_count:,} | {ns:.0f} |")
+        n = max(1, sim.couple_count)
+        ns = prof["contact"] / args.steps / n * 1e9
+        ns_step = (step_time(case) - base) / n * 1e9
+        print(f"| {case} | {sim.couple_count:,} | {ns:.0f} | {ns_step:.0f} |")
 
 
 if __name__ == "__main__":

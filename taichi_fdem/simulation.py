@@ -30,7 +30,7 @@ import numpy as np
 import taichi as ti
 
 from . import backend, guards
-from .engine import step as kernels
+from .engine import refresh, step as kernels
 from .engine.tiutil import launch_cached
 from .guards import SimulationError
 from .engine.groups import COUPLES, DACC, DACC_FORCE, DETECTIONS, FORCE_BLOCKS, FOUND, SWITCH_BC
@@ -225,6 +225,8 @@ class Simulation(SimulationResults):
             self._apply_removal()                 # the rebuilt model lacks the excavations
         self._repack()
         self._refresh_neighbours()
+        if self.model.fracture:
+            self._launch("refresh_joint_z", refresh.refresh_joint_z, self._packs["joints"])
         if self.strategy == "parallel":
             self._build_node_slots()
 
@@ -232,7 +234,7 @@ class Simulation(SimulationResults):
         """Which neighbour pairs are no longer bonded (``tri_nb_on``), from the tri_intact bits."""
         if self.model.contact and self.model.nb_count:
             p = self._packs
-            self._launch("refresh_neighbours", kernels.refresh_neighbours, p["tris"], p["contact"], p["step"])
+            self._launch("refresh_neighbours", refresh.refresh_neighbours, p["tris"], p["contact"], p["step"])
 
     # ------------------------------------------------------------------------------------------
     # excavation

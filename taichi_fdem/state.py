@@ -39,6 +39,7 @@ def allocate_state(md: Model) -> State:
     nj = md.joint_nodes.shape[0]
     st.joint_state = i32(np.zeros(nj))
     st.joint_dmax = _ndarray(np.zeros((nj, 3), real), rti, vec=3)
+    st.joint_zmax = _ndarray(np.ones((nj, 3), real), rti, vec=3)              # z(dmax), z(0) = 1
     st.joint_fs = _ndarray(md.joint_fs0.astype(real), rti, vec=3)
     st.joint_work = sc(np.zeros(nj))
     st.joint_break = _ndarray(np.zeros((nj, 3), real), rti, vec=3)

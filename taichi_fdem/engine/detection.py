@@ -108,23 +108,24 @@ def is_excluded(ta, tb, tris: ti.template(), det: ti.template()):
         excluded = True
     elif (det.body_flags[ba] & 2) != 0 and (det.body_flags[bb] & 2) != 0:
         excluded = True
-    else:
-        na = tris.tri_nodes[ta]
-        nb = tris.tri_nodes[tb]
-        for i in ti.static(range(3)):
-            for j in ti.static(range(3)):
-                if na[i] == nb[j]:
-                    excluded = True
-        if not excluded and tris.tri_intact[ta] >= INTACT and tris.tri_intact[tb] >= INTACT:
-            # a neighbour pair (two bonded triangles that share an original node): one of the
-            # first couples for the whole run (engine.joints.neighbour_pairs)
-            oa = tris.tri_origin[ta]
-            ob = tris.tri_origin[tb]
-            for i in ti.static(range(3)):
-                for j in ti.static(range(3)):
-                    if oa[i] == ob[j]:
-                        excluded = True
+    elif share_a_node(tris.tri_nodes[ta], tris.tri_nodes[tb]):
+        excluded = True
+    elif tris.tri_intact[ta] >= INTACT and tris.tri_intact[tb] >= INTACT:
+        # a neighbour pair (two bonded triangles that share an original node): one of the
+        # first couples for the whole run (engine.joints.neighbour_pairs)
+        excluded = share_a_node(tris.tri_origin[ta], tris.tri_origin[tb])
     return excluded
+
+
+@ti.func
+def share_a_node(na, nb):
+    """Do two triangles with vertices na, nb (3-vectors of node numbers) share one?"""
+    shared = False
+    for i in ti.static(range(3)):
+        for j in ti.static(range(3)):
+            if na[i] == nb[j]:
+                shared = True
+    return shared
 
 
 @ti.func
@@ -168,9 +169,15 @@ def scan_partners(k, count_only: ti.template(), det: ti.template(), con: ti.temp
                     # circles overlap but whose triangles stay apart (second neighbours in a
                     # mesh, the flanks of touching disks), which the contact pass would test at
                     # every step
-                    if (dc.norm_sqr() < reach * reach and c2[3] < cc[5] + b and cc[3] < c2[5] + b
-                            and c2[4] < cc[6] + b and cc[4] < c2[6] + b
-                            and not beyond_edges(cc, c2, b) and not beyond_edges(c2, cc, b)):
+                    near = (dc.norm_sqr() < reach * reach and c2[3] < cc[5] + b and cc[3] < c2[5] + b
+                            and c2[4] < cc[6] + b and cc[4] < c2[6] + b)
+                    for side in range(2 if near else 0):     # a runtime loop: one copy of the test
+                        p, q = cc, c2
+                        if side == 1:
+                            p, q = c2, cc
+                        if beyond_edges(p, q, b):
+                            near = False
+                    if near:
                         tb = det.contact_tri[k2]
                         if not is_excluded(ta, tb, tris, det):
                             if ti.static(not count_only):

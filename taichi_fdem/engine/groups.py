@@ -41,7 +41,8 @@ asm        the parallel strategy's assembly (no atomics).  Slots: force (vec2: 3
            (3 per block: max |v|², constraint work, local-damping work) of run_steps_blocks
 joints     nodes (vec4 i32), tris (ivec2: triangles A, B), prop (vec6: f_t, c, tan φ, G_I, G_II, p_f
            of each joint, §13.2–13.3); state (0 intact, else the failure mode at breakage), dmax
-           (vec3), fs (vec3 [Pa]), work [J/m], brk (vec3: time, x, y), g (vec4: nodal forces [N/m])
+           (vec3), zmax (vec3: the softening factor z(dmax), kept so that an unloading joint needs
+           no exp), fs (vec3 [Pa]), work [J/m], brk (vec3: time, x, y), g (vec4: nodal forces [N/m])
 step       parameters set by the host: dt [s], gravity (vec2 [m/s²]), buffer [m], vlimit [m/s],
            switches (runtime feature bits, :data:`SWITCH_DAMPING` ...: one compiled variant);
            counters kept by the kernels: real (time [s], dacc [m], rmax [m], vmax [m/s], work
@@ -79,8 +80,8 @@ CONTACT_MEMBERS = ("couple_a", "couple_b", "couple_hist")
 DETECT_MEMBERS = ("contact_tri", "body_flags", "couple_start", "det_bound", "det_sort", "det_bucket", "det_cnew",
                   "det_old_start", "det_old_b", "det_old_hist")
 ASSEMBLY_MEMBERS = ("asm_force", "asm_node_start", "asm_node_slots", "asm_sync", "asm_part")
-JOINT_MEMBERS = ("joint_nodes", "joint_tris", "joint_prop", "joint_state", "joint_dmax", "joint_fs", "joint_work",
-                 "joint_break", "joint_g")
+JOINT_MEMBERS = ("joint_nodes", "joint_tris", "joint_prop", "joint_state", "joint_dmax", "joint_zmax", "joint_fs",
+                 "joint_work", "joint_break", "joint_g")
 STEP_PARAMS = ("step_dt", "step_gravity", "step_buffer", "step_vlimit", "step_switches")
 STEP_COUNTERS = ("step_real", "step_int")
 STEP_MEMBERS = STEP_PARAMS + STEP_COUNTERS
@@ -103,13 +104,15 @@ GROUPS = {"nodes": (NodeGroup, NODE_MEMBERS), "tris": (TriGroup, TRI_MEMBERS), "
           "asm": (AssemblyGroup, ASSEMBLY_MEMBERS)}
 
 # Block assembly of the parallel strategy on the CPU (FDEM_SPEC §6.1; see engine.step): the items
-# (triangles, joints, couples) are dealt in granules of BLOCK_GRAIN, granule g to block
-# g % blocks, and each block adds its forces into its own copy of the nodal forces.  The number
+# (triangles, joints, couples) are dealt in granules of BLOCK_GRAIN items (fewer, down to
+# BLOCK_GRAIN_MIN, when there are too few items for ~8 granules per block: engine.step.block_grain),
+# granule g to block g % blocks, and each block adds its forces into its own copy of the nodal forces.  The number
 # of blocks is a property of the simulation (``Simulation.force_blocks``, FORCE_BLOCKS by
 # default), not the thread count, so that the sums, and the results, are the same bits for any
 # number of threads; at most that many threads share the force work.
 FORCE_BLOCKS = 2
-BLOCK_GRAIN = 512       # (64 before: 8-10 % slower on the 100k pile, 4-7 % on the plate after the impact)
+BLOCK_GRAIN = 512         # (64 before: 8-10 % slower on the 100k pile, 4-7 % on the plate after the impact)
+BLOCK_GRAIN_MIN = 64
 BLOCK_STRIDE = 1024       # loop iterations per block (see engine.step.phase_blocks)
 
 # tris.tri_intact of a triangle of a fracturing body (FDEM_SPEC §7.10; engine.joints.pair_carried):

@@ -221,6 +221,7 @@ def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(
         dn = 3.0 * gI / ft                            # mode I softening span (Y-Geo)
         failed = 0
         dmax = joints.joint_dmax[j]
+        zmax = joints.joint_zmax[j]                   # z(dmax), kept: no exp / pow while unloading
         fsv = joints.joint_fs[j]
         trac = ti.Matrix.zero(float, 3, 2)            # row p: traction σ n̂ + τ ê at point p [Pa]
         om = dm.dot(nh)
@@ -249,8 +250,9 @@ def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(
                 dmax[p] = D
                 if D > 0.0:
                     z = softening_z(D)
+                zmax[p] = z
             else:                                     # unloading from a damaged state (§7.8)
-                z = softening_z(dmax[p]) * (dp + D * dn) / (dp + dmax[p] * dn)
+                z = zmax[p] * (dp + D * dn) / (dp + dmax[p] * dn)
             sigma = 0.0
             if o < 0.0:
                 sigma = 2.0 * ft * o / dp             # compression: linear penalty p_f o / L
@@ -274,12 +276,13 @@ def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(
             trac[p, 0] = t[0]
             trac[p, 1] = t[1]
         joints.joint_dmax[j] = dmax
+        joints.joint_zmax[j] = zmax
         joints.joint_fs[j] = fsv
         if failed >= 2:
             # broken for good: record when, where and how (§7.8).  No re-detection is needed
-            # (§7.10): every triangle of a split body takes part in detection and joined
-            # neighbours stay couples, so the pair is in the couple list already (forcing one at
-            # every break made ~340 of the 351 detections of benchmarks/fracture.py, measured)
+            # (§7.10): the pair is a neighbour pair, in the couple list for the whole run and
+            # evaluated since the joint's first damage (forcing a detection at every break made
+            # ~340 of the 351 detections of benchmarks/fracture.py, measured)
             mode = MODE_MIXED
             gI_done = om >= dp + dn
             sp_m = 2.0 * L * fsv[1] / pf

@@ -46,10 +46,10 @@ import taichi as ti
 
 from .tiutil import vec2
 
-from .contact import book_contact_work, couple_forces, eval_couple, is_bonded
+from .contact import book_contact_work, couple_forces, eval_couple
 from .detection import bin_circle, prepare_circle, scan_partners
 from .elastic import eval_tri_elastic, tri_forces
-from .groups import (BLOCK_GRAIN, BLOCK_STRIDE, COUPLES, DACC, DETECTIONS, FOUND, INVERTED, NB_PAIRS, NONFINITE,
+from .groups import (BLOCK_GRAIN, BLOCK_GRAIN_MIN, BLOCK_STRIDE, COUPLES, DACC, DETECTIONS, FOUND, INVERTED, NB_PAIRS, NONFINITE,
                      QS_ALPHA, RMAX,
                      SWITCH_BC, SWITCH_BC_WORK, TIME, VMAX, WORK_BOUNDARY, WORK_LOCAL,
                      AssemblyGroup, ContactGroup, DetectGroup, JointGroup, MaterialGroup, NodeGroup, StepGroup,
@@ -68,8 +68,8 @@ DUE_BIT = 1 << 25        # added to run_steps_blocks' return value: contact dete
 Features = namedtuple("Features", "contact friction fracture loads local_damping")
 
 __all__ = ["UNSTABLE_BIT", "DUE_BIT", "Features", "detect_count", "detect_fill", "build_node_slots", "step_parallel",
-           "run_steps_blocks", "run_steps_serial", "refresh_neighbours", "eval_elastic", "eval_joints", "eval_contact",
-           "eval_loads", "integrate", "book_joint_work", "book_loads_work"]
+           "run_steps_blocks", "run_steps_serial", "eval_elastic", "eval_joints", "eval_contact", "eval_loads",
+           "integrate", "book_joint_work", "book_loads_work"]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -286,10 +286,10 @@ def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(),
                  joints: ti.template(), step: ti.template(), asm: ti.template(), contact: ti.template(),
                  friction: ti.template(), fracture: ti.template()):
     """Phases 2–4 of the parallel strategy on the CPU, as one parallel loop over the blocks
-    (:func:`asm_blocks`).  Triangles, joints and couples are each dealt in granules of
-    BLOCK_GRAIN, granule g to block g % blocks (which spreads the costly couples of a compressed
-    region over the blocks), and each block adds its items' forces into its own copy of the nodal
-    forces in item order, without atomics (block 0 into node_f, block b > 0 into
+    (:func:`asm_blocks`).  Triangles, joints and couples are each dealt in granules
+    (:func:`block_grain`), granule g to block g % blocks (which spreads the costly couples of a
+    compressed region over the blocks), and each block adds its items' forces into its own copy
+    of the nodal forces in item order, without atomics (block 0 into node_f, block b > 0 into
     asm_force[(b − 1) N + n]); its dissipated contact work goes to its own entry
     (:func:`integrate.block_work_slot`).  The gather adds the copies to node_f in block order, so
     the result does not depend on the thread count."""
@@ -306,14 +306,23 @@ def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(),
 
 
 @ti.func
+def block_grain(n, nblk):
+    """Items per granule when n items are dealt to nblk blocks: BLOCK_GRAIN, less for few
+    items (at least BLOCK_GRAIN_MIN), so that each block gets about 8 granules or more and the
+    blocks stay balanced.  It depends on the counts only, never on the threads."""
+    return ti.max(BLOCK_GRAIN_MIN, ti.min(BLOCK_GRAIN, n // (8 * nblk)))
+
+
+@ti.func
 def block_forces(b, nblk, T, J, C, nodes: ti.template(), tris: ti.template(), mats: ti.template(),
                  con: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
                  contact: ti.template(), friction: ti.template(), fracture: ti.template()):
     """Block b's share of :func:`phase_blocks`: its granules of triangles, joints and couples,
     added into its copy of the nodal forces; its contact work to its entry of asm_force."""
+    gs = block_grain(T, nblk)
     g = b
-    while g * BLOCK_GRAIN < T:
-        for e in range(g * BLOCK_GRAIN, ti.min(T, g * BLOCK_GRAIN + BLOCK_GRAIN)):
+    while g * gs < T:
+        for e in range(g * gs, ti.min(T, g * gs + gs)):
             f0, f1, f2 = tri_forces(e, nodes, tris, mats, step)
             n = tris.tri_nodes[e]
             add_block_force(nodes, asm, b, n[0], f0)
@@ -321,9 +330,10 @@ def block_forces(b, nblk, T, J, C, nodes: ti.template(), tris: ti.template(), ma
             add_block_force(nodes, asm, b, n[2], f2)
         g += nblk
     if ti.static(fracture):
+        gs = block_grain(J, nblk)
         g = b
-        while g * BLOCK_GRAIN < J:
-            for j in range(g * BLOCK_GRAIN, ti.min(J, g * BLOCK_GRAIN + BLOCK_GRAIN)):
+        while g * gs < J:
+            for j in range(g * gs, ti.min(J, g * gs + gs)):
                 if joints.joint_state[j] == 0:
                     eval_joint(j, joints, tris, mats, nodes, step, False)
                     gj = joints.joint_g[j]
@@ -337,9 +347,10 @@ def block_forces(b, nblk, T, J, C, nodes: ti.template(), tris: ti.template(), ma
             g += nblk
     if ti.static(contact):
         bwork = vec2(0.0, 0.0)
+        gs = block_grain(C, nblk)
         g = b
-        while g * BLOCK_GRAIN < C:
-            for c in range(g * BLOCK_GRAIN, ti.min(C, g * BLOCK_GRAIN + BLOCK_GRAIN)):
+        while g * gs < C:
+            for c in range(g * gs, ti.min(C, g * gs + gs)):
                 gA, gB, hit, work = couple_forces(c, nodes, tris, mats, con, step, friction, fracture)
                 bwork += work
                 if hit:
@@ -394,21 +405,6 @@ def detect_count(nodes: NodeGroup, tris: TriGroup, det: DetectGroup, con: Contac
 def detect_fill(tris: TriGroup, det: DetectGroup, con: ContactGroup, step: StepGroup, friction: ti.template()):
     """Parallel broad phase, second half: write the couples."""
     phase_detect_fill(tris, det, con, step, friction)
-
-
-@ti.kernel
-def refresh_neighbours(tris: TriGroup, con: ContactGroup, step: StepGroup):
-    """tris.tri_nb_on from the tri_intact bits: 1 for a neighbour pair no longer bonded
-    (:func:`taichi_fdem.engine.contact.is_bonded`), 0 for a bonded one or one with a removed
-    triangle.  At build, at a restore and after an excavation; during a run the joints keep it
-    up to date (:func:`taichi_fdem.engine.joints.switch_on_neighbours`)."""
-    for p in range(step.step_int[NB_PAIRS]):
-        A = con.couple_a[p]
-        B = con.couple_b[p]
-        on = 0
-        if tris.tri_intact[A] >= 0 and tris.tri_intact[B] >= 0 and not is_bonded(A, B, tris):
-            on = 1
-        tris.tri_nb_on[p] = on
 
 
 @ti.kernel
