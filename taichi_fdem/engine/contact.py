@@ -329,9 +329,10 @@ def couple_forces(c, nodes: ti.template(), tris: ti.template(), mats: ti.templat
     """Contact forces of couple c (both passes, §2.3.2 COUPLE): (gA, gB, hit, work); gA, gB are
     3×2 matrices whose row r is the force [N/m] on node r of triangle A, B.  ``hit`` is False,
     and the forces zero, for a neighbour pair still bonded by intact joints (:func:`is_bonded`,
-    kept up to date in ``tris.tri_nb_on``; fracture only) and for pairs whose boxes do not overlap (the common cheap case).  ``work``: the work
-    dissipated over the step by friction and contact damping [J/m], which the caller books in
-    step_real[WORK_FRICTION], step_real[WORK_CDAMPING]."""
+    kept up to date in ``tris.tri_nb_on``; fracture only) and for pairs whose boxes do not
+    overlap (the common cheap case).  ``work``: the work dissipated over the step by friction
+    and contact damping [J/m], which the caller books in step_real[WORK_FRICTION],
+    step_real[WORK_CDAMPING]."""
     A = con.couple_a[c]
     B = con.couple_b[c]
     na = tris.tri_nodes[A]

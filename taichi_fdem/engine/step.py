@@ -49,10 +49,9 @@ from .tiutil import vec2
 from .contact import book_contact_work, couple_forces, eval_couple
 from .detection import bin_circle, prepare_circle, scan_partners
 from .elastic import eval_tri_elastic, tri_forces
-from .groups import (BLOCK_GRAIN, BLOCK_GRAIN_MIN, BLOCK_STRIDE, COUPLES, DACC, DETECTIONS, FOUND, INVERTED, NB_PAIRS, NONFINITE,
-                     QS_ALPHA, RMAX,
-                     SWITCH_BC, SWITCH_BC_WORK, TIME, VMAX, WORK_BOUNDARY, WORK_LOCAL,
-                     AssemblyGroup, ContactGroup, DetectGroup, JointGroup, MaterialGroup, NodeGroup, StepGroup,
+from .groups import (BLOCK_GRAIN, BLOCK_GRAIN_MIN, BLOCK_STRIDE, COUPLES, DACC, DETECTIONS, FOUND, INVERTED,
+                     NB_PAIRS, NONFINITE, QS_ALPHA, RMAX, SWITCH_BC, SWITCH_BC_WORK, TIME, VMAX, WORK_BOUNDARY,
+                     WORK_LOCAL, AssemblyGroup, ContactGroup, DetectGroup, JointGroup, MaterialGroup, NodeGroup, StepGroup,
                      TriGroup)
 from .integrate import (asm_blocks, block_work_slot, book_block_work, integrate_nodes, integrate_nodes_gathered,
                         integrate_span)
