@@ -12,8 +12,8 @@ import numpy as np
 import taichi as ti
 
 from . import backend
-from .engine.groups import (COUPLES, DACC, DACC_FORCE, GROUPS, INT_COUNTERS, NB_PAIRS, QS_ALPHA, REAL_COUNTERS,
-                            FORCE_BLOCKS)
+from .engine.groups import (COUPLES, DACC, DACC_FORCE, FORCE_BLOCKS, GROUPS, INT_COUNTERS, NB_PAIRS, QS_ALPHA,
+                            REAL_COUNTERS)
 from .model import Model, Scratch, State, _ndarray, _next_pow2, counter, set_counter
 
 
@@ -21,7 +21,8 @@ from .model import Model, Scratch, State, _ndarray, _next_pow2, counter, set_cou
 # state and scratch
 # -------------------------------------------------------------------------------------------------
 def allocate_state(md: Model) -> State:
-    """The initial :class:`State` of a model: rest positions, initial velocities, no couples."""
+    """The initial :class:`State` of a model: rest positions, initial velocities, and a couple
+    list holding only the neighbour pairs (:func:`install_neighbour_pairs`; detection is due)."""
     real, rti = backend.real_np(), backend.real_ti()
     st = State()
     v2 = lambda a: _ndarray(np.asarray(a, real), rti, vec=2)
