@@ -266,6 +266,27 @@ def boxes_overlap(a0, a1, a2, b0, b1, b2):
 
 
 @ti.func
+def beyond_edge(t0, t1, p0, p1, p2):
+    """Are p0, p1, p2 all on or beyond the line of edge t0→t1 of a counter-clockwise triangle
+    (on the side its outward normal points to)?  Division-free: signs of (p − t0)·perp(t1 − t0)."""
+    n = perp(t1 - t0)
+    return ((p0 - t0).dot(n) >= 0.0) & ((p1 - t0).dot(n) >= 0.0) & ((p2 - t0).dot(n) >= 0.0)
+
+
+@ti.func
+def separated(a0, a1, a2, b0, b1, b2):
+    """Do the two counter-clockwise triangles lie apart (at most touching along a line)?  The
+    separating-axis test over their six edge normals, complete for two triangles in 2D.  Exact
+    early out of :func:`couple_forces`: then no contactor edge of either pass has a positive
+    potential integral (a triangle on or beyond an edge line of the other meets it at most on
+    that line, where the potential is zero), and both passes would only release slip.  It costs
+    six edge normals and eighteen dot products, no division and no velocity."""
+    return (beyond_edge(a0, a1, b0, b1, b2) | beyond_edge(a1, a2, b0, b1, b2) | beyond_edge(a2, a0, b0, b1, b2)
+            | beyond_edge(b0, b1, a0, a1, a2) | beyond_edge(b1, b2, a0, a1, a2)
+            | beyond_edge(b2, b0, a0, a1, a2)) != 0
+
+
+@ti.func
 def shared_vertices(oa, ob):
     """(count, ra, rb) for two triangles with original nodes oa and ob: how many nodes they share,
     and the last vertex of each that the other does not have (−1: none)."""
@@ -329,8 +350,9 @@ def couple_forces(c, nodes: ti.template(), tris: ti.template(), mats: ti.templat
     """Contact forces of couple c (both passes, §2.3.2 COUPLE): (gA, gB, hit, work); gA, gB are
     3×2 matrices whose row r is the force [N/m] on node r of triangle A, B.  ``hit`` is False,
     and the forces zero, for a neighbour pair still bonded by intact joints (:func:`is_bonded`,
-    kept up to date in ``tris.tri_nb_on``; fracture only) and for pairs whose boxes do not
-    overlap (the common cheap case).  ``work``: the work dissipated over the step by friction
+    kept up to date in ``tris.tri_nb_on``; fracture only), for pairs whose boxes do not
+    overlap (the common cheap case) and for pairs that lie apart (:func:`separated`: most
+    couples whose boxes overlap, in a pile or a fragmenting mesh).  ``work``: the work dissipated over the step by friction
     and contact damping [J/m], which the caller books in step_real[WORK_FRICTION],
     step_real[WORK_CDAMPING]."""
     A = con.couple_a[c]
@@ -347,6 +369,9 @@ def couple_forces(c, nodes: ti.template(), tris: ti.template(), mats: ti.templat
         # a neighbour pair (the first couples) is evaluated only once it is no longer bonded
         bonded = c < step.step_int[NB_PAIRS] and tris.tri_nb_on[c] == 0
     hit = not bonded and boxes_overlap(a0, a1, a2, b0, b1, b2)
+    if hit:
+        if separated(a0, a1, a2, b0, b1, b2):
+            hit = False
     if hit:
         prop = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]]      # (p, k_t, μ_f, c_n)
         cdamping = step.step_switches[None] & SWITCH_CDAMPING
@@ -382,13 +407,19 @@ def couple_forces(c, nodes: ti.template(), tris: ti.template(), mats: ti.templat
                 gA += gC
                 gB += gT
     elif ti.static(friction):
-        # a bonded pair never slipped (bonds only end); a separated one drops its slip.  Written
-        # only where non-zero: most couples are apart, and clearing their six values every step
-        # wrote ~4 MB per step on the 10k-triangle plate
+        # a bonded pair never slipped (bonds only end); a separated one drops its slip and books
+        # the energy its springs held (:func:`release_slip`, as a pass whose contactor is out).
+        # Written only where non-zero: most couples are apart, and clearing their six values
+        # every step wrote ~4 MB per step on the 10k-triangle plate
         if not bonded:
+            held = False
             for s in ti.static(range(6)):
                 if con.couple_hist[c * 6 + s] != 0.0:
-                    con.couple_hist[c * 6 + s] = 0.0
+                    held = True
+            if held:
+                kt = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]][1]
+                for s in ti.static(range(6)):
+                    work[0] += release_slip(con.couple_hist, c * 6 + s, kt)
     return gA, gB, hit, work
 
 
