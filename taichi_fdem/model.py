@@ -26,7 +26,7 @@ import taichi as ti
 
 from . import backend, timestep
 from .engine.groups import SWITCH_BC, SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING, SWITCH_PRESTRESS
-from .engine.joints import initial_intact, neighbour_pairs
+from .engine.joints import FAN_HEAD, fan_links, initial_intact, neighbour_pairs
 from .engine.loads import LOAD_ABSORB, LOAD_FORCE, LOAD_PRESSURE, LOAD_TRACTION, LOAD_VELOCITY
 
 
@@ -312,9 +312,14 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     # the neighbour pairs: bonded triangles of such bodies that share an original node
     in_ctri = np.zeros(len(tris), bool)
     in_ctri[ctri] = md.contact
-    md.nb_pairs_np, tri_nb = neighbour_pairs(origin, md.tri_fracturing & couples & in_ctri)
+    eligible = md.tri_fracturing & couples & in_ctri
+    md.nb_pairs_np = neighbour_pairs(origin, eligible)
     md.nb_count = len(md.nb_pairs_np)
-    md.tri_nb = i32(tri_nb if md.fracture else np.zeros(1, np.int32))
+    # the fans of the original nodes: which corner pairs are still tied by intact joints
+    fans = fan_links(tris, origin, X, joint_nodes[: md.joint_count], md.joint_tris_np, md.nb_pairs_np, eligible) \
+        if md.fracture and md.nb_count else np.zeros(FAN_HEAD + 1, np.int32)
+    md.fan_count = int(fans[0])
+    md.tri_fans = i32(fans)
     return md
 
 

@@ -231,10 +231,12 @@ class Simulation(SimulationResults):
             self._build_node_slots()
 
     def _refresh_neighbours(self) -> None:
-        """Which neighbour pairs are no longer bonded (``tri_nb_on``), from the tri_intact bits."""
+        """Which neighbour pairs are no longer bonded (``tri_nb_on``), from the joints and the
+        tri_intact bits."""
         if self.model.contact and self.model.nb_count:
             p = self._packs
-            self._launch("refresh_neighbours", refresh.refresh_neighbours, p["tris"], p["contact"], p["step"])
+            self._launch("refresh_neighbours", refresh.refresh_neighbours, p["tris"], p["contact"], p["joints"],
+                         p["step"])
 
     # ------------------------------------------------------------------------------------------
     # excavation

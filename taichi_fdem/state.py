@@ -20,6 +20,11 @@ from .model import Model, Scratch, State, _ndarray, _next_pow2, counter, set_cou
 # -------------------------------------------------------------------------------------------------
 # state and scratch
 # -------------------------------------------------------------------------------------------------
+def nb_on_size(md: Model) -> int:
+    """Length of ``state.tri_nb_on``: a flag per neighbour pair, then a link mask per fan."""
+    return max(md.nb_count + md.fan_count, 1)
+
+
 def allocate_state(md: Model) -> State:
     """The initial :class:`State` of a model: rest positions, initial velocities, and a couple
     list holding only the neighbour pairs (:func:`install_neighbour_pairs`; detection is due)."""
@@ -36,7 +41,7 @@ def allocate_state(md: Model) -> State:
     st.load_force = _ndarray(np.zeros((max(md.load_count, 1), 4), real), rti, vec=4)
     st.tri_diss = sc(np.zeros(md.tri_count if md.damping else 1))
     st.tri_intact = i32(md.tri_intact0_np)
-    st.tri_nb_on = i32(np.zeros(max(md.nb_count, 1)))          # set by Simulation (refresh_neighbours)
+    st.tri_nb_on = i32(np.zeros(nb_on_size(md)))                 # set by Simulation (refresh_neighbours)
     nj = md.joint_nodes.shape[0]
     st.joint_state = i32(np.zeros(nj))
     st.joint_dmax = _ndarray(np.zeros((nj, 3), real), rti, vec=3)

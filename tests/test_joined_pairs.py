@@ -141,10 +141,25 @@ def test_carried_pair_shear_strength_includes_the_contact_friction_share():
 
 
 def _bonded_reference(sim, pairs):
-    """Which of ``pairs`` are bonded, from the tri_intact bits and the original nodes (numpy, the
-    rule of engine.contact.is_bonded written out again)."""
+    """Which of ``pairs`` are bonded, in numpy and plain Python, written out again from the rule
+    (FDEM_SPEC §7.10): an edge pair while the joint on its shared edge is undamaged (the
+    tri_intact bits); a corner pair while its two triangles are connected around their shared
+    original node by joints that are undamaged (not broken, no damage at any point), found by
+    a walk over all the joints (brute force, no fan ranks)."""
     bits = sim.state.tri_intact.to_numpy()
     org = sim.model.tri_origin.to_numpy()
+    md = sim.model
+    jt = md.joint_tris_np
+    state = sim.state.joint_state.to_numpy()[: len(jt)]
+    dmax = sim.state.joint_dmax.to_numpy()[: len(jt)]
+    intact_joint = (state == 0) & (dmax.max(axis=1) <= 0.0)
+    links = {}                                   # (original node, triangle) -> triangles linked
+    for (a, b), ok in zip(jt, intact_joint):
+        if not ok or bits[a] < INTACT or bits[b] < INTACT:
+            continue
+        for v in set(org[a]) & set(org[b]):
+            links.setdefault((v, a), []).append(b)
+            links.setdefault((v, b), []).append(a)
     out = []
     for a, b in pairs:
         va, vb = int(bits[a]), int(bits[b])
@@ -152,7 +167,14 @@ def _bonded_reference(sim, pairs):
         if va < INTACT or vb < INTACT:
             out.append(False)
         elif len(common) == 1:
-            out.append(not (va & DAMAGED) and not (vb & DAMAGED))
+            v = next(iter(common))
+            seen, todo = {a}, [a]
+            while todo:
+                for t in links.get((v, todo.pop()), []):
+                    if t not in seen:
+                        seen.add(t)
+                        todo.append(t)
+            out.append(b in seen)
         else:
             ea = (list(org[a]).index(next(iter(set(org[a]) - common))) + 1) % 3
             eb = (list(org[b]).index(next(iter(set(org[b]) - common))) + 1) % 3
@@ -165,8 +187,9 @@ def test_neighbour_pairs_are_every_shared_node_pair_and_follow_the_bonds(mode):
     """The neighbour pairs (the first couples, never detected) are exactly the pairs of bonded
     triangles that share an original node (brute force over all pairs), none of them is also
     detected, and through a fragmenting impact tri_nb_on marks exactly those no longer bonded
-    (the bits, read again in numpy), for both ways of treating joined pairs.  In "contact" mode a
-    damaged joint marks both its triangles DAMAGED too, which frees their corner pairs."""
+    (the rule, evaluated again by brute force: edge pairs from the bits, corner pairs by a walk
+    over the undamaged joints around their shared node), for both ways of treating joined
+    pairs."""
     from taichi_fdem.verification import fragment_plate_scene
     sim, _ = fragment_plate_scene(h_plate=0.025, h_ball=0.02, friction=0.5)
     sim = sim.scene.build(strategy="serial", joined_pairs=mode)
@@ -193,3 +216,36 @@ def test_neighbour_pairs_are_every_shared_node_pair_and_follow_the_bonds(mode):
                | (sim.state.joint_dmax.to_numpy()[: len(jt)].max(1) > 0))
     assert damaged.any()
     assert np.all(bits[jt[damaged]] & DAMAGED)
+
+
+def test_corner_pairs_switch_on_holding_almost_no_contact_energy():
+    """A corner pair is bonded until no chain of undamaged joints ties it around its shared node,
+    and contact takes it over from then on with whatever overlap it has: the contact energy the
+    corner pairs hold at the step they switch on (energy account with, less without, their
+    flags) stays below 1e-4 of the impact energy through a fragmenting impact.  Edge pairs hand
+    their carried energy over exactly (test_handover_at_first_damage_keeps_the_energy)."""
+    from taichi_fdem.verification import fragment_plate_scene
+    sim, _ = fragment_plate_scene(h_plate=0.025, h_ball=0.02, friction=0.5)
+    M = sim.model.nb_count
+    org = sim.model.tri_origin.to_numpy()
+    corner = np.array([len(set(org[a]) & set(org[b])) == 1 for a, b in sim.couples()[:M]])
+    E0 = sim.energies()["total"]
+    prev = sim.state.tri_nb_on.to_numpy()[:M].copy()
+    held, switched = 0.0, 0
+    for _ in range(600):
+        sim.step(1)
+        flags = sim.state.tri_nb_on.to_numpy()
+        new = (flags[:M] != 0) & (prev == 0) & corner
+        if new.any():
+            with_new = sim.energies()["contact"]
+            off = flags.copy()
+            off[:M][new] = 0
+            sim.state.tri_nb_on.from_numpy(off)
+            held += with_new - sim.energies()["contact"]
+            sim.state.tri_nb_on.from_numpy(flags)
+            switched += int(new.sum())
+        prev = flags[:M].copy()
+    print(f"\n{switched} corner pairs switched on holding {held:.3g} J/m of contact energy "
+          f"({held / E0:.2e} of E0 = {E0:.4g} J/m); {sim.broken_joint_count} joints broken")
+    assert switched > 20 and sim.broken_joint_count > 0
+    assert 0.0 <= held < 1e-4 * E0

@@ -10,7 +10,7 @@ the contactor nodes, so that force and moment are conserved to round-off.
 """
 import taichi as ti
 
-from .groups import DAMAGED, INTACT, NB_PAIRS, SWITCH_CDAMPING, WORK_CDAMPING, WORK_FRICTION
+from .groups import INTACT, NB_PAIRS, SWITCH_CDAMPING, WORK_CDAMPING, WORK_FRICTION
 from .joints import pair_carried
 from .tiutil import mat32_rows, vec2, vec3
 
@@ -98,8 +98,16 @@ def edge_integrals(a, b, ci, cj, t0, t1, t2, inv2Ac):
                 l = (kl + 1) % 3
                 m = (kl + 2) % 3
                 den = d[k] - d[l]
-                if ti.abs(den) > eps:
-                    s = (a[l] - a[k]) / den
+                num = a[l] - a[k]
+                # smin < s = num/den < smax tested without the division (most crossings of the
+                # lines of β_k and β_l fall outside the span); den > eps or den < −eps
+                inside = False
+                if den > eps:
+                    inside = smin * den < num and num < smax * den
+                elif den < -eps:
+                    inside = smax * den < num and num < smin * den
+                if inside:
+                    s = num / den
                     if smin < s < smax and a[k] + s * d[k] < a[m] + s * d[m]:
                         if s < s1:
                             s2 = s1
@@ -311,35 +319,27 @@ def shared_vertices(oa, ob):
 
 
 @ti.func
-def is_bonded(A, B, tris: ti.template()):
-    """Is the pair (A, B) of a fracturing body held by intact joints, so that contact is not
-    evaluated for it (FDEM_SPEC §7.10)?  Two cases, read from the ``tri_intact`` bits (set at the
-    end of a step, :func:`taichi_fdem.engine.joints.add_joint_work`):
-
-    * **edge neighbours** (they share an edge of the unexploded mesh): while the joint on that
-      edge is undamaged (:func:`taichi_fdem.engine.joints.pair_carried`).  That joint then adds
-      the contact's compression stiffness 3p(1/h_A + 1/h_B) to its own
-      (:func:`taichi_fdem.engine.joints.carried_share`): a thin overlap strip along the edge
-      gives the same force and energy as the contact kernel (within 0.3 %, measured), and at
-      the first damage the joint hands the energy that stiffness holds over to contact, which
-      takes the pair from the next step on.  These pairs were most of the contact cost after an
-      impact (~10k of the 22k couples on the full path of the 10k-triangle plate).
-    * **corner neighbours** (they share one original node): while no joint of either triangle
-      is damaged.  Such a pair is held in place by the intact joints around the shared corner;
-      the overlap two corners can build meanwhile is bounded by the joints' elastic compression
-      o ~ σL/p_f, so the contact energy that appears at the handover is of order p·o³/h per pair
-      (a corner overlap has area ~o² and depth ~o), far below the joints' own elastic energy.
-    """
+def edge_pair_bonded(A, B, tris: ti.template()):
+    """Is the pair (A, B) of a fracturing body two edge neighbours (two original nodes in common)
+    held by their undamaged joint, so that contact is not evaluated for it (FDEM_SPEC §7.10)?
+    Read from the ``tri_intact`` bits (set at the end of a step,
+    :func:`taichi_fdem.engine.joints.add_joint_work`).  While the joint on the shared edge is
+    undamaged (:func:`taichi_fdem.engine.joints.pair_carried`) it adds the contact's compression
+    stiffness 3p(1/h_A + 1/h_B) to its own (:func:`taichi_fdem.engine.joints.carried_share`): a
+    thin overlap strip along the edge gives the same force and energy as the contact kernel
+    (within 0.3 %, measured), and at the first damage the joint hands the energy that stiffness
+    holds over to contact, which takes the pair from the next step on.  False for corner
+    neighbours (one original node in common), whose rule is the fans'
+    (:func:`taichi_fdem.engine.joints.fan_links`): bonded while a chain of undamaged joints
+    around the shared node still ties them, so the overlap two corners can build meanwhile is
+    bounded by the joints' elastic compression o ~ σL/p_f and the contact energy that appears at
+    the handover is of order p·o³/h per pair (a corner overlap has area ~o² and depth ~o)."""
     bonded = False
     va = tris.tri_intact[A]
     vb = tris.tri_intact[B]
     if va >= INTACT and vb >= INTACT:
-        oa = tris.tri_origin[A]
-        ob = tris.tri_origin[B]
-        shared, ra, rb = shared_vertices(oa, ob)
-        if shared == 1:
-            bonded = (va & DAMAGED) == 0 and (vb & DAMAGED) == 0
-        elif shared == 2:
+        shared, ra, rb = shared_vertices(tris.tri_origin[A], tris.tri_origin[B])
+        if shared == 2:
             bonded = pair_carried(va, (ra + 1) % 3, vb, (rb + 1) % 3)
     return bonded
 
@@ -349,11 +349,12 @@ def couple_forces(c, nodes: ti.template(), tris: ti.template(), mats: ti.templat
                   step: ti.template(), friction: ti.template(), fracture: ti.template()):
     """Contact forces of couple c (both passes, §2.3.2 COUPLE): (gA, gB, hit, work); gA, gB are
     3×2 matrices whose row r is the force [N/m] on node r of triangle A, B.  ``hit`` is False,
-    and the forces zero, for a neighbour pair still bonded by intact joints (:func:`is_bonded`,
-    kept up to date in ``tris.tri_nb_on``; fracture only), for pairs whose boxes do not
-    overlap (the common cheap case) and for pairs that lie apart (:func:`separated`: most
-    couples whose boxes overlap, in a pile or a fragmenting mesh).  ``work``: the work dissipated over the step by friction
-    and contact damping [J/m], which the caller books in step_real[WORK_FRICTION],
+    and the forces zero, for a neighbour pair still bonded by intact joints
+    (:func:`edge_pair_bonded`, :func:`taichi_fdem.engine.joints.fan_links`; kept up to date in
+    ``tris.tri_nb_on``; fracture only), for pairs whose boxes do not overlap (the common cheap
+    case) and for pairs that lie apart (:func:`separated`: most couples whose boxes overlap, in
+    a pile or a fragmenting mesh).  ``work``: the work dissipated over the step by friction and
+    contact damping [J/m], which the caller books in step_real[WORK_FRICTION],
     step_real[WORK_CDAMPING]."""
     A = con.couple_a[c]
     B = con.couple_b[c]

@@ -1,10 +1,10 @@
 """Diagnostics kernels: energies, contact overlaps and penetration depths (not on the hot path)."""
 import taichi as ti
 
-from .groups import SWITCH_DAMPING, ContactGroup, MaterialGroup, NodeGroup, StepGroup, TriGroup
+from .groups import NB_PAIRS, SWITCH_DAMPING, ContactGroup, MaterialGroup, NodeGroup, StepGroup, TriGroup
 from .tiutil import vec2
 
-from .contact import boxes_overlap, is_bonded
+from .contact import boxes_overlap
 from .elastic import tri_strain_energy
 
 
@@ -84,8 +84,9 @@ def energy_terms(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: Con
                  fracture: ti.template()):
     """out = [kinetic, strain, contact (penalty + friction spring), gravity, damping dissipated], J/m.
 
-    Pairs bonded by intact joints (:func:`taichi_fdem.engine.contact.is_bonded`), and neighbour
-    pairs with a removed triangle, carry no contact energy, as they carry no contact force.
+    Neighbour pairs bonded by intact joints (``tri_nb_on`` 0: those whose forces contact skips,
+    :func:`taichi_fdem.engine.contact.couple_forces`), and pairs with a removed triangle, carry
+    no contact energy, as they carry no contact force.
     """
     for i in range(5):
         out[i] = 0.0
@@ -109,7 +110,8 @@ def energy_terms(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: Con
         prop = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]]
         bonded = False
         if ti.static(fracture):
-            bonded = is_bonded(A, B, tris) or tris.tri_intact[A] < 0 or tris.tri_intact[B] < 0
+            bonded = ((c < step.step_int[NB_PAIRS] and tris.tri_nb_on[c] == 0) or tris.tri_intact[A] < 0
+                      or tris.tri_intact[B] < 0)
         if not bonded and boxes_overlap(a0, a1, a2, b0, b1, b2):
             out[2] += prop[0] * (pass_potential(b0, b1, b2, a0, a1, a2) + pass_potential(a0, a1, a2, b0, b1, b2))
         if ti.static(friction):

@@ -22,9 +22,10 @@ tris       nodes (vec3 i32); rest_inv (2×2, F0⁻¹ [1/m]; A0 = ½ / det F0⁻�
            one); intact (bits, see :data:`INTACT`: a bonded triangle of a fracturing body, which of
            its edges carry no undamaged joint, whether any of its joints is damaged; 0 for the
            other triangles; −1 once the triangle is removed by an excavation); prestress (vec3:
-           initial 2nd Piola–Kirchhoff stress S⁰ = (xx, yy, xy) [Pa], §12.4); nb (i32: each
-           triangle's neighbour pairs, engine.joints.neighbour_pairs); nb_on (i32 per neighbour
-           pair: 1 once it is no longer bonded, so that contact is evaluated for it)
+           initial 2nd Piola–Kirchhoff stress S⁰ = (xx, yy, xy) [Pa], §12.4); fans (i32: the fans of
+           the original nodes, engine.joints.fan_links); nb_on (i32 per neighbour pair: 1 once
+           it is no longer bonded, so that contact is evaluated for it; then one i32 per fan:
+           the mask of its missing and damaged links)
 mats       mu, lam (Lamé μ, λ_Y [Pa]); pair ((M, M) vec4: penalty p [Pa], tangential penalty
            k_t [Pa/m], friction μ, normal damping c_n)
 contact    the couples: a, b (triangles), hist (6 slip values per couple [m]); the first
@@ -74,7 +75,7 @@ def _group(*names):
 NODE_MEMBERS = ("node_x", "node_v", "node_f", "node_mass", "node_free", "node_vbc", "node_react", "load_nodes",
                 "load_vals", "load_force", "curve_points")
 TRI_MEMBERS = ("tri_nodes", "tri_rest_inv", "tri_mat", "tri_body", "tri_visc", "tri_diss", "tri_origin",
-               "tri_intact", "tri_prestress", "tri_nb", "tri_nb_on")
+               "tri_intact", "tri_prestress", "tri_fans", "tri_nb_on")
 MAT_MEMBERS = ("mat_mu", "mat_lam", "mat_pair")
 CONTACT_MEMBERS = ("couple_a", "couple_b", "couple_hist")
 DETECT_MEMBERS = ("contact_tri", "body_flags", "couple_start", "det_bound", "det_sort", "det_bucket", "det_cnew",

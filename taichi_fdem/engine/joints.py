@@ -12,7 +12,7 @@ and the joint breaks for good when two of its three points have failed (§7.8).
 import numpy as np
 import taichi as ti
 
-from .groups import BROKEN, DAMAGED, EDGE_FREE, INTACT, TIME
+from .groups import BROKEN, DAMAGED, EDGE_FREE, INTACT, NB_PAIRS, TIME
 from .tiutil import vec2
 
 # Evans & Marathe softening fit (§7.5)
@@ -59,25 +59,18 @@ def initial_intact(tri_nodes, joint_nodes, joint_tris, carries, fracturing) -> n
     return np.where(fracturing, INTACT + bits, 0).astype(np.int32)
 
 
-def neighbour_pairs(tri_origin, eligible) -> tuple[np.ndarray, np.ndarray]:
-    """The neighbour pairs of a model and each triangle's list of them (numpy in and out).
-
-    Neighbour pairs are the pairs (A < B) of ``eligible`` triangles (bonded triangles of a
-    fracturing, self-contacting body) that share an original node: edge neighbours (two shared
-    nodes) and corner neighbours (one).  They are the first M entries of the couple list for the
-    whole run, never detected, and contact is evaluated for one only once it is no longer bonded
+def neighbour_pairs(tri_origin, eligible) -> np.ndarray:
+    """The neighbour pairs of a model (numpy in and out): the pairs (A < B) of ``eligible``
+    triangles (bonded triangles of a fracturing, self-contacting body) that share an original
+    node: edge neighbours (two shared nodes) and corner neighbours (one), as an (M, 2) array
+    sorted by (A, B).  They are the first M entries of the couple list for the whole run, never
+    detected, and contact is evaluated for one only once it is no longer bonded
     (``tris.tri_nb_on``, :func:`switch_on_neighbours`), so that the many bonded pairs of an
-    unbroken mesh cost nothing per step.
-
-    Returns (pairs (M × 2, sorted), tri_nb): tri_nb[t] (t < T) is where triangle t's list starts
-    in tri_nb and tri_nb[T] where the lists end; a list holds two entries per pair of the
-    triangle, the other triangle and 2 p + (1 for an edge neighbour), p the pair's index.
-    """
+    unbroken mesh cost nothing per step."""
     tri_origin = np.asarray(tri_origin)
     T = len(tri_origin)
     t = np.nonzero(np.asarray(eligible, bool))[0]
     pairs = np.zeros((0, 2), np.int64)
-    shared = np.zeros(0, np.int64)
     if len(t) > 1:
         node = tri_origin[t].ravel()
         tri = np.repeat(t, 3)
@@ -91,44 +84,169 @@ def neighbour_pairs(tri_origin, eligible) -> tuple[np.ndarray, np.ndarray]:
             found.append(np.stack([tri[:-d][same], tri[d:][same]], axis=1))
         if found:
             cand = np.sort(np.concatenate(found), axis=1).astype(np.int64)
-            key, shared = np.unique(cand[:, 0] * T + cand[:, 1], return_counts=True)
+            key = np.unique(cand[:, 0] * T + cand[:, 1])
             pairs = np.stack([key // T, key % T], axis=1)
-    M = len(pairs)
-    code = 2 * np.arange(M) + (shared >= 2)
-    owner = np.concatenate([pairs[:, 0], pairs[:, 1]])
-    other = np.concatenate([pairs[:, 1], pairs[:, 0]])
-    codes = np.concatenate([code, code])
-    order = np.argsort(owner, kind="stable")
-    counts = np.bincount(owner, minlength=T)
-    tri_nb = np.empty(T + 1 + 4 * M, np.int64)
-    tri_nb[0] = T + 1
-    tri_nb[1:T + 1] = T + 1 + 2 * np.cumsum(counts)
-    tri_nb[T + 1::2] = other[order]
-    tri_nb[T + 2::2] = codes[order]
-    return pairs.astype(np.int32), tri_nb.astype(np.int32)
+    return pairs.astype(np.int32)
+
+
+#: links (joints) of one fan tracked one bit each in an i32 mask (the sign bit unused)
+FAN_BITS = 31
+FAN_HEAD = 2           # tri_fans[0] = fans V, tri_fans[1] = joints J
+FAN_ENTRY = 5          # (pair, arc 1, arc 2, A, B) per corner pair of a fan
+FAN_JOINT = 3          # (fan code of end 0, of end 1, edge pair) per joint
+
+
+def fan_links(tri_nodes, tri_origin, node_x, joint_nodes, joint_tris, pairs, eligible) -> np.ndarray:
+    """The fans of the original nodes, for the corner-pair rule (numpy in, one i32 array out).
+
+    The **fan** of an original node v is the cycle of the eligible triangles around v, in the
+    order of the angle of their centroid about v (rest positions ``node_x``), and its **links**:
+    link i joins the triangles of ranks i and i + 1 (mod n).  A link is a joint between the two
+    (bit i of the fan's mask once the joint is damaged), an edge they still share (a body only
+    partly jointed: never cut), or missing (no common edge through v, a pre-existing crack, the
+    open side of a boundary node): missing links are set in the mask from the start.  A corner
+    pair (A, B) at v, of ranks r_A < r_B, is bonded while one of its two arcs, the links
+    r_A … r_B − 1 and the others, has no bit set: A and B are then still tied at v through a
+    chain of intact joints.  A fan of more than FAN_BITS triangles sets every bit (its corner
+    pairs are never bonded).
+
+    Layout (offsets into the one array): [0] = V fans (original nodes), [1] = J joints;
+    [FAN_HEAD, FAN_HEAD + V]: start of fan v's entries (V + 1 values); the next V values: fan
+    v's mask of missing links; then FAN_ENTRY values per corner pair, grouped by fan (pair
+    index p, arc 1, arc 2, A, B); from the end of the entries, FAN_JOINT values per joint
+    (v·32 + bit of its first and second end, −1 if not a link of an eligible fan, and the index
+    of its edge pair, −1 if none).
+    """
+    tri_nodes = np.asarray(tri_nodes)
+    tri_origin = np.asarray(tri_origin)
+    pairs = np.asarray(pairs, np.int64).reshape(-1, 2)
+    eligible = np.asarray(eligible, bool)
+    T = len(tri_origin)
+    J = len(joint_nodes)
+    V = int(tri_origin.max()) + 1 if T else 0
+    # incidences (v, t) of the eligible triangles, sorted by node and angle: rank in the fan
+    t = np.nonzero(eligible)[0]
+    inc_v = tri_origin[t].ravel().astype(np.int64)
+    inc_t = np.repeat(t, 3)
+    corner = node_x[tri_nodes[t]]                                     # (n, 3, 2)
+    rel = np.repeat(corner.mean(axis=1), 3, axis=0) - corner.reshape(-1, 2)
+    order = np.lexsort((np.arctan2(rel[:, 1], rel[:, 0]), inc_v))
+    inc_v, inc_t = inc_v[order], inc_t[order]
+    n_fan = np.bincount(inc_v, minlength=V)
+    rank = np.arange(len(inc_v)) - np.concatenate([[0], np.cumsum(n_fan)])[inc_v]
+    key = inc_v * max(T, 1) + inc_t
+    ko = np.argsort(key, kind="stable")
+    key_sorted, rank_sorted = key[ko], rank[ko]
+
+    def rank_of(v, tt):
+        """Rank of triangle tt in the fan of v (−1: not in it)."""
+        k = np.asarray(v, np.int64) * max(T, 1) + tt
+        if not len(key_sorted):
+            return -np.ones(len(k), np.int64)
+        i = np.minimum(np.searchsorted(key_sorted, k), len(key_sorted) - 1)
+        return np.where(key_sorted[i] == k, rank_sorted[i], -1)
+
+    small = n_fan <= FAN_BITS
+    full = (np.int64(1) << np.minimum(n_fan, FAN_BITS)) - 1
+    linked = np.zeros(V, np.int64)                    # links that are joints or shared edges
+    # shared edges (both ends the same nodes, not cut): consecutive triangles sharing 2 nodes
+    nxt = np.arange(len(inc_v)) + 1
+    first = np.concatenate([[0], np.cumsum(n_fan)])
+    nxt = np.where(rank == n_fan[inc_v] - 1, first[inc_v], nxt)       # wrap to rank 0
+    if len(inc_v):
+        a_nodes = np.sort(tri_nodes[inc_t], axis=1)
+        b_nodes = np.sort(tri_nodes[inc_t[nxt]], axis=1)
+        same = (a_nodes[:, :, None] == b_nodes[:, None, :]).any(axis=2).sum(axis=1) >= 2
+        same &= (inc_t != inc_t[nxt]) & small[inc_v]
+        np.bitwise_or.at(linked, inc_v[same], np.int64(1) << rank[same])
+    link = -np.ones((J, 3), np.int64)
+    if J:
+        A = np.asarray(joint_tris)[:, 0]
+        B = np.asarray(joint_tris)[:, 1]
+        ok = eligible[A] & eligible[B]
+        for end in range(2):
+            r = np.argmax(tri_nodes[A] == np.asarray(joint_nodes)[:, end:end + 1], axis=1)
+            v = tri_origin[A, r].astype(np.int64)
+            ra, rb = rank_of(v, A), rank_of(v, B)
+            n = np.maximum(n_fan[v], 1)
+            bit = np.where((rb - ra) % n == 1, ra, np.where((ra - rb) % n == 1, rb, -1))
+            good = ok & (ra >= 0) & (rb >= 0) & (bit >= 0) & small[v]
+            link[:, end] = np.where(good, v * 32 + bit, -1)
+            np.bitwise_or.at(linked, v[good], np.int64(1) << bit[good])
+        if len(pairs):
+            lo, hi = np.minimum(A, B).astype(np.int64), np.maximum(A, B).astype(np.int64)
+            pk = pairs[:, 0] * max(T, 1) + pairs[:, 1]
+            i = np.minimum(np.searchsorted(pk, lo * max(T, 1) + hi), len(pk) - 1)
+            link[:, 2] = np.where(ok & (pk[i] == lo * max(T, 1) + hi), i, -1)
+    missing = np.where(small, full & ~linked, (np.int64(1) << FAN_BITS) - 1)
+    # corner pairs: exactly one original node in common
+    oa, ob = tri_origin[pairs[:, 0]], tri_origin[pairs[:, 1]]
+    eq = oa[:, :, None] == ob[:, None, :]
+    pc = np.nonzero(eq.sum(axis=(1, 2)) == 1)[0]
+    v = oa[pc, np.argmax(eq[pc].any(axis=2), axis=1)].astype(np.int64)
+    ra, rb = rank_of(v, pairs[pc, 0]), rank_of(v, pairs[pc, 1])
+    lo, hi = np.minimum(ra, rb), np.maximum(ra, rb)
+    arc1 = np.where(small[v], (np.int64(1) << hi) - (np.int64(1) << lo), full[v])
+    arc2 = np.where(small[v], full[v] ^ arc1, full[v])
+    o = np.argsort(v, kind="stable")
+    ent = np.stack([pc[o], arc1[o], arc2[o], pairs[pc[o], 0], pairs[pc[o], 1]], axis=1)
+    E0 = FAN_HEAD + 2 * V + 1
+    starts = E0 + FAN_ENTRY * np.concatenate([[0], np.cumsum(np.bincount(v, minlength=V))])
+    out = np.concatenate([[V, J], starts, missing, ent.ravel(), link.ravel()])
+    return out.astype(np.int32)
 
 
 @ti.func
-def switch_on_neighbours(a, b, tris: ti.template()):
-    """Triangles a and b, joined by a joint that has just been damaged, are no longer bonded:
-    evaluate contact from the next step on for their corner neighbour pairs and for the pair
-    (a, b) itself (:func:`neighbour_pairs`), unless either triangle was removed.  Only ever
-    sets flags to 1, so the order in which the joints of a step do it does not matter."""
-    for side in ti.static(range(2)):
-        t = a
-        u = b
-        if ti.static(side == 1):
-            t = b
-            u = a
-        k0 = tris.tri_nb[t]
-        n = (tris.tri_nb[t + 1] - k0) // 2
-        if tris.tri_intact[t] < 0:
-            n = 0
-        for i in range(n):
-            q = tris.tri_nb[k0 + 2 * i]
-            code = tris.tri_nb[k0 + 2 * i + 1]
-            if ((code & 1) == 0 or q == u) and tris.tri_intact[q] >= 0:
-                tris.tri_nb_on[code >> 1] = 1
+def fan_mask_slot(v, step: ti.template()):
+    """Index in tris.tri_nb_on of the link mask of fan v (after the neighbour pairs' flags)."""
+    return step.step_int[NB_PAIRS] + v
+
+
+@ti.func
+def corner_bonded(m, arc1, arc2):
+    """Is a corner pair with arcs arc1, arc2 of a fan whose mask is m still tied at its shared
+    node by a chain of intact joints (:func:`fan_links`)?"""
+    return (m & arc1) == 0 or (m & arc2) == 0
+
+
+@ti.func
+def switch_on_corners(v, m, tris: ti.template()):
+    """Switch on (tri_nb_on = 1) every corner pair of fan v that the link mask m no longer
+    bonds, unless either triangle was removed."""
+    k0 = tris.tri_fans[FAN_HEAD + v]
+    for i in range((tris.tri_fans[FAN_HEAD + v + 1] - k0) // FAN_ENTRY):
+        k = k0 + FAN_ENTRY * i
+        if not corner_bonded(m, tris.tri_fans[k + 1], tris.tri_fans[k + 2]):
+            if tris.tri_intact[tris.tri_fans[k + 3]] >= 0 and tris.tri_intact[tris.tri_fans[k + 4]] >= 0:
+                tris.tri_nb_on[tris.tri_fans[k]] = 1
+
+
+@ti.func
+def switch_on_neighbours(j, a, b, tris: ti.template(), step: ti.template()):
+    """Joint j, between triangles a and b, is damaged or broken: contact is evaluated from the
+    next step on for the pair (a, b) itself and for the corner pairs that this cuts apart at the
+    joint's two ends (:func:`fan_links`), unless a triangle was removed.  The first time, the
+    joint's bit goes into each end's fan mask with an atomic or, and the pairs are switched on
+    from the mask that or returns, with the joint's bit; afterwards a read of the bit finds
+    nothing to do.  Flags only ever go from 0 to 1 and the last joint of a step
+    to set a bit in a fan sees every bit set before it, so the flags after the step do not
+    depend on the order in which its joints do this (any thread count gives the same bits)."""
+    if j < tris.tri_fans[1]:                 # no fans: a body without neighbour pairs
+        base = tris.tri_fans[FAN_HEAD + tris.tri_fans[0]] + FAN_JOINT * j
+        pe = tris.tri_fans[base + 2]
+        if pe >= 0:
+            if tris.tri_nb_on[pe] == 0 and tris.tri_intact[a] >= 0 and tris.tri_intact[b] >= 0:
+                tris.tri_nb_on[pe] = 1
+        for end in ti.static(range(2)):
+            code = tris.tri_fans[base + end]
+            if code >= 0:
+                v = code >> 5
+                bit = 1 << (code & 31)
+                slot = fan_mask_slot(v, step)
+                # only this joint sets this bit: once it is set, there is nothing left to do
+                if (tris.tri_nb_on[slot] & bit) == 0:
+                    m = ti.atomic_or(tris.tri_nb_on[slot], bit) | bit
+                    switch_on_corners(v, m, tris)
 
 
 @ti.func
@@ -326,16 +444,16 @@ def add_joint_work(j, joints: ti.template(), tris: ti.template(), mats: ti.templ
     """Second half of the work done on joint j over the step (see :func:`eval_joint`) [J/m].
 
     Also, at the end of the step: once the joint has any damage (or is broken), its two
-    triangles are marked DAMAGED and the joint's edge EDGE_FREE in both (``tri_intact`` bits);
-    from the next step on, contact is evaluated for the pair itself and for their couples with
-    corner neighbours (:func:`taichi_fdem.engine.contact.is_bonded`).  Marking it here, after
+    triangles are marked DAMAGED and the joint's edge EDGE_FREE in both (``tri_intact`` bits),
+    and from the next step on contact is evaluated for the pair itself and for the corner pairs
+    this cuts apart at its ends (:func:`switch_on_neighbours`).  Marking it here, after
     every force of the step, keeps the serial and parallel strategies identical.  If the joint
     carried the pair's compression (:func:`pair_carried`), the energy its carried stiffness
     holds at the new positions is taken off its work: contact, which takes over at the next
     step with the same overlap, holds it from then on (the handover, FDEM_SPEC §7.10).
     """
     dm = joints.joint_dmax[j]
-    if joints.joint_state[j] != 0 or dm[0] > 0.0 or dm[1] > 0.0 or dm[2] > 0.0:
+    if (joints.joint_state[j] != 0 or dm[0] > 0.0 or dm[1] > 0.0 or dm[2] > 0.0):
         jt = joints.joint_tris[j]
         nd = joints.joint_nodes[j]
         ea = edge_between(tris.tri_nodes[jt[0]], nd[0], nd[1])
@@ -358,7 +476,7 @@ def add_joint_work(j, joints: ti.template(), tris: ti.template(), mats: ti.templ
                 ti.atomic_or(tris.tri_intact[jt[0]], bits_a)
             if set_b:
                 ti.atomic_or(tris.tri_intact[jt[1]], bits_b)
-            switch_on_neighbours(jt[0], jt[1], tris)
+        switch_on_neighbours(j, jt[0], jt[1], tris, step)
     g = joints.joint_g[j]
     if g[0] != 0.0 or g[1] != 0.0 or g[2] != 0.0 or g[3] != 0.0:
         nd = joints.joint_nodes[j]

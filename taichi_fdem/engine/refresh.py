@@ -7,24 +7,54 @@ is bit-identical.
 """
 import taichi as ti
 
-from .contact import is_bonded
+from .contact import edge_pair_bonded, shared_vertices
 from .groups import NB_PAIRS, ContactGroup, JointGroup, StepGroup, TriGroup
-from .joints import softening_z
+from .joints import FAN_ENTRY, FAN_HEAD, FAN_JOINT, fan_mask_slot, softening_z, switch_on_corners
+
+
+@ti.func
+def joint_cut(j, joints: ti.template(), tris: ti.template()):
+    """Does joint j no longer tie its triangles: damaged or broken (the event on which
+    :func:`taichi_fdem.engine.joints.add_joint_work` switches contact on), or a triangle
+    removed (its forces are skipped from then on)?"""
+    jt = joints.joint_tris[j]
+    dm = joints.joint_dmax[j]
+    return (joints.joint_state[j] != 0 or dm[0] > 0.0 or dm[1] > 0.0 or dm[2] > 0.0
+            or tris.tri_intact[jt[0]] < 0 or tris.tri_intact[jt[1]] < 0)
 
 
 @ti.kernel
-def refresh_neighbours(tris: TriGroup, con: ContactGroup, step: StepGroup):
-    """tris.tri_nb_on from the tri_intact bits: 1 for a neighbour pair no longer bonded
-    (:func:`taichi_fdem.engine.contact.is_bonded`), 0 for a bonded one or one with a removed
+def refresh_neighbours(tris: TriGroup, con: ContactGroup, joints: JointGroup, step: StepGroup):
+    """tris.tri_nb_on from the joints and the tri_intact bits: each fan's link mask (its missing
+    links, and the links whose joint is cut, :func:`joint_cut`), then 1 for a neighbour pair no
+    longer bonded (:func:`taichi_fdem.engine.contact.edge_pair_bonded`,
+    :func:`taichi_fdem.engine.joints.corner_bonded`, whose forces contact skips), 0 for a bonded one or one with a removed
     triangle.  At build, at a restore and after an excavation; during a run the joints keep it
     up to date (:func:`taichi_fdem.engine.joints.switch_on_neighbours`)."""
+    V = tris.tri_fans[0]
+    for v in range(V):
+        tris.tri_nb_on[fan_mask_slot(v, step)] = tris.tri_fans[FAN_HEAD + V + 1 + v]
+    for j in range(tris.tri_fans[1]):
+        if joint_cut(j, joints, tris):
+            base = tris.tri_fans[FAN_HEAD + V] + FAN_JOINT * j
+            for end in ti.static(range(2)):
+                code = tris.tri_fans[base + end]
+                if code >= 0:
+                    ti.atomic_or(tris.tri_nb_on[fan_mask_slot(code >> 5, step)], 1 << (code & 31))
     for p in range(step.step_int[NB_PAIRS]):
         A = con.couple_a[p]
         B = con.couple_b[p]
-        on = 0
-        if tris.tri_intact[A] >= 0 and tris.tri_intact[B] >= 0 and not is_bonded(A, B, tris):
-            on = 1
-        tris.tri_nb_on[p] = on
+        shared, _, _ = shared_vertices(tris.tri_origin[A], tris.tri_origin[B])
+        if shared != 1:                      # corner pairs: below, from their fan
+            on = 0
+            if tris.tri_intact[A] >= 0 and tris.tri_intact[B] >= 0 and not edge_pair_bonded(A, B, tris):
+                on = 1
+            tris.tri_nb_on[p] = on
+    for v in range(V):
+        k0 = tris.tri_fans[FAN_HEAD + v]
+        for i in range((tris.tri_fans[FAN_HEAD + v + 1] - k0) // FAN_ENTRY):
+            tris.tri_nb_on[tris.tri_fans[k0 + FAN_ENTRY * i]] = 0
+        switch_on_corners(v, tris.tri_nb_on[fan_mask_slot(v, step)], tris)
 
 
 @ti.kernel

@@ -43,8 +43,8 @@ import taichi as ti
 
 from .. import backend
 from ..engine.groups import DAMAGED, EDGE_FREE, INTACT, NB_PAIRS
-from ..model import counter
-from ..state import install_neighbour_pairs
+from ..model import _ndarray, counter
+from ..state import install_neighbour_pairs, nb_on_size
 
 __all__ = ["save", "load", "CheckpointError", "FORMAT", "FORMAT_VERSION"]
 
@@ -338,6 +338,9 @@ def load(path):
         frac = sim.model.tri_fracturing
         v = np.where(v >= 1, v | (7 * EDGE_FREE), np.where(frac & (v == 0), INTACT | (7 * EDGE_FREE) | DAMAGED, v))
         st.tri_intact.from_numpy(v.astype(np.int32))
+    if st.tri_nb_on.shape[0] != nb_on_size(sim.model):
+        # a checkpoint from before the fans' link masks: re-derived by the restore
+        st.tri_nb_on = _ndarray(np.zeros(nb_on_size(sim.model), np.int32), ti.i32)
     if sim.model.nb_count and counter(st.step_int, NB_PAIRS) != sim.model.nb_count:
         # a checkpoint from before neighbour pairs: they become the first couples again and the
         # others are detected anew (the slip history of the saved couples is not carried over)
