@@ -98,16 +98,8 @@ def edge_integrals(a, b, ci, cj, t0, t1, t2, inv2Ac):
                 l = (kl + 1) % 3
                 m = (kl + 2) % 3
                 den = d[k] - d[l]
-                num = a[l] - a[k]
-                # smin < s = num/den < smax tested without the division (most crossings of the
-                # lines of β_k and β_l fall outside the span); den > eps or den < −eps
-                inside = False
-                if den > eps:
-                    inside = smin * den < num and num < smax * den
-                elif den < -eps:
-                    inside = smax * den < num and num < smin * den
-                if inside:
-                    s = num / den
+                if ti.abs(den) > eps:
+                    s = (a[l] - a[k]) / den
                     if smin < s < smax and a[k] + s * d[k] < a[m] + s * d[m]:
                         if s < s1:
                             s2 = s1
@@ -289,9 +281,13 @@ def separated(a0, a1, a2, b0, b1, b2):
     potential integral (a triangle on or beyond an edge line of the other meets it at most on
     that line, where the potential is zero), and both passes would only release slip.  It costs
     six edge normals and eighteen dot products, no division and no velocity."""
-    return (beyond_edge(a0, a1, b0, b1, b2) | beyond_edge(a1, a2, b0, b1, b2) | beyond_edge(a2, a0, b0, b1, b2)
-            | beyond_edge(b0, b1, a0, a1, a2) | beyond_edge(b1, b2, a0, a1, a2)
-            | beyond_edge(b2, b0, a0, a1, a2)) != 0
+    sep = 0
+    for ps in range(2):                       # a runtime loop: one copy of the three tests
+        t0, t1, t2, p0, p1, p2 = a0, a1, a2, b0, b1, b2
+        if ps == 1:
+            t0, t1, t2, p0, p1, p2 = b0, b1, b2, a0, a1, a2
+        sep |= beyond_edge(t0, t1, p0, p1, p2) | beyond_edge(t1, t2, p0, p1, p2) | beyond_edge(t2, t0, p0, p1, p2)
+    return sep != 0
 
 
 @ti.func
@@ -419,7 +415,7 @@ def couple_forces(c, nodes: ti.template(), tris: ti.template(), mats: ti.templat
                     held = True
             if held:
                 kt = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]][1]
-                for s in ti.static(range(6)):
+                for s in range(6):          # a runtime loop: one copy of the code
                     work[0] += release_slip(con.couple_hist, c * 6 + s, kt)
     return gA, gB, hit, work
 
