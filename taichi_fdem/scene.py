@@ -596,7 +596,7 @@ class Scene:
             and of the frictional strength, μ|σ|; contact is not evaluated for the pair until
             the joint's first damage, when the joint hands that share and its energy over to
             contact (1.3-1.6× faster once an impact compresses a jointed body,
-            :func:`taichi_fdem.engine.contact.is_bonded`).  "contact": contact is evaluated for
+            :func:`taichi_fdem.engine.contact.edge_pair_bonded`).  "contact": contact is evaluated for
             such pairs from the start, alongside the joint's own compression law, as in Y2D.
         """
         return Simulation(self, dt=dt, safety=safety, force_dt=force_dt, buffer=buffer, strategy=strategy,

@@ -144,8 +144,8 @@ def _bonded_reference(sim, pairs):
     """Which of ``pairs`` are bonded, in numpy and plain Python, written out again from the rule
     (FDEM_SPEC §7.10): an edge pair while the joint on its shared edge is undamaged (the
     tri_intact bits); a corner pair while its two triangles are connected around their shared
-    original node by joints that are undamaged (not broken, no damage at any point), found by
-    a walk over all the joints (brute force, no fan ranks)."""
+    original node by joints that are undamaged (not broken, no damage at any point) or edges
+    left uncut, found by a walk over all of them (brute force, no fan ranks)."""
     bits = sim.state.tri_intact.to_numpy()
     org = sim.model.tri_origin.to_numpy()
     md = sim.model
@@ -153,9 +153,19 @@ def _bonded_reference(sim, pairs):
     state = sim.state.joint_state.to_numpy()[: len(jt)]
     dmax = sim.state.joint_dmax.to_numpy()[: len(jt)]
     intact_joint = (state == 0) & (dmax.max(axis=1) <= 0.0)
+    tn = md.tri_nodes.to_numpy()
     links = {}                                   # (original node, triangle) -> triangles linked
-    for (a, b), ok in zip(jt, intact_joint):
-        if not ok or bits[a] < INTACT or bits[b] < INTACT:
+    tied = [(a, b) for (a, b), ok in zip(jt, intact_joint) if ok]
+    # an edge a partly jointed body did not cut (two nodes shared) ties for good
+    bonded = np.nonzero(bits >= INTACT)[0]
+    by_node = {}
+    for t in bonded:
+        for n in tn[t]:
+            by_node.setdefault(n, []).append(t)
+    tied += [(a, b) for ts in by_node.values() for a in ts for b in ts
+             if a < b and len(set(tn[a]) & set(tn[b])) == 2]
+    for a, b in tied:
+        if bits[a] < INTACT or bits[b] < INTACT:
             continue
         for v in set(org[a]) & set(org[b]):
             links.setdefault((v, a), []).append(b)
@@ -249,3 +259,23 @@ def test_corner_pairs_switch_on_holding_almost_no_contact_energy():
           f"({held / E0:.2e} of E0 = {E0:.4g} J/m); {sim.broken_joint_count} joints broken")
     assert switched > 20 and sim.broken_joint_count > 0
     assert 0.0 <= held < 1e-4 * E0
+
+
+def test_corner_pairs_of_a_partly_jointed_body_follow_joints_and_uncut_edges():
+    """In a plate with joints only in a band (the rest of its mesh continuous), the corner pairs'
+    flags follow the same brute-force rule, where an uncut edge ties its two triangles for
+    good, at the start and while the band is pulled apart."""
+    from taichi_fdem.verification.discontinuities import band_plate_scene
+    sim, _ = band_plate_scene()
+    M = sim.model.nb_count
+    pairs = sim.couples()[:M]
+    tn = sim.model.tri_nodes.to_numpy()
+    uncut = sum(len(set(tn[a]) & set(tn[b])) >= 2 for a, b in pairs)
+    assert M > 100 and uncut > 0
+    seen = 0
+    for _ in range(3):
+        on = sim.state.tri_nb_on.to_numpy()[:M].astype(bool)
+        np.testing.assert_array_equal(on, ~_bonded_reference(sim, pairs))
+        seen = max(seen, int(on.sum()))
+        sim.step(2000)
+    assert seen > 0

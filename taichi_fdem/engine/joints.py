@@ -133,7 +133,8 @@ def fan_links(tri_nodes, tri_origin, node_x, joint_nodes, joint_tris, pairs, eli
     order = np.lexsort((np.arctan2(rel[:, 1], rel[:, 0]), inc_v))
     inc_v, inc_t = inc_v[order], inc_t[order]
     n_fan = np.bincount(inc_v, minlength=V)
-    rank = np.arange(len(inc_v)) - np.concatenate([[0], np.cumsum(n_fan)])[inc_v]
+    first = np.concatenate([[0], np.cumsum(n_fan)])                  # where each fan's ranks start
+    rank = np.arange(len(inc_v)) - first[inc_v]
     key = inc_v * max(T, 1) + inc_t
     ko = np.argsort(key, kind="stable")
     key_sorted, rank_sorted = key[ko], rank[ko]
@@ -150,12 +151,9 @@ def fan_links(tri_nodes, tri_origin, node_x, joint_nodes, joint_tris, pairs, eli
     full = (np.int64(1) << np.minimum(n_fan, FAN_BITS)) - 1
     linked = np.zeros(V, np.int64)                    # links that are joints or shared edges
     # shared edges (both ends the same nodes, not cut): consecutive triangles sharing 2 nodes
-    nxt = np.arange(len(inc_v)) + 1
-    first = np.concatenate([[0], np.cumsum(n_fan)])
-    nxt = np.where(rank == n_fan[inc_v] - 1, first[inc_v], nxt)       # wrap to rank 0
+    nxt = np.where(rank == n_fan[inc_v] - 1, first[inc_v], np.arange(len(inc_v)) + 1)   # next rank, wrapping
     if len(inc_v):
-        a_nodes = np.sort(tri_nodes[inc_t], axis=1)
-        b_nodes = np.sort(tri_nodes[inc_t[nxt]], axis=1)
+        a_nodes, b_nodes = tri_nodes[inc_t], tri_nodes[inc_t[nxt]]
         same = (a_nodes[:, :, None] == b_nodes[:, None, :]).any(axis=2).sum(axis=1) >= 2
         same &= (inc_t != inc_t[nxt]) & small[inc_v]
         np.bitwise_or.at(linked, inc_v[same], np.int64(1) << rank[same])
@@ -267,7 +265,7 @@ def pair_carried(va, ea, vb, eb):
     """Is the pair of triangles A, B joined along their edges ea, eb by a joint that carries its
     compression alone (FDEM_SPEC §7.10)?  va, vb: their ``tri_intact`` words.  True while both
     are bonded triangles of a fracturing body and the joint on that edge is undamaged; contact
-    is not evaluated for such a pair (engine.contact.is_bonded), the joint adds the contact's
+    is not evaluated for such a pair (engine.contact.edge_pair_bonded), the joint adds the contact's
     share of the compression stiffness instead (:func:`carried_share`)."""
     return va >= INTACT and vb >= INTACT and (va & (EDGE_FREE << ea)) == 0 and (vb & (EDGE_FREE << eb)) == 0
 

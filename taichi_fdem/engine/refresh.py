@@ -28,9 +28,10 @@ def refresh_neighbours(tris: TriGroup, con: ContactGroup, joints: JointGroup, st
     """tris.tri_nb_on from the joints and the tri_intact bits: each fan's link mask (its missing
     links, and the links whose joint is cut, :func:`joint_cut`), then 1 for a neighbour pair no
     longer bonded (:func:`taichi_fdem.engine.contact.edge_pair_bonded`,
-    :func:`taichi_fdem.engine.joints.corner_bonded`, whose forces contact skips), 0 for a bonded one or one with a removed
-    triangle.  At build, at a restore and after an excavation; during a run the joints keep it
-    up to date (:func:`taichi_fdem.engine.joints.switch_on_neighbours`)."""
+    :func:`taichi_fdem.engine.joints.corner_bonded`), 0 for a bonded one (contact skips its
+    forces) or one with a removed triangle.  At build, at a restore and after an excavation;
+    during a run the joints keep it up to date
+    (:func:`taichi_fdem.engine.joints.switch_on_neighbours`)."""
     V = tris.tri_fans[0]
     for v in range(V):
         tris.tri_nb_on[fan_mask_slot(v, step)] = tris.tri_fans[FAN_HEAD + V + 1 + v]
