@@ -201,6 +201,18 @@ def fan_mask_slot(v, step: ti.template()):
 
 
 @ti.func
+def fan_joint_base(j, tris: ti.template()):
+    """Where joint j's FAN_JOINT values start in tris.tri_fans (after the fans' entries)."""
+    return tris.tri_fans[FAN_HEAD + tris.tri_fans[0]] + FAN_JOINT * j
+
+
+@ti.func
+def fan_code_bit(code):
+    """(fan v, its mask bit) of a joint end's fan code v·32 + bit (code >= 0)."""
+    return code >> 5, 1 << (code & 31)
+
+
+@ti.func
 def corner_bonded(m, arc1, arc2):
     """Is a corner pair with arcs arc1, arc2 of a fan whose mask is m still tied at its shared
     node by a chain of intact joints (:func:`fan_links`)?"""
@@ -230,7 +242,7 @@ def switch_on_neighbours(j, a, b, tris: ti.template(), step: ti.template()):
     to set a bit in a fan sees every bit set before it, so the flags after the step do not
     depend on the order in which its joints do this (any thread count gives the same bits)."""
     if j < tris.tri_fans[1]:                 # no fans: a body without neighbour pairs
-        base = tris.tri_fans[FAN_HEAD + tris.tri_fans[0]] + FAN_JOINT * j
+        base = fan_joint_base(j, tris)
         pe = tris.tri_fans[base + 2]
         if pe >= 0:
             if tris.tri_nb_on[pe] == 0 and tris.tri_intact[a] >= 0 and tris.tri_intact[b] >= 0:
@@ -238,8 +250,7 @@ def switch_on_neighbours(j, a, b, tris: ti.template(), step: ti.template()):
         for end in ti.static(range(2)):
             code = tris.tri_fans[base + end]
             if code >= 0:
-                v = code >> 5
-                bit = 1 << (code & 31)
+                v, bit = fan_code_bit(code)
                 slot = fan_mask_slot(v, step)
                 # only this joint sets this bit: once it is set, there is nothing left to do
                 if (tris.tri_nb_on[slot] & bit) == 0:

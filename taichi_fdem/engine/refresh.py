@@ -9,7 +9,7 @@ import taichi as ti
 
 from .contact import edge_pair_bonded, shared_vertices
 from .groups import NB_PAIRS, ContactGroup, JointGroup, StepGroup, TriGroup
-from .joints import FAN_ENTRY, FAN_HEAD, FAN_JOINT, fan_mask_slot, softening_z, switch_on_corners
+from .joints import FAN_ENTRY, FAN_HEAD, fan_code_bit, fan_joint_base, fan_mask_slot, softening_z, switch_on_corners
 
 
 @ti.func
@@ -37,11 +37,12 @@ def refresh_neighbours(tris: TriGroup, con: ContactGroup, joints: JointGroup, st
         tris.tri_nb_on[fan_mask_slot(v, step)] = tris.tri_fans[FAN_HEAD + V + 1 + v]
     for j in range(tris.tri_fans[1]):
         if joint_cut(j, joints, tris):
-            base = tris.tri_fans[FAN_HEAD + V] + FAN_JOINT * j
+            base = fan_joint_base(j, tris)
             for end in ti.static(range(2)):
                 code = tris.tri_fans[base + end]
                 if code >= 0:
-                    ti.atomic_or(tris.tri_nb_on[fan_mask_slot(code >> 5, step)], 1 << (code & 31))
+                    v, bit = fan_code_bit(code)
+                    ti.atomic_or(tris.tri_nb_on[fan_mask_slot(v, step)], bit)
     for p in range(step.step_int[NB_PAIRS]):
         A = con.couple_a[p]
         B = con.couple_b[p]
