@@ -33,7 +33,8 @@ from . import backend, guards
 from .engine import refresh, step as kernels
 from .engine.tiutil import launch_cached
 from .guards import SimulationError
-from .engine.groups import COUPLES, DACC, DACC_FORCE, DETECTIONS, FORCE_BLOCKS, FOUND, SWITCH_BC
+from .engine.groups import (COUPLES, DACC, DACC_FORCE, DETECTIONS, FORCE_BLOCKS, FOUND, MAX_FORCE_BLOCKS, REBALANCE,
+                            SWITCH_BC)
 from .model import build_model, counter, set_counter
 from .state import allocate_scratch, allocate_state, grow_couples, pack_groups, size_assembly, size_couple_scratch
 from .cracks import CrackEventLog
@@ -195,8 +196,10 @@ class Simulation(SimulationResults):
 
     @force_blocks.setter
     def force_blocks(self, value: int) -> None:
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-            raise ValueError(f"force_blocks must be an integer >= 1, got {value!r}")
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= MAX_FORCE_BLOCKS:
+            raise ValueError(f"force_blocks must be an integer from 1 to {MAX_FORCE_BLOCKS}, got {value!r}")
+        if int(value) != self._force_blocks and "state" in self.__dict__:
+            set_counter(self.state.step_int, REBALANCE, 0)     # the couple ranges follow the blocks
         self._force_blocks = int(value)
         self._sync_assembly()
 

@@ -13,7 +13,7 @@ import taichi as ti
 
 from . import backend
 from .engine.groups import (COUPLES, DACC, DACC_FORCE, FORCE_BLOCKS, GROUPS, INT_COUNTERS, NB_PAIRS, QS_ALPHA,
-                            REAL_COUNTERS)
+                            REAL_COUNTERS, REBALANCE, SYNC_LINE)
 from .model import Model, Scratch, State, _ndarray, _next_pow2, counter, set_counter
 
 
@@ -86,6 +86,7 @@ def install_neighbour_pairs(md: Model, st: State) -> None:
             h[: 6 * M] = 0.0
             st.couple_hist.from_numpy(h)
     set_counter(st.step_int, COUPLES, M)
+    set_counter(st.step_int, REBALANCE, 0)
     set_counter(st.step_real, DACC, DACC_FORCE)
 
 
@@ -167,7 +168,7 @@ def size_assembly(md: Model, st: State, sw: Scratch) -> None:
         sw.asm_node_slots = ti.ndarray(ti.i32, shape=1)
         sw.asm_node_start = ti.ndarray(ti.i32, shape=1)
     team = sw.force_blocks if sw.parallel and sw.blocks else 0
-    sw.asm_sync = ti.ndarray(ti.i32, shape=2 + team)
+    sw.asm_sync = ti.ndarray(ti.i32, shape=SYNC_LINE * (1 + team) + 2)   # engine.step.sync_bad, sync_own
     sw.asm_part = ti.ndarray(rti, shape=max(1, 3 * team))
 
 

@@ -105,16 +105,29 @@ GROUPS = {"nodes": (NodeGroup, NODE_MEMBERS), "tris": (TriGroup, TRI_MEMBERS), "
           "asm": (AssemblyGroup, ASSEMBLY_MEMBERS)}
 
 # Block assembly of the parallel strategy on the CPU (FDEM_SPEC §6.1; see engine.step): the items
-# (triangles, joints, couples) are dealt in granules of BLOCK_GRAIN items (fewer, down to
-# BLOCK_GRAIN_MIN, when there are too few items for ~8 granules per block: engine.step.block_grain),
-# granule g to block g % blocks, and each block adds its forces into its own copy of the nodal forces.  The number
-# of blocks is a property of the simulation (``Simulation.force_blocks``, FORCE_BLOCKS by
-# default), not the thread count, so that the sums, and the results, are the same bits for any
-# number of threads; at most that many threads share the force work.
+# are split into a fixed number of blocks, each a contiguous range (triangles, joints and nodes by
+# count, couples by estimated cost: engine.blocks.rebalance_couples), and each block adds its forces
+# into its own copy of the nodal forces.  Contiguous ranges keep a block's nodes in its core's
+# cache (dealing granules of 512 items round-robin, as before, made every core read and write
+# every node each step: 22 % slower on the 1k pile, 10 % on the 100k pile on 2 threads).  The
+# number of blocks is a property of the simulation (``Simulation.force_blocks``, FORCE_BLOCKS by
+# default), not the thread count, and the couple ranges a function of the state, so that the
+# sums, and the results, are the same bits for any number of threads; at most that many threads
+# share the force work.
 FORCE_BLOCKS = 2
-BLOCK_GRAIN = 512         # (64 before: 8-10 % slower on the 100k pile, 4-7 % on the plate after the impact)
-BLOCK_GRAIN_MIN = 64
+MAX_FORCE_BLOCKS = 64     # the couple ranges' bounds live in step_int[SPLIT + b], b = 0..blocks
+REBALANCE_STEPS = 128     # steps between two recomputations of the couple ranges (and after a detection)
+# estimated cost of a couple per step for the couple ranges, relative units (measured on the 1k
+# pile and the 10k plate, ns: a bonded neighbour pair ~2, boxes apart ~4, triangles apart ~12,
+# touching 130-400)
+COST_BONDED = 1
+COST_APART = 2
+COST_SEPARATED = 6
+COST_TOUCHING = 80
 BLOCK_STRIDE = 1024       # loop iterations per block (see engine.step.phase_blocks)
+UNSTABLE_BIT = 1 << 24   # added to engine.step.run_steps_serial's return value (steps per launch < 2^24)
+DUE_BIT = 1 << 25        # added to engine.step.run_steps_blocks' return value: contact detection is due
+SYNC_LINE = 16            # i32 slots per cache line: the team's flags in asm_sync are a line apart
 
 # tris.tri_intact of a triangle of a fracturing body (FDEM_SPEC §7.10; engine.joints.pair_carried):
 # INTACT | (EDGE_FREE << e for every edge e without an undamaged joint) | (DAMAGED once any of its
@@ -160,7 +173,9 @@ INVERTED = 3        # 1 + a triangle with non-positive area (0: none)
 DETECTIONS = 4      # detections run
 BROKEN = 5          # joints broken so far
 NB_PAIRS = 6        # neighbour pairs M: the first M couples, never detected (engine.joints.neighbour_pairs)
-INT_COUNTERS = 8    # length of step_int
+REBALANCE = 7       # steps until the block assembly recomputes its couple ranges (≤ 0: at the next step)
+SPLIT = 8           # SPLIT + b, b = 0..blocks: first couple of block b of the block assembly (the last: the count)
+INT_COUNTERS = SPLIT + MAX_FORCE_BLOCKS + 1    # length of step_int
 
 def _leaves(*groups):
     return sum(1 + len(m) for m in groups)

@@ -44,22 +44,18 @@ from collections import namedtuple
 
 import taichi as ti
 
-from .tiutil import vec2
-
+from .blocks import block_forces, item_counts, rebalance_couples, team_worker
 from .contact import book_contact_work, couple_forces, eval_couple
 from .detection import bin_circle, prepare_circle, scan_partners
 from .elastic import eval_tri_elastic, tri_forces
-from .groups import (BLOCK_GRAIN, BLOCK_GRAIN_MIN, BLOCK_STRIDE, COUPLES, DACC, DETECTIONS, FOUND, INVERTED,
-                     NB_PAIRS, NONFINITE, QS_ALPHA, RMAX, SWITCH_BC, SWITCH_BC_WORK, TIME, VMAX, WORK_BOUNDARY,
-                     WORK_LOCAL, AssemblyGroup, ContactGroup, DetectGroup, JointGroup, MaterialGroup, NodeGroup, StepGroup,
-                     TriGroup)
-from .integrate import (asm_blocks, block_work_slot, book_block_work, integrate_nodes, integrate_nodes_gathered,
-                        integrate_span)
+from .groups import (BLOCK_STRIDE, COUPLES, DACC, DETECTIONS, DUE_BIT, FOUND, INVERTED, NB_PAIRS, NONFINITE,  # noqa: F401
+                     REBALANCE, REBALANCE_STEPS, RMAX, UNSTABLE_BIT, VMAX, AssemblyGroup, ContactGroup, DetectGroup,
+                     JointGroup, MaterialGroup, NodeGroup, StepGroup, TriGroup)
+from .integrate import asm_blocks, integrate_nodes, integrate_nodes_gathered
 from .joints import add_joint_work, eval_joint
-from .loads import apply_load, apply_loads, book_load, book_load_work
+from .loads import apply_loads, book_load_work
+from .tiutil import vec2
 
-UNSTABLE_BIT = 1 << 24   # added to run_steps_serial's return value (steps per launch < 2^24)
-DUE_BIT = 1 << 25        # added to run_steps_blocks' return value: contact detection is due
 
 #: The compile-time feature switches of a step kernel, passed as one ``ti.template()`` (Taichi
 #: keys a tuple template by its values): a scene without contact, friction, fracture, loads or
@@ -146,6 +142,7 @@ def phase_detect_fill(tris: ti.template(), det: ti.template(), con: ti.template(
     for _ in range(1):
         step.step_int[COUPLES] = step.step_int[FOUND]
         step.step_int[DETECTIONS] += 1
+        step.step_int[REBALANCE] = 0        # new couples: the block assembly splits them anew
         step.step_real[DACC] = 0.0
 
 
@@ -228,20 +225,6 @@ def phases_forces_integrate(nodes: ti.template(), tris: ti.template(), mats: ti.
 
 
 @ti.func
-def item_counts(tris: ti.template(), joints: ti.template(), step: ti.template(), contact: ti.template(),
-                fracture: ti.template()):
-    """(triangles, joints, couples) whose forces a step evaluates (0 for an absent feature)."""
-    T = tris.tri_nodes.shape[0]
-    J = 0
-    C = 0
-    if ti.static(fracture):
-        J = joints.joint_nodes.shape[0]
-    if ti.static(contact):
-        C = step.step_int[COUPLES]
-    return T, J, C
-
-
-@ti.func
 def phase_slots(nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
                 joints: ti.template(), step: ti.template(), asm: ti.template(), contact: ti.template(),
                 friction: ti.template(), fracture: ti.template()):
@@ -270,96 +253,33 @@ def phase_slots(nodes: ti.template(), tris: ti.template(), mats: ti.template(), 
 
 
 @ti.func
-def add_block_force(nodes: ti.template(), asm: ti.template(), b, n, f):
-    """Add f to node n's force in block b: node_f for block 0, else the block's copy (see
-    :func:`integrate.asm_blocks`); a plain read and write (one thread runs a block)."""
-    if b == 0:
-        nodes.node_f[n] = nodes.node_f[n] + f
-    else:
-        k = (b - 1) * nodes.node_x.shape[0] + n
-        asm.asm_force[k] = asm.asm_force[k] + f
-
-
-@ti.func
 def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
                  joints: ti.template(), step: ti.template(), asm: ti.template(), contact: ti.template(),
                  friction: ti.template(), fracture: ti.template()):
     """Phases 2–4 of the parallel strategy on the CPU, as one parallel loop over the blocks
-    (:func:`asm_blocks`).  Triangles, joints and couples are each dealt in granules
-    (:func:`block_grain`), granule g to block g % blocks (which spreads the costly couples of a
-    compressed region over the blocks), and each block adds its items' forces into its own copy
-    of the nodal forces in item order, without atomics (block 0 into node_f, block b > 0 into
+    (:func:`asm_blocks`).  Block b takes a contiguous range of the triangles, of the joints and
+    of the couples (:func:`block_forces`) and adds their forces into its own copy of the nodal
+    forces in item order, without atomics (block 0 into node_f, block b > 0 into
     asm_force[(b − 1) N + n]); its dissipated contact work goes to its own entry
     (:func:`integrate.block_work_slot`).  The gather adds the copies to node_f in block order, so
     the result does not depend on the thread count."""
     T, J, C = item_counts(tris, joints, step, contact, fracture)
+    nblk = asm_blocks(nodes.node_x.shape[0], asm)
+    if ti.static(contact):
+        ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
+        for _ in range(1):
+            if step.step_int[REBALANCE] <= 0:
+                rebalance_couples(nblk, C, nodes, tris, con, step, fracture)
+                step.step_int[REBALANCE] = REBALANCE_STEPS
+            step.step_int[REBALANCE] -= 1
     # Taichi 1.7's CPU range-for hands each thread tasks of at least 512 iterations (its adaptive
     # block_dim; loop_config(block_dim) is overridden), so a loop of a few iterations would
     # run on one thread: the loop has BLOCK_STRIDE iterations per block and the first of each
     # does the block's work, which puts every block in its own task
-    nblk = asm_blocks(nodes.node_x.shape[0], asm)
     for t in range(nblk * BLOCK_STRIDE):
         if t % BLOCK_STRIDE == 0:
             block_forces(t // BLOCK_STRIDE, nblk, T, J, C, nodes, tris, mats, con, joints, step, asm, contact,
                          friction, fracture)
-
-
-@ti.func
-def block_grain(n, nblk):
-    """Items per granule when n items are dealt to nblk blocks: BLOCK_GRAIN, less for few
-    items (at least BLOCK_GRAIN_MIN), so that each block gets about 8 granules or more and the
-    blocks stay balanced.  It depends on the counts only, never on the threads."""
-    return ti.max(BLOCK_GRAIN_MIN, ti.min(BLOCK_GRAIN, n // (8 * nblk)))
-
-
-@ti.func
-def block_forces(b, nblk, T, J, C, nodes: ti.template(), tris: ti.template(), mats: ti.template(),
-                 con: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
-                 contact: ti.template(), friction: ti.template(), fracture: ti.template()):
-    """Block b's share of :func:`phase_blocks`: its granules of triangles, joints and couples,
-    added into its copy of the nodal forces; its contact work to its entry of asm_force."""
-    gs = block_grain(T, nblk)
-    g = b
-    while g * gs < T:
-        for e in range(g * gs, ti.min(T, g * gs + gs)):
-            f0, f1, f2 = tri_forces(e, nodes, tris, mats, step)
-            n = tris.tri_nodes[e]
-            add_block_force(nodes, asm, b, n[0], f0)
-            add_block_force(nodes, asm, b, n[1], f1)
-            add_block_force(nodes, asm, b, n[2], f2)
-        g += nblk
-    if ti.static(fracture):
-        gs = block_grain(J, nblk)
-        g = b
-        while g * gs < J:
-            for j in range(g * gs, ti.min(J, g * gs + gs)):
-                if joints.joint_state[j] == 0:
-                    eval_joint(j, joints, tris, mats, nodes, step, False)
-                    gj = joints.joint_g[j]
-                    nd = joints.joint_nodes[j]
-                    g0 = vec2(gj[0], gj[1])
-                    g1 = vec2(gj[2], gj[3])
-                    add_block_force(nodes, asm, b, nd[0], -g0)
-                    add_block_force(nodes, asm, b, nd[1], -g1)
-                    add_block_force(nodes, asm, b, nd[2], g1)
-                    add_block_force(nodes, asm, b, nd[3], g0)
-            g += nblk
-    if ti.static(contact):
-        bwork = vec2(0.0, 0.0)
-        gs = block_grain(C, nblk)
-        g = b
-        while g * gs < C:
-            for c in range(g * gs, ti.min(C, g * gs + gs)):
-                gA, gB, hit, work = couple_forces(c, nodes, tris, mats, con, step, friction, fracture)
-                bwork += work
-                if hit:
-                    na = tris.tri_nodes[con.couple_a[c]]
-                    nb = tris.tri_nodes[con.couple_b[c]]
-                    for r in ti.static(range(3)):
-                        add_block_force(nodes, asm, b, na[r], vec2(gA[r, 0], gA[r, 1]))
-                        add_block_force(nodes, asm, b, nb[r], vec2(gB[r, 0], gB[r, 1]))
-            g += nblk
-        asm.asm_force[block_work_slot(nodes.node_x.shape[0], nblk, b)] = bwork
 
 
 @ti.func
@@ -484,119 +404,6 @@ def step_parallel(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: Co
     rather than slots (GPU).  Returns :func:`status_code`."""
     phases_parallel(nodes, tris, mats, con, joints, step, asm, feat, blocks)
     return status_code(step)
-
-
-@ti.func
-def team_barrier(asm: ti.template(), target):
-    """Wait until every worker has passed this barrier: asm_sync[0] counts arrivals over the
-    launch, and the n-th barrier of ``nwork`` workers is passed at n · nwork.  The counter is read
-    with an atomic (a plain load could be hoisted out of the loop); x86 atomics are full fences,
-    so what a worker wrote before arriving is seen by every worker after it."""
-    ti.atomic_add(asm.asm_sync[0], 1)
-    while ti.atomic_or(asm.asm_sync[0], 0) < target:
-        pass
-
-
-@ti.func
-def team_worker(w, nwork, nsteps, nodes: ti.template(), tris: ti.template(), mats: ti.template(),
-                con: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
-                feat: ti.template()):
-    """Worker w of :func:`run_steps_blocks`: up to ``nsteps`` steps of the parallel strategy for
-    blocks w, w + nwork, ..., in step with the other workers through three barriers per step.
-    Every block's work and partial sums are the same whoever runs it, and the partials are
-    combined in block order: the results do not depend on nwork."""
-    N = nodes.node_x.shape[0]
-    nblk = asm_blocks(N, asm)
-    T, J, C = item_counts(tris, joints, step, feat.contact, feat.fracture)
-    dt = step.step_dt[None]
-    g = step.step_gravity[None]
-    bc = step.step_switches[None] & SWITCH_BC
-    bc_work = step.step_switches[None] & SWITCH_BC_WORK
-    alpha = 0.0
-    if ti.static(feat.local_damping):
-        alpha = step.step_real[QS_ALPHA]
-    # the counters every worker follows, read before the first barrier (worker 0 writes them
-    # after the second) and updated identically by every worker
-    dacc = step.step_real[DACC]
-    time = step.step_real[TIME]
-    nonfinite = step.step_int[NONFINITE]
-    nbar = 0
-    done = 0
-    code = 0
-    while done < nsteps:
-        # 1. forces: each block's items into its copy (and the loads, worker 0, into node_f after
-        # block 0, as in step_parallel)
-        b = w
-        while b < nblk:
-            block_forces(b, nblk, T, J, C, nodes, tris, mats, con, joints, step, asm, feat.contact, feat.friction,
-                         feat.fracture)
-            b += nwork
-        if ti.static(feat.loads):
-            if w == 0:
-                for k in range(nodes.load_nodes.shape[0]):
-                    apply_load(k, time, dt, nodes, step)
-        nbar += 1
-        team_barrier(asm, nbar * nwork)
-        # 2. gather and integrate each block's share of the nodes; its maxima and work to its partials
-        b = w
-        while b < nblk:
-            vmax2, bad, work, local = integrate_span(b * N // nblk, (b + 1) * N // nblk, nodes, joints, asm, dt, g,
-                                                     bc, bc_work, alpha, 2, feat.local_damping)
-            asm.asm_part[3 * b] = vmax2
-            asm.asm_part[3 * b + 1] = work
-            asm.asm_part[3 * b + 2] = local
-            asm.asm_sync[2 + b] = bad
-            b += nwork
-        nbar += 1
-        team_barrier(asm, nbar * nwork)
-        # 3. the step's counters, from the partials in block order (the same in every worker);
-        # worker 0 stores them.  Then the joints' work and the end of intact bonds.
-        vm2 = 0.0
-        for q in range(nblk):
-            vm2 = ti.max(vm2, asm.asm_part[3 * q])
-            nonfinite = ti.max(nonfinite, asm.asm_sync[2 + q])
-        vmax = ti.sqrt(vm2)
-        dacc += 2.0 * dt * vmax
-        time += dt
-        if w == 0:
-            step.step_real[VMAX] = vmax
-            step.step_int[NONFINITE] = nonfinite
-            for q in range(nblk):
-                if bc_work != 0:
-                    step.step_real[WORK_BOUNDARY] += asm.asm_part[3 * q + 1]
-                if ti.static(feat.local_damping):
-                    step.step_real[WORK_LOCAL] += asm.asm_part[3 * q + 2]
-            book_block_work(N, nblk, asm, step)
-            step.step_real[DACC] = dacc
-            step.step_real[TIME] = time
-            if ti.static(feat.loads):
-                for k in range(nodes.load_nodes.shape[0]):
-                    book_load(k, dt, nodes, step)
-        if ti.static(feat.fracture):
-            b = w
-            while b < nblk:
-                for j in range(b * J // nblk, (b + 1) * J // nblk):
-                    add_joint_work(j, joints, tris, mats, nodes, step)
-                b += nwork
-        done += 1
-        code = 0
-        if ti.static(feat.contact):
-            if dacc >= step.step_buffer[None]:
-                code |= 1
-        if nonfinite != 0 or step.step_int[INVERTED] != 0 or vmax > step.step_vlimit[None]:
-            code |= 2
-        nbar += 1
-        team_barrier(asm, nbar * nwork)
-        if code != 0:
-            break
-    if w == 0:
-        asm.asm_sync[1] = done + ti.select(code >= 2, UNSTABLE_BIT, 0) + ti.select(code & 1, DUE_BIT, 0)
-        # every worker read the partials before the last barrier: clear them, so that the scratch
-        # does not depend on how the steps were launched (a restart compares it)
-        for q in range(nblk):
-            asm.asm_sync[2 + q] = 0
-            for r in ti.static(range(3)):
-                asm.asm_part[3 * q + r] = 0.0
 
 
 @ti.kernel

@@ -1,0 +1,286 @@
+"""The block assembly of the parallel strategy on the CPU (FDEM_SPEC §6.1), and the team of
+worker threads that runs it many steps per launch (:func:`taichi_fdem.engine.step.run_steps_blocks`).
+
+Each of a fixed number of blocks takes a contiguous range of the triangles and of the joints (by
+count) and of the couples (by estimated cost, :func:`rebalance_couples`) and adds their nodal
+forces into its own copy of the nodal forces (:func:`block_forces`); every node then adds the
+copies in block order and integrates.  The ranges depend on the state only, never on the thread
+count, so the sums, and the results, are the same bits for any number of threads.
+"""
+import taichi as ti
+
+from .contact import boxes_overlap, couple_forces, separated
+from .elastic import tri_forces
+from .groups import (COST_APART, COST_BONDED, COST_SEPARATED, COST_TOUCHING, COUPLES, DACC, DUE_BIT, INVERTED,
+                     MAX_FORCE_BLOCKS, NB_PAIRS, NONFINITE, QS_ALPHA, REBALANCE, REBALANCE_STEPS, SPLIT, SWITCH_BC,
+                     SWITCH_BC_WORK, SYNC_LINE, TIME, UNSTABLE_BIT, VMAX, WORK_BOUNDARY, WORK_LOCAL)
+from .integrate import asm_blocks, block_work_slot, book_block_work, integrate_span
+from .joints import add_joint_work, eval_joint
+from .loads import apply_load, book_load
+from .tiutil import vec2
+
+
+@ti.func
+def item_counts(tris: ti.template(), joints: ti.template(), step: ti.template(), contact: ti.template(),
+                fracture: ti.template()):
+    """(triangles, joints, couples) whose forces a step evaluates (0 for an absent feature)."""
+    T = tris.tri_nodes.shape[0]
+    J = 0
+    C = 0
+    if ti.static(fracture):
+        J = joints.joint_nodes.shape[0]
+    if ti.static(contact):
+        C = step.step_int[COUPLES]
+    return T, J, C
+
+
+@ti.func
+def add_block_force(nodes: ti.template(), asm: ti.template(), b, n, f):
+    """Add f to node n's force in block b: node_f for block 0, else the block's copy (see
+    :func:`integrate.asm_blocks`); a plain read and write (one thread runs a block)."""
+    if b == 0:
+        nodes.node_f[n] = nodes.node_f[n] + f
+    else:
+        k = (b - 1) * nodes.node_x.shape[0] + n
+        asm.asm_force[k] = asm.asm_force[k] + f
+
+
+@ti.func
+def couple_cost(c, nodes: ti.template(), tris: ti.template(), con: ti.template(), step: ti.template(),
+                fracture: ti.template()):
+    """The estimated cost of couple c at the current positions (engine.groups.COST_*): a bonded
+    neighbour pair, boxes apart, triangles apart (:func:`contact.separated`) or touching."""
+    cost = COST_APART
+    bonded = False
+    if ti.static(fracture):
+        bonded = c < step.step_int[NB_PAIRS] and tris.tri_nb_on[c] == 0
+    if bonded:
+        cost = COST_BONDED
+    else:
+        na = tris.tri_nodes[con.couple_a[c]]
+        nb = tris.tri_nodes[con.couple_b[c]]
+        a0, a1, a2 = nodes.node_x[na[0]], nodes.node_x[na[1]], nodes.node_x[na[2]]
+        b0, b1, b2 = nodes.node_x[nb[0]], nodes.node_x[nb[1]], nodes.node_x[nb[2]]
+        if boxes_overlap(a0, a1, a2, b0, b1, b2):
+            cost = COST_TOUCHING
+            if separated(a0, a1, a2, b0, b1, b2):
+                cost = COST_SEPARATED
+    return cost
+
+
+@ti.func
+def rebalance_couples(nblk, C, nodes: ti.template(), tris: ti.template(), con: ti.template(), step: ti.template(),
+                      fracture: ti.template()):
+    """Split the C couples into nblk contiguous ranges of about equal estimated cost
+    (:func:`couple_cost`) at the current positions: step_int[SPLIT + b] is the first couple of
+    block b (SPLIT + nblk and the unused slots hold C).  Serial, two passes over the couples
+    (~10 ns per couple); run every REBALANCE_STEPS steps and after each detection.  A function
+    of the state only, which keeps the sums the same for any thread count, and, the bounds
+    being part of the state, a restart from a checkpoint bit-identical."""
+    total = ti.cast(0, ti.i64)
+    for c in range(C):
+        total += couple_cost(c, nodes, tris, con, step, fracture)
+    acc = ti.cast(0, ti.i64)
+    b = 1
+    step.step_int[SPLIT] = 0
+    for c in range(C):
+        while b < nblk and acc * nblk >= b * total:
+            step.step_int[SPLIT + b] = c
+            b += 1
+        acc += couple_cost(c, nodes, tris, con, step, fracture)
+    while b <= MAX_FORCE_BLOCKS:
+        step.step_int[SPLIT + b] = C
+        b += 1
+
+
+@ti.func
+def couple_range(b, nblk, C, step: ti.template()):
+    """Block b's couples, [lo, hi) (:func:`rebalance_couples`; clamped to the C couples, so that
+    the blocks always share them out exactly, whatever the bounds)."""
+    lo = 0
+    hi = C
+    if b > 0:
+        lo = ti.min(ti.max(step.step_int[SPLIT + b], 0), C)
+    if b < nblk - 1:
+        hi = ti.min(ti.max(step.step_int[SPLIT + b + 1], 0), C)
+    return lo, hi
+
+
+@ti.func
+def block_forces(b, nblk, T, J, C, nodes: ti.template(), tris: ti.template(), mats: ti.template(),
+                 con: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
+                 contact: ti.template(), friction: ti.template(), fracture: ti.template()):
+    """Block b's share of :func:`taichi_fdem.engine.step.phase_blocks`: the triangles and the joints of its contiguous
+    range by count, and the couples of its range by cost (:func:`couple_range`), added into its
+    copy of the nodal forces; its contact work to its entry of asm_force."""
+    for e in range(b * T // nblk, (b + 1) * T // nblk):
+        f0, f1, f2 = tri_forces(e, nodes, tris, mats, step)
+        n = tris.tri_nodes[e]
+        add_block_force(nodes, asm, b, n[0], f0)
+        add_block_force(nodes, asm, b, n[1], f1)
+        add_block_force(nodes, asm, b, n[2], f2)
+    if ti.static(fracture):
+        for j in range(b * J // nblk, (b + 1) * J // nblk):
+            if joints.joint_state[j] == 0:
+                eval_joint(j, joints, tris, mats, nodes, step, False)
+                gj = joints.joint_g[j]
+                nd = joints.joint_nodes[j]
+                g0 = vec2(gj[0], gj[1])
+                g1 = vec2(gj[2], gj[3])
+                add_block_force(nodes, asm, b, nd[0], -g0)
+                add_block_force(nodes, asm, b, nd[1], -g1)
+                add_block_force(nodes, asm, b, nd[2], g1)
+                add_block_force(nodes, asm, b, nd[3], g0)
+    if ti.static(contact):
+        bwork = vec2(0.0, 0.0)
+        lo, hi = couple_range(b, nblk, C, step)
+        for c in range(lo, hi):
+            gA, gB, hit, work = couple_forces(c, nodes, tris, mats, con, step, friction, fracture)
+            bwork += work
+            if hit:
+                na = tris.tri_nodes[con.couple_a[c]]
+                nb = tris.tri_nodes[con.couple_b[c]]
+                for r in ti.static(range(3)):
+                    add_block_force(nodes, asm, b, na[r], vec2(gA[r, 0], gA[r, 1]))
+                    add_block_force(nodes, asm, b, nb[r], vec2(gB[r, 0], gB[r, 1]))
+        asm.asm_force[block_work_slot(nodes.node_x.shape[0], nblk, b)] = bwork
+
+
+@ti.func
+def team_barrier(asm: ti.template(), w, target):
+    """Wait until every worker has passed this barrier: asm_sync[0] counts arrivals over the
+    launch, and the n-th barrier of ``nwork`` workers is passed at n · nwork.  Arrival is an
+    atomic add (x86 atomics are full fences, so what a worker wrote before arriving is seen by
+    every worker after it); the wait reads the counter with plain loads, which leave its cache
+    line shared while the workers wait (atomic reads took it from core to core at every try),
+    and an atomic on the worker's own line of asm_sync (:func:`sync_own`) keeps the load inside
+    the loop."""
+    ti.atomic_add(asm.asm_sync[0], 1)
+    while asm.asm_sync[0] < target:
+        ti.atomic_or(asm.asm_sync[sync_own(w)], 0)
+
+
+@ti.func
+def sync_bad(b):
+    """asm_sync slot of block b's "bad" flag (non-finite value): a cache line of its own."""
+    return SYNC_LINE * (1 + b)
+
+
+@ti.func
+def sync_own(w):
+    """asm_sync slot that worker w spins on while it waits at a barrier (on block w's line)."""
+    return SYNC_LINE * (1 + w) + 1
+
+
+@ti.func
+def team_worker(w, nwork, nsteps, nodes: ti.template(), tris: ti.template(), mats: ti.template(),
+                con: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
+                feat: ti.template()):
+    """Worker w of :func:`taichi_fdem.engine.step.run_steps_blocks`: up to ``nsteps`` steps of the parallel strategy for
+    blocks w, w + nwork, ..., in step with the other workers through three barriers per step.
+    Every block's work and partial sums are the same whoever runs it, and the partials are
+    combined in block order: the results do not depend on nwork."""
+    N = nodes.node_x.shape[0]
+    nblk = asm_blocks(N, asm)
+    T, J, C = item_counts(tris, joints, step, feat.contact, feat.fracture)
+    dt = step.step_dt[None]
+    g = step.step_gravity[None]
+    bc = step.step_switches[None] & SWITCH_BC
+    bc_work = step.step_switches[None] & SWITCH_BC_WORK
+    alpha = 0.0
+    if ti.static(feat.local_damping):
+        alpha = step.step_real[QS_ALPHA]
+    # the counters every worker follows, read before the first barrier (worker 0 writes them
+    # after the second) and updated identically by every worker
+    dacc = step.step_real[DACC]
+    time = step.step_real[TIME]
+    nonfinite = step.step_int[NONFINITE]
+    rebal = step.step_int[REBALANCE]
+    nbar = 0
+    done = 0
+    code = 0
+    while done < nsteps:
+        if ti.static(feat.contact):
+            # 0. when due, worker 0 splits the couples anew (as engine.step.phase_blocks does)
+            if rebal <= 0:
+                if w == 0:
+                    rebalance_couples(nblk, C, nodes, tris, con, step, feat.fracture)
+                nbar += 1
+                team_barrier(asm, w, nbar * nwork)
+                rebal = REBALANCE_STEPS
+            rebal -= 1
+        # 1. forces: each block's items into its copy (and the loads, worker 0, into node_f after
+        # block 0, as in engine.step.step_parallel)
+        b = w
+        while b < nblk:
+            block_forces(b, nblk, T, J, C, nodes, tris, mats, con, joints, step, asm, feat.contact, feat.friction,
+                         feat.fracture)
+            b += nwork
+        if ti.static(feat.loads):
+            if w == 0:
+                for k in range(nodes.load_nodes.shape[0]):
+                    apply_load(k, time, dt, nodes, step)
+        nbar += 1
+        team_barrier(asm, w, nbar * nwork)
+        # 2. gather and integrate each block's share of the nodes; its maxima and work to its partials
+        b = w
+        while b < nblk:
+            vmax2, bad, work, local = integrate_span(b * N // nblk, (b + 1) * N // nblk, nodes, joints, asm, dt, g,
+                                                     bc, bc_work, alpha, 2, feat.local_damping)
+            asm.asm_part[3 * b] = vmax2
+            asm.asm_part[3 * b + 1] = work
+            asm.asm_part[3 * b + 2] = local
+            asm.asm_sync[sync_bad(b)] = bad
+            b += nwork
+        nbar += 1
+        team_barrier(asm, w, nbar * nwork)
+        # 3. the step's counters, from the partials in block order (the same in every worker);
+        # worker 0 stores them.  Then the joints' work and the end of intact bonds.
+        vm2 = 0.0
+        for q in range(nblk):
+            vm2 = ti.max(vm2, asm.asm_part[3 * q])
+            nonfinite = ti.max(nonfinite, asm.asm_sync[sync_bad(q)])
+        vmax = ti.sqrt(vm2)
+        dacc += 2.0 * dt * vmax
+        time += dt
+        if w == 0:
+            step.step_real[VMAX] = vmax
+            step.step_int[NONFINITE] = nonfinite
+            for q in range(nblk):
+                if bc_work != 0:
+                    step.step_real[WORK_BOUNDARY] += asm.asm_part[3 * q + 1]
+                if ti.static(feat.local_damping):
+                    step.step_real[WORK_LOCAL] += asm.asm_part[3 * q + 2]
+            book_block_work(N, nblk, asm, step)
+            step.step_real[DACC] = dacc
+            step.step_real[TIME] = time
+            if ti.static(feat.contact):
+                step.step_int[REBALANCE] = rebal
+            if ti.static(feat.loads):
+                for k in range(nodes.load_nodes.shape[0]):
+                    book_load(k, dt, nodes, step)
+        if ti.static(feat.fracture):
+            b = w
+            while b < nblk:
+                for j in range(b * J // nblk, (b + 1) * J // nblk):
+                    add_joint_work(j, joints, tris, mats, nodes, step)
+                b += nwork
+        done += 1
+        code = 0
+        if ti.static(feat.contact):
+            if dacc >= step.step_buffer[None]:
+                code |= 1
+        if nonfinite != 0 or step.step_int[INVERTED] != 0 or vmax > step.step_vlimit[None]:
+            code |= 2
+        nbar += 1
+        team_barrier(asm, w, nbar * nwork)
+        if code != 0:
+            break
+    if w == 0:
+        asm.asm_sync[1] = done + ti.select(code >= 2, UNSTABLE_BIT, 0) + ti.select(code & 1, DUE_BIT, 0)
+        # every worker read the partials before the last barrier: clear them, so that the scratch
+        # does not depend on how the steps were launched (a restart compares it)
+        for q in range(nblk):
+            asm.asm_sync[sync_bad(q)] = 0
+            for r in ti.static(range(3)):
+                asm.asm_part[3 * q + r] = 0.0
