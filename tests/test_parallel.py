@@ -177,7 +177,7 @@ def test_force_blocks_agree_and_are_checked(tmp_path):
     back.step(10)
     par.step(10)
     np.testing.assert_array_equal(back.node_positions(), par.node_positions())
-    for bad in (0, -1, 2.5, True, "2"):
+    for bad in (0, -1, 2.5, True, "2", 65):
         with pytest.raises(ValueError, match="force_blocks"):
             par.force_blocks = bad
 
@@ -287,3 +287,59 @@ def test_team_gives_way_on_a_shared_cpu():
     sim.step(3)
     assert sim.launches.get("step_parallel", 0) == before.get("step_parallel", 0) + 3
     assert sim.launches.get("run_steps_blocks") == before.get("run_steps_blocks")
+
+
+def _couple_costs(sim) -> np.ndarray:
+    """Brute-force reference of ``engine.blocks.couple_cost`` for every couple, in numpy: a bonded
+    neighbour pair, boxes apart, triangles apart (no separating edge normal among six), or
+    touching."""
+    from taichi_fdem.engine.groups import COST_APART, COST_BONDED, COST_SEPARATED, COST_TOUCHING
+    x = sim.node_positions()
+    tn = sim.model.tri_nodes.to_numpy()
+    pairs = sim.couples()
+    A, B = x[tn[pairs[:, 0]]], x[tn[pairs[:, 1]]]              # (C, 3, 2)
+    box = ((A.min(1) < B.max(1)) & (B.min(1) < A.max(1))).all(1)
+
+    def beyond_an_edge(T, P):
+        out = np.zeros(len(T), bool)
+        for k in range(3):
+            d = T[:, (k + 1) % 3] - T[:, k]
+            n = np.stack([d[:, 1], -d[:, 0]], axis=1)
+            out |= (np.einsum("cpi,ci->cp", P - T[:, k][:, None, :], n) >= 0.0).all(1)
+        return out
+
+    apart = beyond_an_edge(A, B) | beyond_an_edge(B, A)
+    cost = np.where(box, np.where(apart, COST_SEPARATED, COST_TOUCHING), COST_APART)
+    M = sim.model.nb_count
+    cost[:M] = np.where(sim.state.tri_nb_on.to_numpy()[:M] == 0, COST_BONDED, cost[:M])
+    return cost
+
+
+def test_block_couple_ranges_follow_the_estimated_cost():
+    """The block assembly gives each block a contiguous range of the couples of about equal cost
+    (``engine.blocks.rebalance_couples``), recomputed from the positions: checked against a
+    brute-force classification of every couple in a plate breaking under a disc, 3 blocks, where
+    ranges of equal counts would be far from equal cost.  Each range's cost is within one
+    touching couple of a third of the total; the ranges cover the couples once, in order."""
+    from taichi_fdem.engine.groups import COST_TOUCHING, REBALANCE, SPLIT
+    from taichi_fdem.model import counter, set_counter
+    from taichi_fdem.verification import fragment_plate_scene
+    sim, _ = fragment_plate_scene(h_plate=0.012, h_ball=0.02, friction=0.5)
+    sim = sim.scene.build(strategy="parallel")
+    sim.force_blocks = 3
+    sim.step(250)                              # the first joints break under the disc
+    assert sim.broken_joint_count > 0
+    cost = _couple_costs(sim)                  # at the positions the next step starts from
+    set_counter(sim.state.step_int, REBALANCE, 0)
+    sim.step(1)
+    assert counter(sim.state.step_int, REBALANCE) == 127
+    C = len(cost)
+    split = sim.state.step_int.to_numpy()[SPLIT:SPLIT + 4]
+    assert split[0] == 0 and split[3] == C and np.all(np.diff(split) >= 0)
+    prefix = np.concatenate([[0], np.cumsum(cost)])
+    total = prefix[-1]
+    for b in (1, 2):
+        assert abs(prefix[split[b]] - b * total / 3) <= COST_TOUCHING, (b, split, prefix[split[b]], total)
+    # the test can fail: equal counts would leave the blocks' costs far apart here
+    by_count = [prefix[b * C // 3] for b in (1, 2)]
+    assert max(abs(by_count[b - 1] - b * total / 3) for b in (1, 2)) > 10 * COST_TOUCHING
