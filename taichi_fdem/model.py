@@ -275,7 +275,13 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     md.ctri_count = len(ctri) if md.contact else 0
     md.contact_tri = i32(ctri if md.contact else np.zeros(1, np.int32))
     md.joint_nodes = _ndarray(joint_nodes, ti.i32, vec=4)
-    md.joint_tris = _ndarray(joint_tris, ti.i32, vec=2)
+    # (A, B, e_A, e_B): the joint's triangles and the index of its edge in each (constant: the
+    # joint nodes and the triangles' nodes never change), read by engine.joints.pair_carried
+    edges = np.zeros((len(joint_tris), 2), np.int32)
+    if md.fracture:
+        edges[:, 0] = _edge_index(tris[joint_tris[:, 0]], joint_nodes[:, 0], joint_nodes[:, 1])
+        edges[:, 1] = _edge_index(tris[joint_tris[:, 1]], joint_nodes[:, 2], joint_nodes[:, 3])
+    md.joint_tris = _ndarray(np.concatenate([joint_tris, edges], axis=1), ti.i32, vec=4)
     # original (unsplit) nodes of each triangle, numbered apart from every other body's
     origin = tris.copy()
     md.tri_fracturing = np.zeros(len(tris), bool)
@@ -287,7 +293,12 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
         if b.fracture:
             md.tri_fracturing[b.triangles] = b.tri_bonded if b.tri_bonded is not None else True
     md.tri_origin = _ndarray(origin, ti.i32, vec=3)
-    md.joint_prop = _ndarray(joint_prop.astype(real), rti, vec=6)
+    # the per-joint constants of the share of contact a joint carries (FDEM_SPEC §7.10,
+    # engine.joints.carried_share): k_x / L = 3 p (1/(2A_A) + 1/(2A_B)) from the rest areas, and μ
+    mA, mB = tri_mat[joint_tris[:, 0]], tri_mat[joint_tris[:, 1]]
+    kx_per_len = 3.0 * pair[mA, mB, 0] * (0.5 / area0[joint_tris[:, 0]] + 0.5 / area0[joint_tris[:, 1]])
+    carried = np.stack([kx_per_len, pair[mA, mB, 2]], axis=1) if md.fracture else np.zeros((len(joint_prop), 2))
+    md.joint_prop = _ndarray(np.concatenate([joint_prop, carried], axis=1).astype(real), rti, vec=8)
     md.joint_fs0 = np.repeat(joint_prop[:, 1:2], 3, axis=1)       # initial shear strength c [Pa]
     md.step_dt = _scalar(md.dt, rti)
     md.step_gravity = ti.Vector.ndarray(2, rti, shape=())
@@ -523,6 +534,15 @@ def _pair_table(scene, materials) -> np.ndarray:
             xi = ov.get("contact_damping", min(a.contact_damping, b.contact_damping))
             pair[i, j] = (p, kt, mu, 4.0 * xi * math.sqrt(p * min(a.density, b.density)))
     return pair
+
+
+def _edge_index(tri_nodes, p, q) -> np.ndarray:
+    """For each row, the index e of the edge of the triangle tri_nodes (k, 3) whose ends are nodes p
+    and q (edge e runs from vertex e to vertex e + 1): the edge opposite the vertex that is neither."""
+    other = (tri_nodes != p[:, None]) & (tri_nodes != q[:, None])
+    if not np.all(other.sum(axis=1) == 1):
+        raise ValueError("internal error: a joint's nodes are not an edge of its triangle")
+    return ((np.argmax(other, axis=1) + 1) % 3).astype(np.int32)
 
 
 def _warn_joint_parameters(set_names, joint_set, joint_prop, joint_len, young) -> None:

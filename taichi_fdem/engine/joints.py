@@ -259,19 +259,6 @@ def switch_on_neighbours(j, a, b, tris: ti.template(), step: ti.template()):
 
 
 @ti.func
-def edge_between(n, p, q):
-    """Index e of the edge of a triangle with vertices n (a 3-vector of node or original-node
-    numbers) whose ends are p and q: the edge opposite the vertex that is neither (edge e runs
-    from vertex e to vertex e + 1)."""
-    r = 2
-    if n[0] != p and n[0] != q:
-        r = 0
-    elif n[1] != p and n[1] != q:
-        r = 1
-    return (r + 1) % 3
-
-
-@ti.func
 def pair_carried(va, ea, vb, eb):
     """Is the pair of triangles A, B joined along their edges ea, eb by a joint that carries its
     compression alone (FDEM_SPEC §7.10)?  va, vb: their ``tri_intact`` words.  True while both
@@ -282,17 +269,16 @@ def pair_carried(va, ea, vb, eb):
 
 
 @ti.func
-def carried_share(A, B, L, tris: ti.template(), mats: ti.template()):
-    """(k_x, μ): the normal stiffness [Pa/m] that contact adds across a joined edge of length L
-    [m] when the two triangles overlap by a thin strip, and the pair's contact friction μ.  The
+def carried_share(j, L, joints: ti.template()):
+    """(k_x, μ): the normal stiffness [Pa/m] that contact adds across joint j's edge of length L
+    [m] when its two triangles overlap by a thin strip, and the pair's contact friction μ.  The
     potential φ = 3β of each triangle gives a traction 3 p o / h on each side, so
-    k_x = 3 p (1/h_A + 1/h_B) = 3 p L (1/(2A_A) + 1/(2A_B)) with the rest areas
-    (det F0⁻¹ = 1/(2A0)); measured against the contact kernel: within 0.3 % in force and energy
-    (tests/test_joined_pairs.py).  The carried joint also adds μ|σ_x| to its shear strength, as
-    contact friction did on the pair's faces."""
-    prop = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]]
-    kx = 3.0 * prop[0] * L * (tris.tri_rest_inv[A].determinant() + tris.tri_rest_inv[B].determinant())
-    return kx, prop[2]
+    k_x = 3 p (1/h_A + 1/h_B) = 3 p L (1/(2A_A) + 1/(2A_B)) with the rest areas; k_x / L and μ
+    are per-joint constants, joint_prop[j][6] and [7] (taichi_fdem.model); measured against the
+    contact kernel: within 0.3 % in force and energy (tests/test_joined_pairs.py).  The carried
+    joint also adds μ|σ_x| to its shear strength, as contact friction did on the pair's faces."""
+    prop = joints.joint_prop[j]
+    return prop[6] * L, prop[7]
 
 
 @ti.func
@@ -335,13 +321,10 @@ def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(
         L, eh, nh, d0, d1, centre = joint_frame(nd, nodes)      # nh points into A
         dm = 0.5 * (d0 + d1)
         # undamaged joint of a bonded pair: it carries the contact's compression stiffness too
-        A = jt0[0]
-        B = jt0[1]
         kx = 0.0
         mux = 0.0
-        if pair_carried(tris.tri_intact[A], edge_between(tris.tri_nodes[A], nd[0], nd[1]),
-                        tris.tri_intact[B], edge_between(tris.tri_nodes[B], nd[2], nd[3])):
-            kx, mux = carried_share(A, B, L, tris, mats)
+        if pair_carried(tris.tri_intact[jt0[0]], jt0[2], tris.tri_intact[jt0[1]], jt0[3]):
+            kx, mux = carried_share(j, L, joints)
         prop = joints.joint_prop[j]                   # (f_t, c, tan φ, G_I, G_II, p_f) of this joint
         ft, coh, tanphi, gI, gII, pf = prop[0], prop[1], prop[2], prop[3], prop[4], prop[5]
         dp = 2.0 * L * ft / pf                        # opening at peak (§7.4)
@@ -465,8 +448,8 @@ def add_joint_work(j, joints: ti.template(), tris: ti.template(), mats: ti.templ
     if (joints.joint_state[j] != 0 or dm[0] > 0.0 or dm[1] > 0.0 or dm[2] > 0.0):
         jt = joints.joint_tris[j]
         nd = joints.joint_nodes[j]
-        ea = edge_between(tris.tri_nodes[jt[0]], nd[0], nd[1])
-        eb = edge_between(tris.tri_nodes[jt[1]], nd[2], nd[3])
+        ea = jt[2]
+        eb = jt[3]
         va = tris.tri_intact[jt[0]]
         vb = tris.tri_intact[jt[1]]
         bits_a = (EDGE_FREE << ea) | DAMAGED
@@ -478,7 +461,7 @@ def add_joint_work(j, joints: ti.template(), tris: ti.template(), mats: ti.templ
             if va >= INTACT and vb >= INTACT and pair_carried(va, ea, vb, eb):
                 # it carried the pair until now: hand the carried energy over to contact
                 L, _, nh, d0, d1, _ = joint_frame(nd, nodes)
-                kx, _ = carried_share(jt[0], jt[1], L, tris, mats)
+                kx, _ = carried_share(j, L, joints)
                 joints.joint_work[j] = joints.joint_work[j] - carried_energy(
                     kx, d0.dot(nh), (0.5 * (d0 + d1)).dot(nh), d1.dot(nh), L)
             if set_a:
