@@ -117,13 +117,15 @@ GROUPS = {"nodes": (NodeGroup, NODE_MEMBERS), "tris": (TriGroup, TRI_MEMBERS), "
 FORCE_BLOCKS = 2
 MAX_FORCE_BLOCKS = 64     # the couple ranges' bounds live in step_int[SPLIT + b], b = 0..blocks
 REBALANCE_STEPS = 128     # steps between two recomputations of the couple ranges (and after a detection)
-# estimated cost of a couple per step for the couple ranges, relative units (measured on the 1k
-# pile and the 10k plate, ns: a bonded neighbour pair ~2, boxes apart ~4, triangles apart ~12,
-# touching 130-400)
+# estimated cost of a couple per step for the couple ranges, relative units: measured in the
+# block loop on the 10k and 100k plates after the impact, a bonded neighbour pair ~1 ns, boxes
+# apart ~10, triangles apart ~28, touching 190-230 (near-coincident neighbours the dearest); the
+# touching weight is set a little higher, where the two blocks' measured times came out equal
+# (within 1 % at 10k and 4 % at 100k, against 2 % and 20 % with weights 1, 2, 6, 80)
 COST_BONDED = 1
-COST_APART = 2
-COST_SEPARATED = 6
-COST_TOUCHING = 80
+COST_APART = 10
+COST_SEPARATED = 28
+COST_TOUCHING = 300
 BLOCK_STRIDE = 1024       # loop iterations per block (see engine.step.phase_blocks)
 UNSTABLE_BIT = 1 << 24   # added to engine.step.run_steps_serial's return value (steps per launch < 2^24)
 DUE_BIT = 1 << 25        # added to engine.step.run_steps_blocks' return value: contact detection is due
