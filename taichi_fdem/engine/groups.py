@@ -139,6 +139,9 @@ SYNC_LINE = 16            # i32 slots per cache line: the team's flags in asm_sy
 INTACT = 1
 EDGE_FREE = 2             # EDGE_FREE << e, e = 0, 1, 2: edge e (nodes e, e + 1) has no undamaged joint
 DAMAGED = 16
+# tris.tri_nb_on[p] of neighbour pair p: 0 bonded (contact skips it), else 1 | (NB_HELD while the
+# pair holds friction slip in couple_hist, engine.contact.couple_forces)
+NB_HELD = 2
 
 # Stored in step.dacc to force a contact detection at the next step.
 DACC_FORCE = 1e30

@@ -222,13 +222,14 @@ def corner_bonded(m, arc1, arc2):
 @ti.func
 def switch_on_corners(v, m, tris: ti.template()):
     """Switch on (tri_nb_on = 1) every corner pair of fan v that the link mask m no longer
-    bonds, unless either triangle was removed."""
+    bonds and that is not on yet, unless either triangle was removed."""
     k0 = tris.tri_fans[FAN_HEAD + v]
     for i in range((tris.tri_fans[FAN_HEAD + v + 1] - k0) // FAN_ENTRY):
         k = k0 + FAN_ENTRY * i
         if not corner_bonded(m, tris.tri_fans[k + 1], tris.tri_fans[k + 2]):
             if tris.tri_intact[tris.tri_fans[k + 3]] >= 0 and tris.tri_intact[tris.tri_fans[k + 4]] >= 0:
-                tris.tri_nb_on[tris.tri_fans[k]] = 1
+                if tris.tri_nb_on[tris.tri_fans[k]] == 0:     # (a pair already on keeps its NB_HELD bit)
+                    tris.tri_nb_on[tris.tri_fans[k]] = 1
 
 
 @ti.func

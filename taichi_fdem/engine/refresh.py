@@ -8,7 +8,7 @@ is bit-identical.
 import taichi as ti
 
 from .contact import edge_pair_bonded, shared_vertices
-from .groups import NB_PAIRS, ContactGroup, JointGroup, StepGroup, TriGroup
+from .groups import NB_HELD, NB_PAIRS, ContactGroup, JointGroup, StepGroup, TriGroup
 from .joints import FAN_ENTRY, FAN_HEAD, fan_code_bit, fan_joint_base, fan_mask_slot, softening_z, switch_on_corners
 
 
@@ -29,7 +29,7 @@ def refresh_neighbours(tris: TriGroup, con: ContactGroup, joints: JointGroup, st
     links, and the links whose joint is cut, :func:`joint_cut`), then 1 for a neighbour pair no
     longer bonded (:func:`taichi_fdem.engine.contact.edge_pair_bonded`,
     :func:`taichi_fdem.engine.joints.corner_bonded`), 0 for a bonded one (contact skips its
-    forces) or one with a removed triangle.  At build, at a restore and after an excavation;
+    forces) or one with a removed triangle; NB_HELD added where a pair holds friction slip.  At build, at a restore and after an excavation;
     during a run the joints keep it up to date
     (:func:`taichi_fdem.engine.joints.switch_on_neighbours`)."""
     V = tris.tri_fans[0]
@@ -57,6 +57,13 @@ def refresh_neighbours(tris: TriGroup, con: ContactGroup, joints: JointGroup, st
         for i in range((tris.tri_fans[FAN_HEAD + v + 1] - k0) // FAN_ENTRY):
             tris.tri_nb_on[tris.tri_fans[k0 + FAN_ENTRY * i]] = 0
         switch_on_corners(v, tris.tri_nb_on[fan_mask_slot(v, step)], tris)
+    # the NB_HELD bit of the pairs that hold friction slip (engine.contact.couple_forces)
+    if con.couple_hist.shape[0] >= 6 * step.step_int[NB_PAIRS]:
+        for p in range(step.step_int[NB_PAIRS]):
+            if tris.tri_nb_on[p] != 0:
+                for s in ti.static(range(6)):
+                    if con.couple_hist[6 * p + s] != 0.0:
+                        tris.tri_nb_on[p] |= NB_HELD
 
 
 @ti.kernel
