@@ -9,10 +9,10 @@ count, so the sums, and the results, are the same bits for any number of threads
 """
 import taichi as ti
 
-from .contact import boxes_overlap, couple_forces, separated
+from .contact import boxes_overlap, couple_forces, neighbour_flag, separated
 from .elastic import tri_forces
 from .groups import (COST_APART, COST_BONDED, COST_SEPARATED, COST_TOUCHING, COUPLES, DACC, DUE_BIT, INVERTED,
-                     MAX_FORCE_BLOCKS, NB_PAIRS, NONFINITE, QS_ALPHA, REBALANCE, REBALANCE_STEPS, SPLIT, SWITCH_BC,
+                     MAX_FORCE_BLOCKS, NONFINITE, QS_ALPHA, REBALANCE, REBALANCE_STEPS, SPLIT, SWITCH_BC,
                      SWITCH_BC_WORK, SYNC_LINE, TIME, UNSTABLE_BIT, VMAX, WORK_BOUNDARY, WORK_LOCAL)
 from .integrate import asm_blocks, block_work_slot, book_block_work, integrate_span
 from .joints import add_joint_work, eval_joint
@@ -50,21 +50,16 @@ def couple_cost(c, nodes: ti.template(), tris: ti.template(), con: ti.template()
                 fracture: ti.template()):
     """The estimated cost of couple c at the current positions (engine.groups.COST_*): a bonded
     neighbour pair, boxes apart, triangles apart (:func:`contact.separated`) or touching."""
-    cost = COST_APART
-    bonded = False
-    if ti.static(fracture):
-        bonded = c < step.step_int[NB_PAIRS] and tris.tri_nb_on[c] == 0
-    if bonded:
-        cost = COST_BONDED
-    else:
+    cost = COST_BONDED
+    nb_pair, on = neighbour_flag(c, tris, step, fracture)
+    if not nb_pair or on != 0:
         na = tris.tri_nodes[con.couple_a[c]]
         nb = tris.tri_nodes[con.couple_b[c]]
         a0, a1, a2 = nodes.node_x[na[0]], nodes.node_x[na[1]], nodes.node_x[na[2]]
         b0, b1, b2 = nodes.node_x[nb[0]], nodes.node_x[nb[1]], nodes.node_x[nb[2]]
+        cost = COST_APART
         if boxes_overlap(a0, a1, a2, b0, b1, b2):
-            cost = COST_TOUCHING
-            if separated(a0, a1, a2, b0, b1, b2):
-                cost = COST_SEPARATED
+            cost = ti.select(separated(a0, a1, a2, b0, b1, b2), COST_SEPARATED, COST_TOUCHING)
     return cost
 
 

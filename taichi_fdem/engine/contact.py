@@ -341,6 +341,31 @@ def edge_pair_bonded(A, B, tris: ti.template()):
 
 
 @ti.func
+def neighbour_flag(c, tris: ti.template(), step: ti.template(), fracture: ti.template()):
+    """(is couple c a neighbour pair, its tri_nb_on word): a neighbour pair (one of the first
+    step_int[NB_PAIRS] couples, fracture only) is evaluated only once that word is not 0 (no
+    longer bonded); NB_HELD in it says the pair holds friction slip."""
+    nb_pair = False
+    on = 0
+    if ti.static(fracture):
+        nb_pair = c < step.step_int[NB_PAIRS]
+        if nb_pair:
+            on = tris.tri_nb_on[c]
+    return nb_pair, on
+
+
+@ti.func
+def touching(a0, a1, a2, b0, b1, b2):
+    """Do the two triangles overlap: boxes that overlap, then no separating edge normal
+    (:func:`boxes_overlap`, the cheap common rejection; :func:`separated`)?"""
+    hit = boxes_overlap(a0, a1, a2, b0, b1, b2)
+    if hit:
+        if separated(a0, a1, a2, b0, b1, b2):
+            hit = False
+    return hit
+
+
+@ti.func
 def couple_forces(c, nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
                   step: ti.template(), friction: ti.template(), fracture: ti.template()):
     """Contact forces of couple c (both passes, §2.3.2 COUPLE): (gA, gB, hit, work); gA, gB are
@@ -361,19 +386,11 @@ def couple_forces(c, nodes: ti.template(), tris: ti.template(), mats: ti.templat
     gA = ti.Matrix.zero(float, 3, 2)
     gB = ti.Matrix.zero(float, 3, 2)
     work = vec2(0.0, 0.0)
-    bonded = False
-    nb_pair = False
-    on = 0
-    if ti.static(fracture):
-        # a neighbour pair (the first couples) is evaluated only once it is no longer bonded
-        nb_pair = c < step.step_int[NB_PAIRS]
-        if nb_pair:
-            on = tris.tri_nb_on[c]
-        bonded = nb_pair and on == 0
-    hit = not bonded and boxes_overlap(a0, a1, a2, b0, b1, b2)
-    if hit:
-        if separated(a0, a1, a2, b0, b1, b2):
-            hit = False
+    nb_pair, on = neighbour_flag(c, tris, step, fracture)
+    bonded = nb_pair and on == 0
+    hit = False
+    if not bonded:
+        hit = touching(a0, a1, a2, b0, b1, b2)
     if hit:
         prop = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]]      # (p, k_t, μ_f, c_n)
         cdamping = step.step_switches[None] & SWITCH_CDAMPING
