@@ -103,8 +103,11 @@ class Viewer:
                 "g.show()\n"
                 "g.close()\n")
         try:
-            p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                               timeout=_PROBE_TIMEOUT)
+            for _ in range(2):          # once more after a crash (a signal): X servers starting up race
+                p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                                   timeout=_PROBE_TIMEOUT)
+                if p.returncode >= 0:
+                    break
             if p.returncode == 0:
                 res = (True, "")
             else:

@@ -5,6 +5,7 @@ down) against a private Xvfb server; it is skipped, with the reason, when Xvfb i
 (.ci/run installs it; the tests never install anything).
 """
 import os
+import select
 import shutil
 import subprocess
 import sys
@@ -41,25 +42,32 @@ def _ensure_xvfb():
 
 @pytest.fixture
 def xvfb():
-    """A private Xvfb server; yields its DISPLAY string."""
+    """A private Xvfb server; yields its DISPLAY string once the server accepts connections.
+
+    Xvfb picks a free display itself and writes its number to ``-displayfd`` when it is ready
+    (waiting only for the socket file raced the server's start: a window opened in between
+    crashed, once in CI)."""
     exe = _ensure_xvfb()
-    proc = None
-    for num in range(99, 110):
-        if os.path.exists(f"/tmp/.X{num}-lock"):
-            continue
-        proc = subprocess.Popen([exe, f":{num}", "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
-                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        for _ in range(100):  # wait for the socket
-            if os.path.exists(f"/tmp/.X11-unix/X{num}") or proc.poll() is not None:
+    rfd, wfd = os.pipe()
+    proc = subprocess.Popen([exe, "-displayfd", str(wfd), "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, pass_fds=(wfd,))
+    os.close(wfd)
+    num = b""
+    deadline = time.monotonic() + 30.0
+    while not num.endswith(b"\n") and time.monotonic() < deadline and proc.poll() is None:
+        ready, _, _ = select.select([rfd], [], [], 0.5)
+        if ready:
+            chunk = os.read(rfd, 16)
+            if not chunk:
                 break
-            time.sleep(0.05)
-        if proc.poll() is None:
-            break
-        proc = None
-    if proc is None:
-        pytest.skip("Xvfb not available: could not start a server on :99..:109")
+            num += chunk
+    os.close(rfd)
+    if not num.strip().isdigit():
+        proc.kill()
+        proc.wait()
+        pytest.skip("Xvfb not available: the server did not report a display")
     try:
-        yield f":{num}"
+        yield f":{int(num)}"
     finally:
         proc.terminate()
         try:
