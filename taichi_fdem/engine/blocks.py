@@ -172,7 +172,7 @@ def team_worker(w, nwork, nsteps, nodes: ti.template(), tris: ti.template(), mat
                 con: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
                 feat: ti.template()):
     """Worker w of :func:`taichi_fdem.engine.step.run_steps_blocks`: up to ``nsteps`` steps of the parallel strategy for
-    blocks w, w + nwork, ..., in step with the other workers through three barriers per step.
+    blocks w, w + nwork, ..., in step with the other workers through two barriers per step (three with fracture).
     Every block's work and partial sums are the same whoever runs it, and the partials are
     combined in block order: the results do not depend on nwork."""
     N = nodes.node_x.shape[0]
@@ -217,7 +217,13 @@ def team_worker(w, nwork, nsteps, nodes: ti.template(), tris: ti.template(), mat
                     apply_load(k, time, dt, nodes, step)
         nbar += 1
         team_barrier(asm, w, nbar * nwork)
-        # 2. gather and integrate each block's share of the nodes; its maxima and work to its partials
+        # 2. gather and integrate each block's share of the nodes; its maxima and work to its partials.
+        # What the forces wrote for the step's end (an inverted triangle, the blocks' contact work)
+        # is read here, before the next step's forces can write it again (without a fracture
+        # there is no barrier between this step's end and the next step's forces)
+        inverted = step.step_int[INVERTED]
+        if w == 0:
+            book_block_work(N, nblk, asm, step)
         b = w
         while b < nblk:
             vmax2, bad, work, local = integrate_span(b * N // nblk, (b + 1) * N // nblk, nodes, joints, asm, dt, g,
@@ -246,7 +252,6 @@ def team_worker(w, nwork, nsteps, nodes: ti.template(), tris: ti.template(), mat
                     step.step_real[WORK_BOUNDARY] += asm.asm_part[3 * q + 1]
                 if ti.static(feat.local_damping):
                     step.step_real[WORK_LOCAL] += asm.asm_part[3 * q + 2]
-            book_block_work(N, nblk, asm, step)
             step.step_real[DACC] = dacc
             step.step_real[TIME] = time
             if ti.static(feat.contact):
@@ -254,23 +259,29 @@ def team_worker(w, nwork, nsteps, nodes: ti.template(), tris: ti.template(), mat
             if ti.static(feat.loads):
                 for k in range(nodes.load_nodes.shape[0]):
                     book_load(k, dt, nodes, step)
-        if ti.static(feat.fracture):
-            b = w
-            while b < nblk:
-                for j in range(b * J // nblk, (b + 1) * J // nblk):
-                    add_joint_work(j, joints, tris, mats, nodes, step)
-                b += nwork
         done += 1
         code = 0
         if ti.static(feat.contact):
             if dacc >= step.step_buffer[None]:
                 code |= 1
-        if nonfinite != 0 or step.step_int[INVERTED] != 0 or vmax > step.step_vlimit[None]:
+        if nonfinite != 0 or inverted != 0 or vmax > step.step_vlimit[None]:
             code |= 2
-        nbar += 1
-        team_barrier(asm, w, nbar * nwork)
+        if ti.static(feat.fracture):
+            # the joints' work and the end of intact bonds, which the next step's forces read:
+            # a third barrier (a scene without fracture needs none: the next step's forces
+            # write nothing that a worker still reads here)
+            b = w
+            while b < nblk:
+                for j in range(b * J // nblk, (b + 1) * J // nblk):
+                    add_joint_work(j, joints, tris, mats, nodes, step)
+                b += nwork
+            nbar += 1
+            team_barrier(asm, w, nbar * nwork)
         if code != 0:
             break
+    if ti.static(not feat.fracture):
+        nbar += 1
+        team_barrier(asm, w, nbar * nwork)     # every worker has read the partials cleared below
     if w == 0:
         asm.asm_sync[1] = done + ti.select(code >= 2, UNSTABLE_BIT, 0) + ti.select(code & 1, DUE_BIT, 0)
         # every worker read the partials before the last barrier: clear them, so that the scratch

@@ -52,12 +52,16 @@ def integrate_node(i, f, nodes: ti.template(), dt, g, bc, bc_work, alpha, local_
     work = 0.0
     if bc != 0:
         free = nodes.node_free[i]
-        vb = nodes.node_vbc[i]
-        nodes.node_react[i] = (1.0 - free) * (m * (vb - nodes.node_v[i]) / dt - f - m * g)
-        if bc_work != 0:
-            # work of the constraint force R = m (v_b − v_free)/Δt over x_{n+1} − x_n = Δt v_b
-            work = ((1.0 - free) * m * (vb - v)).dot(vb)
-        v = free * v + (1.0 - free) * vb
+        # a free node (free = (1, 1), most of them) has no reaction and keeps v: its node_react
+        # stays the zero it starts with (free components are never prescribed later; removal
+        # only fixes orphan nodes), and a branch skips the constraint's loads, stores and division
+        if free[0] < 1.0 or free[1] < 1.0:
+            vb = nodes.node_vbc[i]
+            nodes.node_react[i] = (1.0 - free) * (m * (vb - nodes.node_v[i]) / dt - f - m * g)
+            if bc_work != 0:
+                # work of the constraint force R = m (v_b − v_free)/Δt over x_{n+1} − x_n = Δt v_b
+                work = ((1.0 - free) * m * (vb - v)).dot(vb)
+            v = free * v + (1.0 - free) * vb
     x = nodes.node_x[i] + dt * v
     nodes.node_v[i] = v
     nodes.node_x[i] = x
