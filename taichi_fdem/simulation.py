@@ -408,11 +408,19 @@ class Simulation(SimulationResults):
         if n < 0:
             raise ValueError(f"step: n must be >= 0, got {n}")
         t0 = _time.perf_counter()
+        self._forget_apart()
         if self.strategy == "serial":
             self._step_serial(n)
         else:
             self._step_parallel(n)
         self._stats["wall_steps"] += _time.perf_counter() - t0
+
+    def _forget_apart(self) -> None:
+        """Drop the couples' certificates of separation (``scratch.couple_skip``,
+        :func:`engine.contact.couple_forces`): they hold while the nodes move no faster than the
+        steps account for, which positions set from the host between launches need not do."""
+        if self.model.contact and self.state.couple_max:
+            self.scratch.couple_skip.fill(0)
 
     def _detect_due(self) -> bool:
         st = self.state
@@ -496,6 +504,7 @@ class Simulation(SimulationResults):
                 if k.startswith(("step_", "joint_")) or k in ("couple_hist", "tri_diss", "tri_intact")}
         saved = {k: v.to_numpy() for k, v in keep.items()}
         st.node_f.fill(0)
+        self._forget_apart()
         if not contact_only:
             self._launch("eval_elastic", kernels.eval_elastic, p["nodes"], p["tris"], p["mats"], p["step"])
             if md.fracture:

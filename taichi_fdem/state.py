@@ -136,6 +136,8 @@ def size_couple_scratch(md: Model, st: State, sw: Scratch) -> None:
     """Scratch sized by the couple buffer: the previous-couple copies that carry friction history
     over, and the assembly arrays (:func:`size_assembly`)."""
     cap = st.couple_max
+    sw.couple_skip = ti.ndarray(backend.real_ti(), shape=cap if md.contact else 1)   # no certificates
+    sw.couple_skip.fill(0)
     sw.det_old_b = ti.ndarray(ti.i32, shape=cap if md.friction else 1)
     sw.det_old_hist = ti.ndarray(backend.real_ti(), shape=6 * cap if md.friction else 1)
     size_assembly(md, st, sw)

@@ -49,7 +49,9 @@ def add_block_force(nodes: ti.template(), asm: ti.template(), b, n, f):
 def couple_cost(c, nodes: ti.template(), tris: ti.template(), con: ti.template(), step: ti.template(),
                 fracture: ti.template()):
     """The estimated cost of couple c at the current positions (engine.groups.COST_*): a bonded
-    neighbour pair, boxes apart, triangles apart (:func:`contact.separated`) or touching."""
+    neighbour pair, boxes apart, triangles apart (:func:`contact.separated`) or touching.  A
+    function of the state alone (not of the certificates of separation, which a restart or a
+    launch drops: the ranges, and so the sums, would depend on how the steps were launched)."""
     cost = COST_BONDED
     nb_pair, on = neighbour_flag(c, tris, step, fracture)
     if not nb_pair or on != 0:
@@ -64,8 +66,8 @@ def couple_cost(c, nodes: ti.template(), tris: ti.template(), con: ti.template()
 
 
 @ti.func
-def rebalance_couples(nblk, C, nodes: ti.template(), tris: ti.template(), con: ti.template(), step: ti.template(),
-                      fracture: ti.template()):
+def rebalance_couples(nblk, C, nodes: ti.template(), tris: ti.template(), con: ti.template(),
+                      step: ti.template(), fracture: ti.template()):
     """Split the C couples into nblk contiguous ranges of about equal estimated cost
     (:func:`couple_cost`) at the current positions: step_int[SPLIT + b] is the first couple of
     block b (SPLIT + nblk and the unused slots hold C).  Serial, two passes over the couples
@@ -102,12 +104,13 @@ def couple_range(b, nblk, C, step: ti.template()):
 
 
 @ti.func
-def block_forces(b, nblk, T, J, C, nodes: ti.template(), tris: ti.template(), mats: ti.template(),
+def block_forces(b, nblk, T, J, C, dacc, nodes: ti.template(), tris: ti.template(), mats: ti.template(),
                  con: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
                  contact: ti.template(), friction: ti.template(), fracture: ti.template()):
     """Block b's share of :func:`taichi_fdem.engine.step.phase_blocks`: the triangles and the joints of its contiguous
     range by count, and the couples of its range by cost (:func:`couple_range`), added into its
-    copy of the nodal forces; its contact work to its entry of asm_force."""
+    copy of the nodal forces; its contact work to its entry of asm_force.  ``dacc``: step_real[DACC]
+    at the start of the step (:func:`contact.couple_forces`)."""
     for e in range(b * T // nblk, (b + 1) * T // nblk):
         f0, f1, f2 = tri_forces(e, nodes, tris, mats, step)
         n = tris.tri_nodes[e]
@@ -130,7 +133,7 @@ def block_forces(b, nblk, T, J, C, nodes: ti.template(), tris: ti.template(), ma
         bwork = vec2(0.0, 0.0)
         lo, hi = couple_range(b, nblk, C, step)
         for c in range(lo, hi):
-            gA, gB, hit, work = couple_forces(c, nodes, tris, mats, con, step, friction, fracture)
+            gA, gB, hit, work = couple_forces(c, dacc, nodes, tris, mats, con, step, friction, fracture)
             bwork += work
             if hit:
                 na = tris.tri_nodes[con.couple_a[c]]
@@ -208,8 +211,8 @@ def team_worker(w, nwork, nsteps, nodes: ti.template(), tris: ti.template(), mat
         # block 0, as in engine.step.step_parallel)
         b = w
         while b < nblk:
-            block_forces(b, nblk, T, J, C, nodes, tris, mats, con, joints, step, asm, feat.contact, feat.friction,
-                         feat.fracture)
+            block_forces(b, nblk, T, J, C, dacc, nodes, tris, mats, con, joints, step, asm, feat.contact,
+                         feat.friction, feat.fracture)
             b += nwork
         if ti.static(feat.loads):
             if w == 0:

@@ -29,7 +29,9 @@ tris       nodes (vec3 i32); rest_inv (2×2, F0⁻¹ [1/m]; A0 = ½ / det F0⁻�
 mats       mu, lam (Lamé μ, λ_Y [Pa]); pair ((M, M) vec4: penalty p [Pa], tangential penalty
            k_t [Pa/m], friction μ, normal damping c_n)
 contact    the couples: a, b (triangles), hist (6 slip values per couple [m]); the first
-           step_int[NB_PAIRS] are the neighbour pairs (engine.joints.neighbour_pairs)
+           step_int[NB_PAIRS] are the neighbour pairs (engine.joints.neighbour_pairs); scratch:
+           skip (per couple: the value of step_real[DACC] up to which it is certified apart [m],
+           engine.contact.couple_forces)
 detect     ctri (contact triangles), body_flags (bit 0 self-contact, bit 1 fully fixed), start
            (first couple of each ctri); scratch: bound (13 reals: bounding-circle centre [m],
            radius [m], box (lo, hi) [m], the three vertices [m]), sort (ivec3 per contact triangle k: hashed cell of k, slot of k in it, and the k at
@@ -77,7 +79,7 @@ NODE_MEMBERS = ("node_x", "node_v", "node_f", "node_mass", "node_free", "node_vb
 TRI_MEMBERS = ("tri_nodes", "tri_rest_inv", "tri_mat", "tri_body", "tri_visc", "tri_diss", "tri_origin",
                "tri_intact", "tri_prestress", "tri_fans", "tri_nb_on")
 MAT_MEMBERS = ("mat_mu", "mat_lam", "mat_pair")
-CONTACT_MEMBERS = ("couple_a", "couple_b", "couple_hist")
+CONTACT_MEMBERS = ("couple_a", "couple_b", "couple_hist", "couple_skip")
 DETECT_MEMBERS = ("contact_tri", "body_flags", "couple_start", "det_bound", "det_sort", "det_bucket", "det_cnew",
                   "det_old_start", "det_old_b", "det_old_hist")
 ASSEMBLY_MEMBERS = ("asm_force", "asm_node_start", "asm_node_slots", "asm_sync", "asm_part")
@@ -119,12 +121,14 @@ MAX_FORCE_BLOCKS = 64     # the couple ranges' bounds live in step_int[SPLIT + b
 REBALANCE_STEPS = 128     # steps between two recomputations of the couple ranges (and after a detection)
 # estimated cost of a couple per step for the couple ranges, relative units: measured in the
 # block loop on the 10k and 100k plates after the impact, a bonded neighbour pair ~1 ns, boxes
-# apart ~10, triangles apart ~28, touching 190-230 (near-coincident neighbours the dearest); the
-# touching weight is set a little higher, where the two blocks' measured times came out equal
-# (within 1 % at 10k and 4 % at 100k, against 2 % and 20 % with weights 1, 2, 6, 80)
+# apart ~10, triangles apart ~28, touching 190-230 (near-coincident neighbours the dearest).
+# Apart couples are mostly certified apart (engine.contact.couple_forces: ~2 ns), which the
+# estimate cannot see (it depends on the state alone), so they weigh 3 and 8; the touching
+# weight is set a little higher, where the two blocks' measured times came out equal (within
+# 3 % on the 10k plate and 2 % on the 1k pile)
 COST_BONDED = 1
-COST_APART = 10
-COST_SEPARATED = 28
+COST_APART = 3
+COST_SEPARATED = 8
 COST_TOUCHING = 300
 BLOCK_STRIDE = 1024       # loop iterations per block (see engine.step.phase_blocks)
 UNSTABLE_BIT = 1 << 24   # added to engine.step.run_steps_serial's return value (steps per launch < 2^24)

@@ -138,6 +138,8 @@ def phase_detect_fill(tris: ti.template(), det: ti.template(), con: ti.template(
                 det.det_old_hist[6 * c + q] = con.couple_hist[6 * c + q]
     for k in range(K):
         scan_partners(k, False, det, con, tris, step, det.det_cnew[k], friction)
+    for c in range(det.det_cnew[K]):
+        con.couple_skip[c] = 0.0          # no certificate of separation (dacc restarts at 0)
     ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
     for _ in range(1):
         step.step_int[COUPLES] = step.step_int[FOUND]
@@ -169,8 +171,9 @@ def phase_joint_work(nodes: ti.template(), tris: ti.template(), mats: ti.templat
 @ti.func
 def phase_contact(nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
                   step: ti.template(), friction: ti.template(), fracture: ti.template()):
+    dacc = step.step_real[DACC]
     for c in range(step.step_int[COUPLES]):
-        eval_couple(c, nodes, tris, mats, con, step, friction, fracture)
+        eval_couple(c, dacc, nodes, tris, mats, con, step, friction, fracture)
 
 
 @ti.func
@@ -232,6 +235,7 @@ def phase_slots(nodes: ti.template(), tris: ti.template(), mats: ti.template(), 
     each writes its nodal forces into its own slots (triangle t: asm_force[3t + r]; couple c:
     asm_force[3T + 6c + r], rows of A then B; joint j: joint_g[j]), never adding to a node."""
     T, J, C = item_counts(tris, joints, step, contact, fracture)
+    dacc = step.step_real[DACC]
     for item in range(T + J + C):
         if item < T:
             f0, f1, f2 = tri_forces(item, nodes, tris, mats, step)
@@ -244,7 +248,7 @@ def phase_slots(nodes: ti.template(), tris: ti.template(), mats: ti.template(), 
         else:
             if ti.static(contact):
                 c = item - T - J
-                gA, gB, hit, work = couple_forces(c, nodes, tris, mats, con, step, friction, fracture)
+                gA, gB, hit, work = couple_forces(c, dacc, nodes, tris, mats, con, step, friction, fracture)
                 book_contact_work(work, step)
                 base = 3 * T + 6 * c
                 for r in ti.static(range(3)):
@@ -265,6 +269,7 @@ def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(),
     the result does not depend on the thread count."""
     T, J, C = item_counts(tris, joints, step, contact, fracture)
     nblk = asm_blocks(nodes.node_x.shape[0], asm)
+    dacc = step.step_real[DACC]
     if ti.static(contact):
         ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
         for _ in range(1):
@@ -278,8 +283,8 @@ def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(),
     # does the block's work, which puts every block in its own task
     for t in range(nblk * BLOCK_STRIDE):
         if t % BLOCK_STRIDE == 0:
-            block_forces(t // BLOCK_STRIDE, nblk, T, J, C, nodes, tris, mats, con, joints, step, asm, contact,
-                         friction, fracture)
+            block_forces(t // BLOCK_STRIDE, nblk, T, J, C, dacc, nodes, tris, mats, con, joints, step, asm,
+                         contact, friction, fracture)
 
 
 @ti.func
