@@ -87,11 +87,20 @@ def edge_integrals(a, b, g):
             if a[k] > eps and b[k] < 0.0:
                 smax = fmin(smax, a[k] / (a[k] - b[k]))
         if smax > smin:
-            # 4. breakpoints where the minimum switches (at most 2 inside the clipped span)
+            # 4. breakpoints where the minimum switches (at most 2 inside the clipped span).  None
+            # when one β is the least at both ends (two of three integrated edges in a pile): the
+            # minimum of three lines is concave, so on the span it lies on or above its chord,
+            # which is that β, and at or below that β, so it is that β all along.  (A runtime
+            # loop: one copy of the search, skipped then.)
             d = b - a
             s1 = smax
             s2 = smax
-            for kl in ti.static(range(3)):
+            p0 = a + smin * d
+            p3 = a + smax * d
+            same = (p0[0] <= p0[1] and p0[0] <= p0[2] and p3[0] <= p3[1] and p3[0] <= p3[2]) or \
+                   (p0[1] < p0[0] and p0[1] <= p0[2] and p3[1] < p3[0] and p3[1] <= p3[2]) or \
+                   (p0[2] < p0[0] and p0[2] < p0[1] and p3[2] < p3[0] and p3[2] < p3[1])
+            for kl in range(0 if same else 3):
                 k = kl
                 l = (kl + 1) % 3
                 m = (kl + 2) % 3
@@ -105,10 +114,10 @@ def edge_integrals(a, b, g):
                         elif s < s2:
                             s2 = s
             # 5–6. φ is linear between smin ≤ s1 ≤ s2 ≤ smax: exact closed-form integrals
-            q0 = 3.0 * min3(a + smin * d)
+            q0 = 3.0 * min3(p0)
             q1 = 3.0 * min3(a + s1 * d)
             q2 = 3.0 * min3(a + s2 * d)
-            q3 = 3.0 * min3(a + smax * d)
+            q3 = 3.0 * min3(p3)
             h0 = s1 - smin
             h1 = s2 - s1
             h2 = smax - s2
