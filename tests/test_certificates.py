@@ -79,10 +79,12 @@ def test_every_certificate_holds(strategy):
 
 
 def _trajectory(sim) -> dict:
-    e = sim.energies()
+    """The state's bits, and the friction work (summed in a fixed order by the kernels).  (The
+    contact energy is left out: ``energies()`` sums it with atomic adds in a parallel loop, whose
+    order, and last bits, vary from run to run.)"""
     return {"x": sim.node_positions().tobytes(), "v": sim.node_velocities().tobytes(),
             "hist": sim.state.couple_hist.to_numpy()[: 6 * sim.couple_count].tobytes(),
-            "friction": e["friction"].hex(), "contact": e["contact"].hex()}
+            "friction": sim.energies()["friction"].hex()}
 
 
 @pytest.mark.parametrize("strategy", ["serial", "parallel"])

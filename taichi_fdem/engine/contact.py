@@ -313,15 +313,41 @@ def box_gap(a0, a1, a2, b0, b1, b2):
 
 
 @ti.func
-def separating_gap(D, t0, t1, t2):
-    """The largest gap [m] along the outward normal of an edge of triangle T = (t0, t1, t2) beyond
-    whose line lie all three points of D (:func:`side_numerators`: D[r, k] is |e_k| times the
-    signed distance of point r from the line of edge k, inward positive); −1 when there is none."""
-    gap = -1.0
+def separating_edge(D):
+    """The first edge k of a triangle T beyond whose line lie all three points of D
+    (:func:`side_numerators`), −1 when there is none."""
+    sep = -1
     for k in ti.static(range(3)):
-        if D[0, k] <= 0.0 and D[1, k] <= 0.0 and D[2, k] <= 0.0:
-            e = ((t1 - t0), (t2 - t1), (t0 - t2))[k]
-            gap = fmax(gap, -fmax(D[0, k], fmax(D[1, k], D[2, k])) / e.norm())
+        if sep < 0 and D[0, k] <= 0.0 and D[1, k] <= 0.0 and D[2, k] <= 0.0:
+            sep = k
+    return sep
+
+
+@ti.func
+def separating_gap(DA, DB, a0, a1, a2, b0, b1, b2):
+    """The gap [m] between two triangles A, B along the outward normal of the first edge of A,
+    then of B, beyond whose line lies the other triangle (D[r, k] of :func:`side_numerators` is
+    |e_k| times the signed distance of point r from the line of edge k, inward positive): a
+    lower bound of their distance; −1 when no edge normal separates them (they overlap).  One
+    square root and one division, for the first separating edge only."""
+    gap = -1.0
+    D = DA
+    t0, t1, t2 = a0, a1, a2
+    k = separating_edge(DA)
+    if k < 0:
+        D = DB
+        t0, t1, t2 = b0, b1, b2
+        k = separating_edge(DB)
+    if k >= 0:
+        e = t1 - t0
+        if k == 1:
+            e = t2 - t1
+        elif k == 2:
+            e = t0 - t2
+        dmax = D[0, k]
+        for r in ti.static(range(1, 3)):
+            dmax = fmax(dmax, D[r, k])
+        gap = -dmax / e.norm()
     return gap
 
 
@@ -445,7 +471,7 @@ def couple_forces(c, dacc, nodes: ti.template(), tris: ti.template(), mats: ti.t
         if gap < 0.0:
             DA = side_numerators(a0, a1, a2, b0, b1, b2)
             DB = side_numerators(b0, b1, b2, a0, a1, a2)
-            gap = fmax(separating_gap(DA, a0, a1, a2), separating_gap(DB, b0, b1, b2))
+            gap = separating_gap(DA, DB, a0, a1, a2, b0, b1, b2)
             hit = gap < 0.0
         if not hit:
             # apart: certified while dacc grows by less than the gap (less a margin far above
