@@ -57,13 +57,11 @@ def min3(v):
 
 
 @ti.func
-def edge_integrals(a, b, g):
+def edge_integrals(a, b, ci, cj, t0, t1, t2, inv2Ac):
     """Clip contactor edge ci→cj against the target and integrate its potential (§2.3.1, 1–6).
 
-    a, b: target barycentrics of ci and cj; g: the contactor barycentric of each target vertex
-    that belongs to this edge (g_k = (c_i − t_k)·perp(c_j − c_i)/(2A_C), the side of the edge's
-    line t_k is on).  Returns (Φ0, Φ1, s_min, s_max, s̄) with Φ0 = ∫ φ_T ds, Φ1 = ∫ s φ_T ds
-    over s ∈ [0, 1]; Φ0 = 0 when there is no overlap.
+    a, b: target barycentrics of ci and cj.  Returns (Φ0, Φ1, s_min, s_max, s̄) with
+    Φ0 = ∫ φ_T ds, Φ1 = ∫ s φ_T ds over s ∈ [0, 1]; Φ0 = 0 when there is no overlap.
     """
     eps = ti.static(_eps())
     Phi0 = 0.0
@@ -78,7 +76,11 @@ def edge_integrals(a, b, g):
         if a[k] < eps and b[k] < eps:
             reject = True
     if not reject:
-        reject = (g[0] > -eps and g[1] > -eps and g[2] > -eps) or (g[0] < eps and g[1] < eps and g[2] < eps)
+        ne = perp(cj - ci)
+        g0 = (ci - t0).dot(ne) * inv2Ac
+        g1 = (ci - t1).dot(ne) * inv2Ac
+        g2 = (ci - t2).dot(ne) * inv2Ac
+        reject = (g0 > -eps and g1 > -eps and g2 > -eps) or (g0 < eps and g1 < eps and g2 < eps)
     if not reject:
         # 3. clipping to the target
         for k in ti.static(range(3)):
@@ -154,18 +156,24 @@ def rel_velocity(s, a, b, W, ui, uj):
 
 
 @ti.func
-def contact_pass(C, U, W, Bm, Bo, p, kt, mu, cn, dt, hist: ti.template(), hslot, friction: ti.template(),
+def contact_pass(C, U, T, W, inv2Ac, inv2At, p, kt, mu, cn, dt, hist: ti.template(), hslot, friction: ti.template(),
                  cdamping):
     """One pass: contactor triangle C against target triangle T (§2.3.2 CONTACT_PASS).
 
-    C: 3×2 matrix of the contactor's node positions (row r = node r) [m]; U, W: the node
-    velocities of contactor and target [m/s] (used with friction or contact damping only);
-    Bm: row r the target barycentrics of contactor node r; Bo: row k the contactor barycentrics
-    of target node k (:func:`side_numerators`, computed once per couple for both passes and
-    the overlap test).  Returns (gC, gT), the 3×2 nodal forces per unit thickness [N/m] on
-    contactor and target, and the work dissipated over the step (friction, contact damping)
-    [J/m] as a 2-vector.  ``hist[hslot + i]`` holds the elastic slip [m] of contactor edge i.
+    C, T: 3×2 matrices of node positions (row r = node r) [m]; U, W: their node velocities
+    [m/s] (used with friction or contact damping only); inv2Ac, inv2At: 1/(2A) of C and T
+    [1/m²] (computed once per couple, for both passes).  Returns (gC, gT), the 3×2 nodal
+    forces per unit thickness [N/m] on contactor and target, and the work dissipated over the
+    step (friction, contact damping) [J/m] as a 2-vector.  ``hist[hslot + i]`` holds the elastic
+    slip [m] of contactor edge i.
     """
+    t0 = vec2(T[0, 0], T[0, 1])
+    t1 = vec2(T[1, 0], T[1, 1])
+    t2 = vec2(T[2, 0], T[2, 1])
+    Bm = ti.Matrix.zero(float, 3, 3)          # row r: target barycentrics of contactor node r
+    for r in ti.static(range(3)):
+        br = barycentric(vec2(C[r, 0], C[r, 1]), t0, t1, t2, inv2At)
+        Bm[r, 0], Bm[r, 1], Bm[r, 2] = br[0], br[1], br[2]
     gC = ti.Matrix.zero(float, 3, 2)
     wf = 0.0                                  # friction work [J/m]
     wc = 0.0                                  # contact-damping work [J/m]
@@ -186,7 +194,7 @@ def contact_pass(C, U, W, Bm, Bo, p, kt, mu, cn, dt, hist: ti.template(), hslot,
         b = vec3(Bm[j, 0], Bm[j, 1], Bm[j, 2])
         ci = vec2(C[i, 0], C[i, 1])
         cj = vec2(C[j, 0], C[j, 1])
-        Phi0, Phi1, smin, smax, sbar = edge_integrals(a, b, vec3(Bo[0, i], Bo[1, i], Bo[2, i]))
+        Phi0, Phi1, smin, smax, sbar = edge_integrals(a, b, ci, cj, t0, t1, t2, inv2Ac)
         if Phi0 > 0.0:
             te = cj - ci
             n = perp(te)                     # outward normal, |n| = L
@@ -267,37 +275,28 @@ def boxes_overlap(a0, a1, a2, b0, b1, b2):
 
 
 @ti.func
-def side_numerators(t0, t1, t2, p0, p1, p2):
-    """D[r, k] = (t_k − p_r)·perp(t_{k+1} − t_k): 2A_T times the barycentric β_k of p_r in the
-    counter-clockwise triangle t0 t1 t2 (:func:`barycentric` without the division), ≤ 0 when
-    p_r is on or beyond the line of edge k."""
-    D = ti.Matrix.zero(float, 3, 3)
-    for r in ti.static(range(3)):
-        br = barycentric((p0, p1, p2)[r], t0, t1, t2, 1.0)
-        D[r, 0], D[r, 1], D[r, 2] = br[0], br[1], br[2]
-    return D
+def beyond_edge(t0, t1, p0, p1, p2):
+    """Are p0, p1, p2 all on or beyond the line of edge t0→t1 of a counter-clockwise triangle
+    (on the side its outward normal points to)?  Division-free: signs of (p − t0)·perp(t1 − t0)."""
+    n = perp(t1 - t0)
+    return ((p0 - t0).dot(n) >= 0.0) & ((p1 - t0).dot(n) >= 0.0) & ((p2 - t0).dot(n) >= 0.0)
 
 
 @ti.func
-def all_beyond(D):
-    """Are all three points of D (:func:`side_numerators`) on or beyond one edge line?"""
-    sep = False
-    for k in ti.static(range(3)):
-        if D[0, k] <= 0.0 and D[1, k] <= 0.0 and D[2, k] <= 0.0:
-            sep = True
-    return sep
-
-
-@ti.func
-def separated_by(DA, DB):
-    """Do the two counter-clockwise triangles A, B lie apart (at most touching along a line),
-    given DA = side_numerators(A; B's vertices) and DB = side_numerators(B; A's vertices)?  The
+def separated(a0, a1, a2, b0, b1, b2):
+    """Do the two counter-clockwise triangles lie apart (at most touching along a line)?  The
     separating-axis test over their six edge normals, complete for two triangles in 2D.  Exact
     early out of :func:`couple_forces`: then no contactor edge of either pass has a positive
     potential integral (a triangle on or beyond an edge line of the other meets it at most on
-    that line, where the potential is zero), and both passes would only release slip.  The
-    eighteen dot products are those of the passes' barycentrics, computed once."""
-    return all_beyond(DA) or all_beyond(DB)
+    that line, where the potential is zero), and both passes would only release slip.  It costs
+    six edge normals and eighteen dot products, no division and no velocity."""
+    sep = 0
+    for ps in range(2):                       # a runtime loop: one copy of the three tests
+        t0, t1, t2, p0, p1, p2 = a0, a1, a2, b0, b1, b2
+        if ps == 1:
+            t0, t1, t2, p0, p1, p2 = b0, b1, b2, a0, a1, a2
+        sep |= beyond_edge(t0, t1, p0, p1, p2) | beyond_edge(t1, t2, p0, p1, p2) | beyond_edge(t2, t0, p0, p1, p2)
+    return sep != 0
 
 
 @ti.func
@@ -313,48 +312,38 @@ def box_gap(a0, a1, a2, b0, b1, b2):
 
 
 @ti.func
-def separating_edge(D):
-    """The first edge k of a triangle T beyond whose line lie all three points of D
-    (:func:`side_numerators`), −1 when there is none."""
-    sep = -1
-    for k in ti.static(range(3)):
-        if sep < 0 and D[0, k] <= 0.0 and D[1, k] <= 0.0 and D[2, k] <= 0.0:
-            sep = k
-    return sep
-
-
-@ti.func
-def separating_gap(DA, DB, a0, a1, a2, b0, b1, b2):
-    """The gap [m] between two triangles A, B along the outward normal of the first edge of A,
-    then of B, beyond whose line lies the other triangle (D[r, k] of :func:`side_numerators` is
-    |e_k| times the signed distance of point r from the line of edge k, inward positive): a
-    lower bound of their distance; −1 when no edge normal separates them (they overlap).  One
-    square root and one division, for the first separating edge only."""
+def separation_gap(a0, a1, a2, b0, b1, b2):
+    """The gap [m] between two counter-clockwise triangles along the outward normal of the first
+    of their six edges (A's, then B's) on or beyond whose line the other triangle lies: a lower
+    bound of their distance, ≥ 0; −1 when there is no such edge (they overlap).  The test is
+    :func:`separated`'s (signs of (p − t0)·perp(t1 − t0), no division); the gap costs one square
+    root and one division, for that edge only.  (A runtime loop over the six edges: one copy of
+    the code, which keeps compile time down.)"""
     gap = -1.0
-    D = DA
-    t0, t1, t2 = a0, a1, a2
-    k = separating_edge(DA)
-    if k < 0:
-        D = DB
-        t0, t1, t2 = b0, b1, b2
-        k = separating_edge(DB)
-    if k >= 0:
-        e = t1 - t0
-        if k == 1:
-            e = t2 - t1
-        elif k == 2:
-            e = t0 - t2
-        dmax = D[0, k]
-        for r in ti.static(range(1, 3)):
-            dmax = fmax(dmax, D[r, k])
-        gap = -dmax / e.norm()
+    for q in range(6):
+        if gap < 0.0:
+            t0, t1, t2, p0, p1, p2 = a0, a1, a2, b0, b1, b2
+            if q >= 3:
+                t0, t1, t2, p0, p1, p2 = b0, b1, b2, a0, a1, a2
+            k = q % 3
+            e0, e1 = t0, t1
+            if k == 1:
+                e0, e1 = t1, t2
+            elif k == 2:
+                e0, e1 = t2, t0
+            n = perp(e1 - e0)
+            d0 = (p0 - e0).dot(n)
+            d1 = (p1 - e0).dot(n)
+            d2 = (p2 - e0).dot(n)
+            if d0 >= 0.0 and d1 >= 0.0 and d2 >= 0.0:
+                gap = fmin(d0, fmin(d1, d2)) / n.norm()
     return gap
 
 
 @ti.func
-def separated(a0, a1, a2, b0, b1, b2):
-    """:func:`separated_by` from the two triangles' vertices."""
-    return separated_by(side_numerators(a0, a1, a2, b0, b1, b2), side_numerators(b0, b1, b2, a0, a1, a2))
+def certified_apart(c, dacc, con: ti.template()):
+    """Is couple c certified apart at this step (``con.couple_skip``, :func:`couple_forces`)?"""
+    return dacc < con.couple_skip[c]
 
 
 @ti.func
@@ -422,12 +411,6 @@ def neighbour_flag(c, tris: ti.template(), step: ti.template(), fracture: ti.tem
 
 
 @ti.func
-def certified_apart(c, dacc, con: ti.template()):
-    """Is couple c certified apart at this step (``con.couple_skip``, :func:`couple_forces`)?"""
-    return dacc < con.couple_skip[c]
-
-
-@ti.func
 def couple_forces(c, dacc, nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
                   step: ti.template(), friction: ti.template(), fracture: ti.template()):
     """Contact forces of couple c (both passes, §2.3.2 COUPLE): (gA, gB, hit, work); gA, gB are
@@ -435,22 +418,27 @@ def couple_forces(c, dacc, nodes: ti.template(), tris: ti.template(), mats: ti.t
     and the forces zero, for a neighbour pair still bonded by intact joints
     (:func:`edge_pair_bonded`, :func:`taichi_fdem.engine.joints.fan_links`; kept up to date in
     ``tris.tri_nb_on``; fracture only), for pairs whose boxes do not overlap (the common cheap
-    case) and for pairs that lie apart (:func:`separated_by`: most couples whose boxes overlap,
-    in a pile or a fragmenting mesh; its dot products are the passes' barycentrics).  ``work``: the work dissipated over the step by friction and
+    case) and for pairs that lie apart (:func:`separation_gap`: most couples whose boxes overlap,
+    in a pile or a fragmenting mesh), and for couples certified apart (below).  ``work``: the work dissipated over the step by friction and
     contact damping [J/m], which the caller books in step_real[WORK_FRICTION],
     step_real[WORK_CDAMPING].
 
     Certificates of separation (FDEM_SPEC §4.1's bound, per couple): ``dacc`` is step_real[DACC]
     at the start of the step, which grows by at least the largest relative displacement of any
     two nodes.  A couple found apart with a gap g (between the boxes along x or y, or along a
-    separating edge normal) stays apart while dacc grows by less than g: its
-    ``con.couple_skip[c]`` is set to dacc + g (less a rounding margin), and until dacc reaches it
-    the couple is skipped for the cost of one read (a settled 1k pile: most of its apart
-    couples).  Skipping changes no bit: such a couple gives no force, and it released its slip
-    (and cleared its NB_HELD bit) when it was found apart.  Detection resets the certificates
-    with dacc, and the host at every launch of steps (positions may have been set in between)."""
+    separating edge normal, :func:`separation_gap`) stays apart while dacc grows by less than
+    g: its ``con.couple_skip[c]`` is set to dacc + g (less a rounding margin), and until dacc
+    reaches it the couple is skipped for the cost of one read (in a resting pile, most of its
+    apart couples).  Skipping changes no bit: such a couple gives no force, and it released its
+    slip (and cleared its NB_HELD bit) when it was found apart.  Detection resets the
+    certificates with dacc, and the host at every launch of steps (positions may have been set
+    in between)."""
     A = con.couple_a[c]
     B = con.couple_b[c]
+    na = tris.tri_nodes[A]
+    nb = tris.tri_nodes[B]
+    a0, a1, a2 = nodes.node_x[na[0]], nodes.node_x[na[1]], nodes.node_x[na[2]]
+    b0, b1, b2 = nodes.node_x[nb[0]], nodes.node_x[nb[1]], nodes.node_x[nb[2]]
     gA = ti.Matrix.zero(float, 3, 2)
     gB = ti.Matrix.zero(float, 3, 2)
     work = vec2(0.0, 0.0)
@@ -461,27 +449,60 @@ def couple_forces(c, dacc, nodes: ti.template(), tris: ti.template(), mats: ti.t
         skip = certified_apart(c, dacc, con)
     hit = False
     if not skip:
-        na = tris.tri_nodes[A]
-        nb = tris.tri_nodes[B]
-        a0, a1, a2 = nodes.node_x[na[0]], nodes.node_x[na[1]], nodes.node_x[na[2]]
-        b0, b1, b2 = nodes.node_x[nb[0]], nodes.node_x[nb[1]], nodes.node_x[nb[2]]
         gap = box_gap(a0, a1, a2, b0, b1, b2)
-        DA = ti.Matrix.zero(float, 3, 3)
-        DB = ti.Matrix.zero(float, 3, 3)
         if gap < 0.0:
-            DA = side_numerators(a0, a1, a2, b0, b1, b2)
-            DB = side_numerators(b0, b1, b2, a0, a1, a2)
-            gap = separating_gap(DA, DB, a0, a1, a2, b0, b1, b2)
+            gap = separation_gap(a0, a1, a2, b0, b1, b2)
             hit = gap < 0.0
         if not hit:
             # apart: certified while dacc grows by less than the gap (less a margin far above
             # the rounding of the gap, relative to the triangle's size)
             ext = fmax(a0, fmax(a1, a2)) - fmin(a0, fmin(a1, a2))
             con.couple_skip[c] = dacc + gap - ti.static(_eps()) * 100.0 * fmax(ext[0], ext[1])
-        else:
-            gA, gB, work = touching_forces(c, A, B, na, nb, a0, a1, a2, b0, b1, b2, DA, DB, on, nb_pair, nodes,
-                                           tris, mats, con, step, friction, fracture)
-    if not hit and ti.static(friction):
+    if hit:
+        prop = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]]      # (p, k_t, μ_f, c_n)
+        cdamping = step.step_switches[None] & SWITCH_CDAMPING
+        dt = step.step_dt[None]
+        XA = mat32_rows(a0, a1, a2)
+        XB = mat32_rows(b0, b1, b2)
+        VA = ti.Matrix.zero(float, 3, 2)
+        VB = ti.Matrix.zero(float, 3, 2)
+        use_v = cdamping
+        if ti.static(friction):
+            use_v = 1
+        if use_v != 0:
+            for r in ti.static(range(3)):
+                va = nodes.node_v[na[r]]
+                vb = nodes.node_v[nb[r]]
+                VA[r, 0], VA[r, 1] = va[0], va[1]
+                VB[r, 0], VB[r, 1] = vb[0], vb[1]
+        # pass 0: contactor B, target A; pass 1: contactor A, target B (a runtime loop: one
+        # copy of the pass code, which keeps compile time down)
+        inv2A = 1.0 / (a1 - a0).cross(a2 - a0)
+        inv2B = 1.0 / (b1 - b0).cross(b2 - b0)
+        for ps in range(2):
+            C, U, T, W, iC, iT = XB, VB, XA, VA, inv2B, inv2A
+            if ps == 1:
+                C, U, T, W, iC, iT = XA, VA, XB, VB, inv2A, inv2B
+            gC, gT, w = contact_pass(C, U, T, W, iC, iT, prop[0], prop[1], prop[2], prop[3], dt,
+                                     con.couple_hist, c * 6 + 3 * ps, friction, cdamping)
+            work += w
+            if ps == 0:
+                gB += gC
+                gA += gT
+            else:
+                gA += gC
+                gB += gT
+        if ti.static(friction and fracture):
+            if nb_pair:
+                # a neighbour pair's NB_HELD bit: whether it holds slip, so that the steps it
+                # spends apart need not read its history (written only when it changes)
+                held = 0
+                for s in ti.static(range(6)):
+                    if con.couple_hist[c * 6 + s] != 0.0:
+                        held = NB_HELD
+                if (on & NB_HELD) != held:
+                    tris.tri_nb_on[c] = (on & ~NB_HELD) | held
+    elif ti.static(friction):
         # a bonded pair never slipped (bonds only end); a separated one drops its slip and books
         # the energy its springs held (:func:`release_slip`, as a pass whose contactor is out).
         # Written only where non-zero: most couples are apart, and clearing their six values
@@ -501,62 +522,6 @@ def couple_forces(c, dacc, nodes: ti.template(), tris: ti.template(), mats: ti.t
             if nb_pair:
                 tris.tri_nb_on[c] = on & ~NB_HELD
     return gA, gB, hit, work
-
-
-@ti.func
-def touching_forces(c, A, B, na, nb, a0, a1, a2, b0, b1, b2, DA, DB, on, nb_pair, nodes: ti.template(),
-                    tris: ti.template(), mats: ti.template(), con: ti.template(), step: ti.template(),
-                    friction: ti.template(), fracture: ti.template()):
-    """The two passes of a couple whose triangles overlap (:func:`couple_forces`): (gA, gB, work)."""
-    gA = ti.Matrix.zero(float, 3, 2)
-    gB = ti.Matrix.zero(float, 3, 2)
-    work = vec2(0.0, 0.0)
-    prop = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]]      # (p, k_t, μ_f, c_n)
-    cdamping = step.step_switches[None] & SWITCH_CDAMPING
-    dt = step.step_dt[None]
-    XA = mat32_rows(a0, a1, a2)
-    XB = mat32_rows(b0, b1, b2)
-    inv2A = 1.0 / (a1 - a0).cross(a2 - a0)
-    inv2B = 1.0 / (b1 - b0).cross(b2 - b0)
-    BA = DA * inv2A                          # row r: A-barycentrics of B's node r
-    BB = DB * inv2B                          # row r: B-barycentrics of A's node r
-    VA = ti.Matrix.zero(float, 3, 2)
-    VB = ti.Matrix.zero(float, 3, 2)
-    use_v = cdamping
-    if ti.static(friction):
-        use_v = 1
-    if use_v != 0:
-        for r in ti.static(range(3)):
-            va = nodes.node_v[na[r]]
-            vb = nodes.node_v[nb[r]]
-            VA[r, 0], VA[r, 1] = va[0], va[1]
-            VB[r, 0], VB[r, 1] = vb[0], vb[1]
-    # pass 0: contactor B, target A; pass 1: contactor A, target B (a runtime loop: one
-    # copy of the pass code, which keeps compile time down)
-    for ps in range(2):
-        C, U, W, Bm, Bo = XB, VB, VA, BA, BB
-        if ps == 1:
-            C, U, W, Bm, Bo = XA, VA, VB, BB, BA
-        gC, gT, w = contact_pass(C, U, W, Bm, Bo, prop[0], prop[1], prop[2], prop[3], dt,
-                                 con.couple_hist, c * 6 + 3 * ps, friction, cdamping)
-        work += w
-        if ps == 0:
-            gB += gC
-            gA += gT
-        else:
-            gA += gC
-            gB += gT
-    if ti.static(friction and fracture):
-        if nb_pair:
-            # a neighbour pair's NB_HELD bit: whether it holds slip, so that the steps it
-            # spends apart need not read its history (written only when it changes)
-            held = 0
-            for s in ti.static(range(6)):
-                if con.couple_hist[c * 6 + s] != 0.0:
-                    held = NB_HELD
-            if (on & NB_HELD) != held:
-                tris.tri_nb_on[c] = (on & ~NB_HELD) | held
-    return gA, gB, work
 
 
 @ti.func
