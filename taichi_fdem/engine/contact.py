@@ -312,13 +312,14 @@ def box_gap(a0, a1, a2, b0, b1, b2):
 
 
 @ti.func
-def separation_gap(a0, a1, a2, b0, b1, b2):
+def separation_gap(a0, a1, a2, b0, b1, b2, margin):
     """The gap [m] between two counter-clockwise triangles along the outward normal of the first
-    of their six edges (A's, then B's) on or beyond whose line the other triangle lies: a lower
-    bound of their distance, ≥ 0; −1 when there is no such edge (they overlap).  The test is
-    :func:`separated`'s (signs of (p − t0)·perp(t1 − t0), no division); the gap costs one square
-    root and one division, for that edge only.  (A runtime loop over the six edges: one copy of
-    the code, which keeps compile time down.)"""
+    of their six edges (A's, then B's) on or beyond whose line the other triangle lies (a lower
+    bound of their distance), or 0 when that gap is at most ``margin`` [m]; −1 when there is no
+    such edge (they overlap).  The test is :func:`separated`'s (signs of (p − t0)·perp(t1 − t0),
+    no division); a gap above the margin costs one square root and one division, for that edge
+    only.  (A runtime loop over the six edges: one copy of the code, which keeps compile time
+    down.)"""
     gap = -1.0
     for q in range(6):
         if gap < 0.0:
@@ -336,7 +337,11 @@ def separation_gap(a0, a1, a2, b0, b1, b2):
             d1 = (p1 - e0).dot(n)
             d2 = (p2 - e0).dot(n)
             if d0 >= 0.0 and d1 >= 0.0 and d2 >= 0.0:
-                gap = fmin(d0, fmin(d1, d2)) / n.norm()
+                gap = 0.0
+                dmin = fmin(d0, fmin(d1, d2))            # the gap times |n|
+                n2 = n.norm_sqr()
+                if dmin * dmin > margin * margin * n2:
+                    gap = dmin / ti.sqrt(n2)
     return gap
 
 
@@ -449,15 +454,18 @@ def couple_forces(c, dacc, nodes: ti.template(), tris: ti.template(), mats: ti.t
         skip = certified_apart(c, dacc, con)
     hit = False
     if not skip:
+        # a margin far above the rounding of a gap, relative to the triangle's size
+        ext = fmax(a0, fmax(a1, a2)) - fmin(a0, fmin(a1, a2))
+        margin = ti.static(_eps()) * 100.0 * fmax(ext[0], ext[1])
         gap = box_gap(a0, a1, a2, b0, b1, b2)
         if gap < 0.0:
-            gap = separation_gap(a0, a1, a2, b0, b1, b2)
+            gap = separation_gap(a0, a1, a2, b0, b1, b2, margin)
             hit = gap < 0.0
-        if not hit:
-            # apart: certified while dacc grows by less than the gap (less a margin far above
-            # the rounding of the gap, relative to the triangle's size)
-            ext = fmax(a0, fmax(a1, a2)) - fmin(a0, fmin(a1, a2))
-            con.couple_skip[c] = dacc + gap - ti.static(_eps()) * 100.0 * fmax(ext[0], ext[1])
+        if gap > margin:
+            # apart: certified while dacc grows by less than the gap less the margin (written
+            # only then: neighbours apart by less, which a fragmenting mesh has many of, are
+            # tested every step and write nothing)
+            con.couple_skip[c] = dacc + (gap - margin)
     if hit:
         prop = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]]      # (p, k_t, μ_f, c_n)
         cdamping = step.step_switches[None] & SWITCH_CDAMPING

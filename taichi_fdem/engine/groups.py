@@ -122,13 +122,14 @@ REBALANCE_STEPS = 128     # steps between two recomputations of the couple range
 # estimated cost of a couple per step for the couple ranges, relative units: measured in the
 # block loop on the 10k and 100k plates after the impact, a bonded neighbour pair ~1 ns, boxes
 # apart ~10, triangles apart ~28, touching 190-230 (near-coincident neighbours the dearest).
-# Apart couples are mostly certified apart (engine.contact.couple_forces: ~2 ns), which the
-# estimate cannot see (it depends on the state alone), so they weigh 3 and 8; the touching
-# weight is set a little higher, where the two blocks' measured times came out equal (within
-# 3 % on the 10k plate and 2 % on the 1k pile)
+# Many apart couples are certified apart (engine.contact.couple_forces: ~2 ns), which the
+# estimate cannot see (it depends on the state alone), and on a fragmenting plate many are not
+# (neighbours apart by a hair), so they weigh 6 and 16; the touching weight is set a little
+# higher, where the two blocks' measured times came out equal (within the noise of this shared
+# machine, ~5 %, on the 10k plate at step 7,000 and the 1k pile)
 COST_BONDED = 1
-COST_APART = 3
-COST_SEPARATED = 8
+COST_APART = 6
+COST_SEPARATED = 16
 COST_TOUCHING = 300
 BLOCK_STRIDE = 1024       # loop iterations per block (see engine.step.phase_blocks)
 UNSTABLE_BIT = 1 << 24   # added to engine.step.run_steps_serial's return value (steps per launch < 2^24)
