@@ -1,23 +1,17 @@
 """Simulation: the driver over a built model and its state (step, run, forces, profile, results).
 
 ``Scene.build()`` computes the :class:`~taichi_fdem.model.Model` once, allocates the
-:class:`~taichi_fdem.model.State`, and hands both to a :class:`Simulation`, which launches the
-kernels of :mod:`taichi_fdem.engine.step` with the array groups as argpacks.  Time-step
-estimates live in :mod:`taichi_fdem.timestep`, the stability guards in
-:mod:`taichi_fdem.guards`, the energy account in :mod:`taichi_fdem.energies`, the results
-accessors in :mod:`taichi_fdem.results`.
+:class:`~taichi_fdem.model.State` and hands both to a :class:`Simulation`, which launches the
+kernels of :mod:`taichi_fdem.engine.step` with the array groups as argpacks (time steps:
+:mod:`taichi_fdem.timestep`; guards: :mod:`taichi_fdem.guards`; energies:
+:mod:`taichi_fdem.energies`; results: :mod:`taichi_fdem.results`).
 
-Execution strategy (see :mod:`taichi_fdem.engine.step`).  The serial strategy runs thousands of
-steps per launch on one core; the parallel one sums the forces without atomics (block copies
-on the CPU) and, on the CPU, runs thousands of steps per launch too, in a team of worker
-threads separated by barriers (:attr:`Simulation.team_steps`), returning to the host at each
-contact detection.  On the 2-core CPU (benchmarks/) it is about as fast as the serial strategy
-on one thread and 1.4-1.8× faster on two; each detection costs it ~1.5 ms of host work and a
-new launch, so small scenes whose contacts change often run faster serial (a 1k pile that
-re-detects every ~135 steps: serial 2.4× faster; the 10k pile: parallel 1.5×).
-"auto" therefore picks parallel on the CPU when there are at least 2 threads and
-:data:`AUTO_PARALLEL_ITEMS` items (triangles + joints + couples) at build, serial otherwise,
-and parallel on GPU back ends (untested: no GPU here).
+Execution strategy (:mod:`taichi_fdem.engine.step`): the serial one runs thousands of steps per
+launch on one core; the parallel one sums the forces without atomics and, on the CPU, runs
+thousands of steps per launch in a team of worker threads (:attr:`Simulation.team_steps`),
+returning to the host at each contact detection (~1.5-2 ms at 1k triangles), so small scenes
+whose contacts change often run faster serial.  "auto" picks parallel on the CPU from 2 threads
+and :data:`AUTO_PARALLEL_ITEMS` items (triangles + joints + couples), and on GPUs (untested).
 """
 from __future__ import annotations
 
@@ -416,9 +410,8 @@ class Simulation(SimulationResults):
         self._stats["wall_steps"] += _time.perf_counter() - t0
 
     def _forget_apart(self) -> None:
-        """Drop the couples' certificates of separation (``scratch.couple_skip``,
-        :func:`engine.contact.couple_forces`): they hold while the nodes move no faster than the
-        steps account for, which positions set from the host between launches need not do."""
+        """Drop the certificates of separation (``scratch.couple_skip``, engine.contact): positions
+        set from the host between launches need not move as the steps account for."""
         if self.model.contact and self.state.couple_max:
             self.scratch.couple_skip.fill(0)
 
