@@ -301,28 +301,28 @@ def separated(a0, a1, a2, b0, b1, b2):
 
 @ti.func
 def box_gap(a0, a1, a2, b0, b1, b2):
-    """The gap between the axis-aligned boxes of the two triangles along x or y [m]: negative
-    when the boxes overlap (:func:`boxes_overlap`), else a lower bound of the distance between
-    the triangles."""
+    """(gap, extent): the gap between the axis-aligned boxes of the two triangles along x or y
+    [m], negative when the boxes overlap (:func:`boxes_overlap`), else a lower bound of the
+    distance between the triangles; and the larger side of A's box [m]."""
     amin = fmin(a0, fmin(a1, a2))
     amax = fmax(a0, fmax(a1, a2))
     bmin = fmin(b0, fmin(b1, b2))
     bmax = fmax(b0, fmax(b1, b2))
-    return fmax(fmax(bmin[0] - amax[0], amin[0] - bmax[0]), fmax(bmin[1] - amax[1], amin[1] - bmax[1]))
+    gap = fmax(fmax(bmin[0] - amax[0], amin[0] - bmax[0]), fmax(bmin[1] - amax[1], amin[1] - bmax[1]))
+    return gap, fmax(amax[0] - amin[0], amax[1] - amin[1])
 
 
 @ti.func
-def separation_gap(a0, a1, a2, b0, b1, b2, margin):
-    """The gap [m] between two counter-clockwise triangles along the outward normal of the first
-    of their six edges (A's, then B's) on or beyond whose line the other triangle lies (a lower
-    bound of their distance), or 0 when that gap is at most ``margin`` [m]; −1 when there is no
-    such edge (they overlap).  The test is :func:`separated`'s (signs of (p − t0)·perp(t1 − t0),
-    no division); a gap above the margin costs one square root and one division, for that edge
-    only.  (A runtime loop over the six edges: one copy of the code, which keeps compile time
-    down.)"""
-    gap = -1.0
+def separation_certificate(a0, a1, a2, b0, b1, b2, rel):
+    """−1 when the two counter-clockwise triangles overlap; else, with g their gap along the
+    outward normal of the first of their six edges (A's, then B's) on or beyond whose line the
+    other lies (a lower bound of their distance) and m = rel·|e| a rounding margin relative to
+    that edge: g − m when g > 2m, else 0.  The test is :func:`separated`'s (signs of
+    (p − t0)·perp(t1 − t0), no division); only a certificate costs a square root and a division.
+    (A runtime loop over the six edges: one copy of the code, which keeps compile time down.)"""
+    cert = -1.0
     for q in range(6):
-        if gap < 0.0:
+        if cert < 0.0:
             t0, t1, t2, p0, p1, p2 = a0, a1, a2, b0, b1, b2
             if q >= 3:
                 t0, t1, t2, p0, p1, p2 = b0, b1, b2, a0, a1, a2
@@ -337,12 +337,12 @@ def separation_gap(a0, a1, a2, b0, b1, b2, margin):
             d1 = (p1 - e0).dot(n)
             d2 = (p2 - e0).dot(n)
             if d0 >= 0.0 and d1 >= 0.0 and d2 >= 0.0:
-                gap = 0.0
-                dmin = fmin(d0, fmin(d1, d2))            # the gap times |n|
-                n2 = n.norm_sqr()
-                if dmin * dmin > margin * margin * n2:
-                    gap = dmin / ti.sqrt(n2)
-    return gap
+                cert = 0.0
+                dmin = fmin(d0, fmin(d1, d2))            # g |e|
+                n2 = n.norm_sqr()                        # |e|²
+                if dmin > 2.0 * rel * n2:
+                    cert = (dmin - rel * n2) / ti.sqrt(n2)
+    return cert
 
 
 @ti.func
@@ -423,7 +423,7 @@ def couple_forces(c, dacc, nodes: ti.template(), tris: ti.template(), mats: ti.t
     and the forces zero, for a neighbour pair still bonded by intact joints
     (:func:`edge_pair_bonded`, :func:`taichi_fdem.engine.joints.fan_links`; kept up to date in
     ``tris.tri_nb_on``; fracture only), for pairs whose boxes do not overlap (the common cheap
-    case) and for pairs that lie apart (:func:`separation_gap`: most couples whose boxes overlap,
+    case) and for pairs that lie apart (:func:`separation_certificate`: most couples whose boxes overlap,
     in a pile or a fragmenting mesh), and for couples certified apart (below).  ``work``: the work dissipated over the step by friction and
     contact damping [J/m], which the caller books in step_real[WORK_FRICTION],
     step_real[WORK_CDAMPING].
@@ -431,7 +431,7 @@ def couple_forces(c, dacc, nodes: ti.template(), tris: ti.template(), mats: ti.t
     Certificates of separation (FDEM_SPEC §4.1's bound, per couple): ``dacc`` is step_real[DACC]
     at the start of the step, which grows by at least the largest relative displacement of any
     two nodes.  A couple found apart with a gap g (between the boxes along x or y, or along a
-    separating edge normal, :func:`separation_gap`) stays apart while dacc grows by less than
+    separating edge normal, :func:`separation_certificate`) stays apart while dacc grows by less than
     g: its ``con.couple_skip[c]`` is set to dacc + g (less a rounding margin), and until dacc
     reaches it the couple is skipped for the cost of one read (in a resting pile, most of its
     apart couples).  Skipping changes no bit: such a couple gives no force, and it released its
@@ -454,18 +454,18 @@ def couple_forces(c, dacc, nodes: ti.template(), tris: ti.template(), mats: ti.t
         skip = certified_apart(c, dacc, con)
     hit = False
     if not skip:
-        # a margin far above the rounding of a gap, relative to the triangle's size
-        ext = fmax(a0, fmax(a1, a2)) - fmin(a0, fmin(a1, a2))
-        margin = ti.static(_eps()) * 100.0 * fmax(ext[0], ext[1])
-        gap = box_gap(a0, a1, a2, b0, b1, b2)
+        # rounding margins far above the rounding of a gap, relative to the triangle's size
+        rel = ti.static(_eps()) * 100.0
+        gap, ext = box_gap(a0, a1, a2, b0, b1, b2)
+        cert = gap - rel * ext
         if gap < 0.0:
-            gap = separation_gap(a0, a1, a2, b0, b1, b2, margin)
-            hit = gap < 0.0
-        if gap > margin:
-            # apart: certified while dacc grows by less than the gap less the margin (written
+            cert = separation_certificate(a0, a1, a2, b0, b1, b2, rel)
+            hit = cert < 0.0
+        if cert > 0.0:
+            # apart: certified while dacc grows by less than the gap less its margin (written
             # only then: neighbours apart by less, which a fragmenting mesh has many of, are
             # tested every step and write nothing)
-            con.couple_skip[c] = dacc + (gap - margin)
+            con.couple_skip[c] = dacc + cert
     if hit:
         prop = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]]      # (p, k_t, μ_f, c_n)
         cdamping = step.step_switches[None] & SWITCH_CDAMPING

@@ -122,14 +122,15 @@ REBALANCE_STEPS = 128     # steps between two recomputations of the couple range
 # estimated cost of a couple per step for the couple ranges, relative units: measured in the
 # block loop on the 10k and 100k plates after the impact, a bonded neighbour pair ~1 ns, boxes
 # apart ~10, triangles apart ~28, touching 190-230 (near-coincident neighbours the dearest).
-# Many apart couples are certified apart (engine.contact.couple_forces: ~2 ns), which the
-# estimate cannot see (it depends on the state alone), and on a fragmenting plate many are not
-# (neighbours apart by a hair), so they weigh 6 and 16; the touching weight is set a little
-# higher, where the two blocks' measured times came out equal (within the noise of this shared
-# machine, ~5 %, on the 10k plate at step 7,000 and the 1k pile)
+# With certificates of separation (engine.contact.couple_forces) many apart couples cost ~2 ns
+# instead, which the estimate cannot see (it depends on the state alone); the weights were kept:
+# lighter ones (3 / 8, 6 / 16) ran the 10k plate's last 1,000 steps 4-8 % slower on 2 threads,
+# and these keep the 1k pile's blocks within 1 % of each other.  The touching weight is set a
+# little higher, where the two blocks' measured times came out equal (within 1 % at 10k and
+# 4 % at 100k, against 2 % and 20 % with weights 1, 2, 6, 80)
 COST_BONDED = 1
-COST_APART = 6
-COST_SEPARATED = 16
+COST_APART = 10
+COST_SEPARATED = 28
 COST_TOUCHING = 300
 BLOCK_STRIDE = 1024       # loop iterations per block (see engine.step.phase_blocks)
 UNSTABLE_BIT = 1 << 24   # added to engine.step.run_steps_serial's return value (steps per launch < 2^24)
