@@ -697,4 +697,3 @@ class Simulation(SimulationResults):
         scene is unpickled).
         """
         return cls._checkpoint_io().load(path)
-
