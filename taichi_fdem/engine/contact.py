@@ -423,16 +423,16 @@ def couple_forces(c, dacc, nodes: ti.template(), tris: ti.template(), mats: ti.t
     and the forces zero, for a neighbour pair still bonded by intact joints
     (:func:`edge_pair_bonded`, :func:`taichi_fdem.engine.joints.fan_links`; kept up to date in
     ``tris.tri_nb_on``; fracture only), for pairs whose boxes do not overlap (the common cheap
-    case) and for pairs that lie apart (:func:`separation_certificate`: most couples whose boxes overlap,
-    in a pile or a fragmenting mesh), and for couples certified apart (below).  ``work``: the work dissipated over the step by friction and
-    contact damping [J/m], which the caller books in step_real[WORK_FRICTION],
-    step_real[WORK_CDAMPING].
+    case), for pairs that lie apart (:func:`separation_certificate`: most couples whose boxes
+    overlap, in a pile or a fragmenting mesh), and for couples certified apart (below).
+    ``work``: the work dissipated over the step by friction and contact damping [J/m], which the
+    caller books in step_real[WORK_FRICTION], step_real[WORK_CDAMPING].
 
     Certificates of separation (FDEM_SPEC §4.1's bound, per couple): ``dacc`` is step_real[DACC]
     at the start of the step, which grows by at least the largest relative displacement of any
     two nodes.  A couple found apart with a gap g (between the boxes along x or y, or along a
-    separating edge normal, :func:`separation_certificate`) stays apart while dacc grows by less than
-    g: its ``con.couple_skip[c]`` is set to dacc + g (less a rounding margin), and until dacc
+    separating edge normal, :func:`separation_certificate`) stays apart while dacc grows by less
+    than g: its ``con.couple_skip[c]`` is set to dacc + g (less a rounding margin), and until dacc
     reaches it the couple is skipped for the cost of one read (in a resting pile, most of its
     apart couples).  Skipping changes no bit: such a couple gives no force, and it released its
     slip (and cleared its NB_HELD bit) when it was found apart.  Detection resets the
