@@ -275,28 +275,13 @@ def boxes_overlap(a0, a1, a2, b0, b1, b2):
 
 
 @ti.func
-def beyond_edge(t0, t1, p0, p1, p2):
-    """Are p0, p1, p2 all on or beyond the line of edge t0→t1 of a counter-clockwise triangle
-    (on the side its outward normal points to)?  Division-free: signs of (p − t0)·perp(t1 − t0)."""
-    n = perp(t1 - t0)
-    return ((p0 - t0).dot(n) >= 0.0) & ((p1 - t0).dot(n) >= 0.0) & ((p2 - t0).dot(n) >= 0.0)
-
-
-@ti.func
 def separated(a0, a1, a2, b0, b1, b2):
     """Do the two counter-clockwise triangles lie apart (at most touching along a line)?  The
-    separating-axis test over their six edge normals, complete for two triangles in 2D.  Exact
-    early out of :func:`couple_forces`: then no contactor edge of either pass has a positive
-    potential integral (a triangle on or beyond an edge line of the other meets it at most on
-    that line, where the potential is zero), and both passes would only release slip.  It costs
-    six edge normals and eighteen dot products, no division and no velocity."""
-    sep = 0
-    for ps in range(2):                       # a runtime loop: one copy of the three tests
-        t0, t1, t2, p0, p1, p2 = a0, a1, a2, b0, b1, b2
-        if ps == 1:
-            t0, t1, t2, p0, p1, p2 = b0, b1, b2, a0, a1, a2
-        sep |= beyond_edge(t0, t1, p0, p1, p2) | beyond_edge(t1, t2, p0, p1, p2) | beyond_edge(t2, t0, p0, p1, p2)
-    return sep != 0
+    separating-axis test over their six edge normals, complete for two triangles in 2D
+    (:func:`separation_certificate`, whose test it is).  Exact: then no contactor edge of
+    either pass has a positive potential integral (a triangle on or beyond an edge line of the
+    other meets it at most on that line, where the potential is zero)."""
+    return separation_certificate(a0, a1, a2, b0, b1, b2, 0.0) >= 0.0
 
 
 @ti.func
