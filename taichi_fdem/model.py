@@ -26,7 +26,7 @@ import taichi as ti
 
 from . import backend, timestep
 from .engine.groups import SWITCH_BC, SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING, SWITCH_PRESTRESS
-from .engine.joints import FAN_HEAD, fan_links, initial_intact, neighbour_pairs
+from .engine.joints import FAN_HEAD, HANDOVER_DAMAGE, fan_links, initial_intact, neighbour_pairs
 from .engine.loads import LOAD_ABSORB, LOAD_FORCE, LOAD_PRESSURE, LOAD_TRACTION, LOAD_VELOCITY
 
 
@@ -98,16 +98,22 @@ class Scratch(_Arrays):
 
 
 def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_limit=None,
-                quasi_static: float = 0.0, joined_pairs: str = "joint") -> Model:
+                quasi_static: float = 0.0, joined_pairs: str = "joint",
+                handover_damage: float = HANDOVER_DAMAGE) -> Model:
     """Compute the :class:`Model` of ``scene`` (validating the time step against its limit)."""
     if joined_pairs not in ("joint", "contact"):
         raise ValueError(f"Scene.build: joined_pairs must be 'joint' or 'contact', got {joined_pairs!r}")
+    if isinstance(handover_damage, bool) or not isinstance(handover_damage, (int, float, np.integer, np.floating)) \
+            or not 0.0 <= float(handover_damage) <= 1.0:
+        raise ValueError(f"Scene.build: handover_damage must be a number from 0 to 1 (the joint damage at which "
+                         f"contact takes over a joined pair), got {handover_damage!r}")
     if not scene.bodies:
         raise ValueError("Scene.build: the scene has no bodies; add one with scene.add_body(...)")
     if not (0.0 < float(safety) <= 1.0):
         raise ValueError(f"Scene.build: safety must be in (0, 1], got {safety}")
     md = Model()
     md.joined_pairs = joined_pairs
+    md.handover_damage = float(handover_damage)
     real, rti = backend.real_np(), backend.real_ti()
     bodies = list(scene.bodies)
     md.bodies = bodies

@@ -17,6 +17,7 @@ from .material import Material, check_finite
 from .discontinuity import JointSet, check_strength, resolve, split_body
 from .mesh import TriMesh
 from .mesh.split import explode, interior_edge_table
+from .engine.joints import HANDOVER_DAMAGE
 from .simulation import Simulation
 
 
@@ -562,7 +563,8 @@ class Scene:
 
     def build(self, dt: float | None = None, safety: float = 0.2, force_dt: bool = False,
               buffer: float | None = None, strategy: str = "auto", check_overlap: bool = True,
-              speed_limit: float | None = None, quasi_static=False, joined_pairs: str = "joint"):
+              speed_limit: float | None = None, quasi_static=False, joined_pairs: str = "joint",
+              handover_damage: float = HANDOVER_DAMAGE):
         """Allocate everything and return a ready :class:`~taichi_fdem.simulation.Simulation`.
 
         Parameters
@@ -594,11 +596,21 @@ class Scene:
             undamaged joint resist overlap (FDEM_SPEC §7.10).  "joint" (default): the joint
             carries the contact's share of the compression, 3p(1/h_A + 1/h_B) per unit overlap,
             and of the frictional strength, μ|σ|; contact is not evaluated for the pair until
-            the joint's first damage, when the joint hands that share and its energy over to
-            contact (1.3-1.6× faster once an impact compresses a jointed body,
+            the joint hands that share and its energy over to contact (``handover_damage``;
+            1.3-1.6× faster once an impact compresses a jointed body,
             :func:`taichi_fdem.engine.contact.edge_pair_bonded`).  "contact": contact is evaluated for
             such pairs from the start, alongside the joint's own compression law, as in Y2D.
+        handover_damage : with ``joined_pairs="joint"``, the damage D in [0, 1] (at any of the
+            joint's three integration points, FDEM_SPEC §7.5) beyond which the joint hands its
+            pair over to contact, and no longer ties the corner pairs around its ends (default
+            0.05; a broken joint always has).  0: at the first damage, as Y-Geo's contact would
+            take a damaged pair.  Up to D = 0.05 the two edges have slid or opened by at most
+            the elastic displacement plus 5 % of the softening span (3 G/f), so the overlap is
+            still the thin strip along the edge that the carried stiffness reproduces; a higher
+            value saves more contact work in a fragmenting body (most damaged joints of an
+            impact stay below a few per cent, ``benchmarks/fracture.py``).
         """
         return Simulation(self, dt=dt, safety=safety, force_dt=force_dt, buffer=buffer, strategy=strategy,
                           check_overlap=check_overlap, speed_limit=speed_limit,
-                          quasi_static=quasi_static_alpha(quasi_static), joined_pairs=joined_pairs)
+                          quasi_static=quasi_static_alpha(quasi_static), joined_pairs=joined_pairs,
+                          handover_damage=handover_damage)

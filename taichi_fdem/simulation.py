@@ -25,6 +25,7 @@ import taichi as ti
 
 from . import backend, guards
 from .engine import refresh, step as kernels
+from .engine.joints import HANDOVER_DAMAGE
 from .engine.tiutil import launch_cached
 from .guards import SimulationError
 from .engine.groups import (COUPLES, DACC, DACC_FORCE, DETECTIONS, FORCE_BLOCKS, FOUND, MAX_FORCE_BLOCKS, REBALANCE,
@@ -79,15 +80,15 @@ class Simulation(SimulationResults):
             raise RuntimeError("checkpoints: no checkpoint module installed (import taichi_fdem installs one)")
         return cls.checkpoint_io
 
-    def __init__(self, scene, dt=None, safety=0.2, force_dt=False, buffer=None, strategy="auto",
-                 check_overlap=True, speed_limit=None, quasi_static=0.0, joined_pairs="joint"):
+    def __init__(self, scene, dt=None, safety=0.2, force_dt=False, buffer=None, strategy="auto", check_overlap=True,
+                 speed_limit=None, quasi_static=0.0, joined_pairs="joint", handover_damage=HANDOVER_DAMAGE):
         backend.ensure_init()
         if strategy not in ("auto", "serial", "parallel"):
             raise ValueError(f"Scene.build: strategy must be 'auto', 'serial' or 'parallel', got {strategy!r}")
         self.scene = scene
         self.thickness = scene.thickness
-        self.model = build_model(scene, dt=dt, safety=safety, force_dt=force_dt, buffer=buffer,
-                                 speed_limit=speed_limit, quasi_static=quasi_static, joined_pairs=joined_pairs)
+        self.model = build_model(scene, dt=dt, safety=safety, force_dt=force_dt, buffer=buffer, speed_limit=speed_limit,
+                                 quasi_static=quasi_static, joined_pairs=joined_pairs, handover_damage=handover_damage)
         self.bodies = self.model.bodies
         self.state = allocate_state(self.model)
         auto = strategy == "auto"

@@ -12,7 +12,7 @@ import numpy as np
 import taichi as ti
 
 from . import backend
-from .engine.groups import (COUPLES, DACC, DACC_FORCE, FORCE_BLOCKS, GROUPS, INT_COUNTERS, NB_PAIRS, QS_ALPHA,
+from .engine.groups import (COUPLES, DACC, DACC_FORCE, FORCE_BLOCKS, GROUPS, HANDOVER, INT_COUNTERS, NB_PAIRS, QS_ALPHA,
                             REAL_COUNTERS, REBALANCE, SYNC_LINE)
 from .model import Model, Scratch, State, _ndarray, _next_pow2, counter, set_counter
 
@@ -60,6 +60,7 @@ def allocate_state(md: Model) -> State:
     grow_couples(md, st, md.nb_count + 2 * K + 64 if md.contact else 1)
     install_neighbour_pairs(md, st)
     set_counter(st.step_real, QS_ALPHA, md.qs_alpha)
+    set_counter(st.step_real, HANDOVER, md.handover_damage)
     if md.contact:
         set_counter(st.step_real, DACC, DACC_FORCE)                   # detect at the first step
     return st

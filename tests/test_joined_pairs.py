@@ -1,8 +1,8 @@
 """Pairs of triangles joined along an edge by an intact joint (FDEM_SPEC §7.10, issue 10).
 
-While the joint is undamaged, contact is not evaluated for the pair and the joint carries the
-contact's share of the compression, 3p(1/h_A + 1/h_B) per unit overlap
-(``engine.joints.carried_share``); at the first damage it hands the energy of that share over
+Until the joint's damage exceeds ``handover_damage`` (or it breaks), contact is not evaluated
+for the pair and the joint carries the contact's share of the compression, 3p(1/h_A + 1/h_B)
+per unit overlap (``engine.joints.carried_share``); then it hands the energy of that share over
 to contact.  The scene: a unit square of two triangles with a joint on the diagonal, every node
 of the square prescribed (exact kinematics), and one free triangle far away in the same body
 (so that the body is not fully fixed and its pairs are contact couples).  References: the same
@@ -16,13 +16,14 @@ import pytest
 
 import taichi_fdem as fdem
 from taichi_fdem.engine.groups import DAMAGED, EDGE_FREE, INTACT
+from taichi_fdem.engine.joints import HANDOVER_DAMAGE
 from taichi_fdem.mesh import TriMesh
 
 DT = 1e-4
 
 
 class Square:
-    def __init__(self, carried=True, **matkw):
+    def __init__(self, carried=True, handover_damage=HANDOVER_DAMAGE, **matkw):
         pts = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [5.0, 5.0], [6.0, 5.0], [5.0, 6.0]])
         mesh = TriMesh(pts, np.array([[0, 1, 2], [0, 2, 3], [4, 5, 6]]))
         kw = dict(density=1000.0, young=1e8, poisson=0.25, tensile_strength=1e6, fracture_energy=1e4)
@@ -31,7 +32,8 @@ class Square:
         scene = fdem.Scene(gravity=(0.0, 0.0))
         body = scene.add_body(mesh, self.mat, fracture=True)
         scene.fix_nodes(lambda x, y: x < 2.0, body=body, velocity=(0.0, 0.0))
-        self.sim = scene.build(dt=DT, force_dt=True, joined_pairs="joint" if carried else "contact")
+        self.sim = scene.build(dt=DT, force_dt=True, joined_pairs="joint" if carried else "contact",
+                               handover_damage=handover_damage)
         jt = self.sim.joint_tris.to_numpy()[0]
         tn = self.sim.tri_nodes.to_numpy()
         self.A = tn[jt[0]]
@@ -82,18 +84,22 @@ def test_carried_compression_matches_contact_force_and_energy():
     assert ec["joints"] == pytest.approx(er["joints"] + er["contact"], rel=5e-3)
 
 
-def test_handover_at_first_damage_keeps_the_energy():
-    """Compress, then shear until the joint damages: contact takes the pair over with the energy
-    the joint carried (the account changes by < 1 % of the contact energy handed over)."""
-    s = Square(cohesion=0.5e6, fracture_energy_shear=1e4)
+@pytest.mark.parametrize("handover", [0.0, HANDOVER_DAMAGE, 0.2])
+def test_handover_keeps_the_energy(handover):
+    """Compress, then shear until the joint's damage exceeds ``handover_damage``: contact takes
+    the pair over with the energy the joint carried (the account changes by < 1 % of the
+    contact energy handed over), not before (the damage then is above the threshold, and was
+    at most it at the step before), and the pair's contact force then acts."""
+    s = Square(cohesion=0.5e6, fracture_energy_shear=1e4, handover_damage=handover)
     s.compress(1e-3)
     s.move_A(s.e * 2e-5 / DT)
-    totals, contact = [s.sim.energies()["total"]], []
+    totals, contact, dmax = [s.sim.energies()["total"]], [], [0.0]
     for _ in range(3000):
         s.sim.step(1)
         e = s.sim.energies()
         totals.append(e["total"])
         contact.append(e["contact"])
+        dmax.append(float(s.sim.state.joint_dmax.to_numpy()[0].max()))
         if s.sim.tri_intact.to_numpy()[s.tri_a] & DAMAGED:
             break
     else:
@@ -104,6 +110,7 @@ def test_handover_at_first_damage_keeps_the_energy():
           f"account over that step {jumps[-1]:.3g} J (largest before {jumps[:-1].max():.3g} J)")
     assert contact[-2] == 0.0 and handed > 0.1 * s.sim.energies()["joints"]
     assert jumps[-1] < 0.01 * handed
+    assert dmax[-2] <= handover < dmax[-1] and s.sim.broken_joint_count == 0
     s.sim.step(1)                                     # from now on contact acts on the pair
     assert s.normal_force(contact_only=True) != 0.0
 
@@ -114,6 +121,9 @@ def test_joined_pairs_contact_mode_and_bad_value():
     assert np.all(v & (7 * EDGE_FREE) == 7 * EDGE_FREE)          # no edge carried
     with pytest.raises(ValueError, match="joined_pairs"):
         fdem.Scene().build(joined_pairs="none")
+    for bad in (-0.1, 1.5, float("nan"), "0.1", True):
+        with pytest.raises(ValueError, match="handover_damage"):
+            fdem.Scene().build(handover_damage=bad)
 
 
 def test_carried_pair_shear_strength_includes_the_contact_friction_share():
@@ -152,7 +162,7 @@ def _bonded_reference(sim, pairs):
     jt = md.joint_tris_np
     state = sim.state.joint_state.to_numpy()[: len(jt)]
     dmax = sim.state.joint_dmax.to_numpy()[: len(jt)]
-    intact_joint = (state == 0) & (dmax.max(axis=1) <= 0.0)
+    intact_joint = (state == 0) & (dmax.max(axis=1) <= md.handover_damage)
     tn = md.tri_nodes.to_numpy()
     links = {}                                   # (original node, triangle) -> triangles linked
     tied = [(a, b) for (a, b), ok in zip(jt, intact_joint) if ok]
@@ -192,8 +202,8 @@ def _bonded_reference(sim, pairs):
     return np.array(out, bool)
 
 
-@pytest.mark.parametrize("mode", ["joint", "contact"])
-def test_neighbour_pairs_are_every_shared_node_pair_and_follow_the_bonds(mode):
+@pytest.mark.parametrize("mode,handover", [("joint", HANDOVER_DAMAGE), ("joint", 0.0), ("contact", 0.0)])
+def test_neighbour_pairs_are_every_shared_node_pair_and_follow_the_bonds(mode, handover):
     """The neighbour pairs (the first couples, never detected) are exactly the pairs of bonded
     triangles that share an original node (brute force over all pairs), none of them is also
     detected, and through a fragmenting impact tri_nb_on marks exactly those no longer bonded
@@ -202,7 +212,7 @@ def test_neighbour_pairs_are_every_shared_node_pair_and_follow_the_bonds(mode):
     pairs."""
     from taichi_fdem.verification import fragment_plate_scene
     sim, _ = fragment_plate_scene(h_plate=0.025, h_ball=0.02, friction=0.5)
-    sim = sim.scene.build(strategy="serial", joined_pairs=mode)
+    sim = sim.scene.build(strategy="serial", joined_pairs=mode, handover_damage=handover)
     md = sim.model
     org = md.tri_origin.to_numpy()
     bonded0 = np.nonzero(sim.state.tri_intact.to_numpy() >= INTACT)[0]
@@ -222,10 +232,12 @@ def test_neighbour_pairs_are_every_shared_node_pair_and_follow_the_bonds(mode):
     assert sim.broken_joint_count > 0 and seen_on > 0
     bits = sim.state.tri_intact.to_numpy()
     jt = md.joint_tris_np
-    damaged = ((sim.state.joint_state.to_numpy()[: len(jt)] != 0)
-               | (sim.state.joint_dmax.to_numpy()[: len(jt)].max(1) > 0))
+    dmax = sim.state.joint_dmax.to_numpy()[: len(jt)].max(1)
+    damaged = (sim.state.joint_state.to_numpy()[: len(jt)] != 0) | (dmax > handover)
     assert damaged.any()
     assert np.all(bits[jt[damaged]] & DAMAGED)
+    if handover > 0.0:
+        assert ((dmax > 0.0) & ~damaged).any()      # joints damaged below the threshold still tie
 
 
 def test_corner_pairs_switch_on_holding_almost_no_contact_energy():

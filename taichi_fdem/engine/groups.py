@@ -138,12 +138,13 @@ DUE_BIT = 1 << 25        # added to engine.step.run_steps_blocks' return value: 
 SYNC_LINE = 16            # i32 slots per cache line: the team's flags in asm_sync are a line apart
 
 # tris.tri_intact of a triangle of a fracturing body (FDEM_SPEC §7.10; engine.joints.pair_carried):
-# INTACT | (EDGE_FREE << e for every edge e without an undamaged joint) | (DAMAGED once any of its
-# joints has damage); 0: a triangle that is not bonded (other bodies, or at a pre-existing crack);
-# −1: removed by an excavation.  The bits are set at the end of a step (add_joint_work) and only
-# ever set, so every item of a step reads the same values.
+# INTACT | (EDGE_FREE << e for every edge e without a joint that carries its pair) | (DAMAGED once
+# any of its joints has handed its pair over to contact: damage above step_real[HANDOVER], or
+# broken); 0: a triangle that is not bonded (other bodies, or at a pre-existing crack); −1: removed
+# by an excavation.  The bits are set at the end of a step (add_joint_work) and only ever set, so
+# every item of a step reads the same values.
 INTACT = 1
-EDGE_FREE = 2             # EDGE_FREE << e, e = 0, 1, 2: edge e (nodes e, e + 1) has no undamaged joint
+EDGE_FREE = 2             # EDGE_FREE << e, e = 0, 1, 2: edge e (nodes e, e + 1) has no carrying joint
 DAMAGED = 16
 # tris.tri_nb_on[p] of neighbour pair p: 0 bonded (contact skips it), else 1 | (NB_HELD while the
 # pair holds friction slip in couple_hist, engine.contact.couple_forces)
@@ -175,7 +176,8 @@ WORK_LOAD = 7       # work done on the system by applied loads (pressure, tracti
 WORK_LOCAL = 8      # work dissipated by the local (quasi-static) damping [J/m]
 WORK_ABSORB = 9     # work dissipated by absorbing boundaries [J/m]
 QS_ALPHA = 10       # a parameter, set by the host: coefficient α of the local damping
-REAL_COUNTERS = 12  # length of step_real (spare components for new work terms)
+HANDOVER = 11       # a parameter, set by the host: damage at which contact takes over a joined pair
+REAL_COUNTERS = 12  # length of step_real
 # step_int:
 COUPLES = 0         # couples in the list
 FOUND = 1           # couples found by the last count pass (also det_cnew[K])

@@ -12,11 +12,16 @@ and the joint breaks for good when two of its three points have failed (§7.8).
 import numpy as np
 import taichi as ti
 
-from .groups import BROKEN, DAMAGED, EDGE_FREE, INTACT, NB_PAIRS, TIME
+from .groups import BROKEN, DAMAGED, EDGE_FREE, HANDOVER, INTACT, NB_PAIRS, TIME
 from .tiutil import vec2
 
 # Evans & Marathe softening fit (§7.5)
 Z_A, Z_B, Z_C = 0.63, 1.8, 6.0
+
+#: default of ``Scene.build(handover_damage=...)``: the damage (at any of its three points) at which
+#: a joint stops carrying its pair's compression and hands the pair over to contact
+#: (:func:`handed_over`, FDEM_SPEC §7.10)
+HANDOVER_DAMAGE = 0.05
 
 # failure modes recorded at breakage (§7.8)
 MODE_I, MODE_II, MODE_I_II, MODE_MIXED = 1, 2, 3, 4
@@ -260,6 +265,17 @@ def switch_on_neighbours(j, a, b, tris: ti.template(), step: ti.template()):
 
 
 @ti.func
+def handed_over(j, joints: ti.template(), step: ti.template()):
+    """Has joint j handed its pair over to contact: broken, or damaged beyond step_real[HANDOVER]
+    (the ``handover_damage`` of ``Scene.build``) at one of its points?  Until then the joint
+    carries the pair's compression (:func:`pair_carried`) and the corner pairs around its ends
+    stay bonded (:func:`fan_links`)."""
+    dm = joints.joint_dmax[j]
+    dh = step.step_real[HANDOVER]
+    return joints.joint_state[j] != 0 or dm[0] > dh or dm[1] > dh or dm[2] > dh
+
+
+@ti.func
 def pair_carried(va, ea, vb, eb):
     """Is the pair of triangles A, B joined along their edges ea, eb by a joint that carries its
     compression alone (FDEM_SPEC §7.10)?  va, vb: their ``tri_intact`` words.  True while both
@@ -364,25 +380,21 @@ def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(
                 zmax[p] = z
             else:                                     # unloading from a damaged state (§7.8)
                 z = zmax[p] * (dp + D * dn) / (dp + dmax[p] * dn)
-            sigma = 0.0
-            if o < 0.0:
-                sigma = 2.0 * ft * o / dp             # compression: linear penalty p_f o / L
-            elif o <= dp:
-                sigma = parabola(o / dp) * z * ft
-            else:
-                sigma = z * ft
-            tau = z * fs
-            if abss <= sp:
-                tau = parabola(abss / sp) * z * fs
-            if s < 0.0:
-                tau = -tau
+            # (selects, not branches: the signs of o and s are random from joint to joint, and
+            # their mispredicted branches were most of an undamaged joint's time)
+            ro = o / dp
+            rc = ti.min(ro, 1.0)
+            sigma = ti.select(o < 0.0, 2.0 * ft * ro,             # compression: linear penalty p_f o / L
+                              parabola(rc) * z * ft)               # pre-peak parabola, then z f_t
+            rs = ti.min(abss / sp, 1.0)
+            tau = parabola(rs) * z * fs
+            tau = ti.select(s < 0.0, -tau, tau)
             fsv[p] = ti.select(sigma > 0.0, coh, coh - sigma * tanphi)     # Mohr–Coulomb, lagged
-            if o < 0.0:
-                # the carried contact share (0 unless carried): its normal stress, and its
-                # friction μ|σ_x| added to the shear strength, as contact friction gave before
-                sx = kx * o
-                fsv[p] -= mux * sx
-                sigma += sx
+            # the carried contact share (0 unless carried) in compression: its normal stress, and
+            # its friction μ|σ_x| added to the shear strength, as contact friction gave before
+            sx = kx * ti.min(o, 0.0)
+            fsv[p] -= mux * sx
+            sigma += sx
             t = sigma * nh + tau * eh
             trac[p, 0] = t[0]
             trac[p, 1] = t[1]
@@ -436,8 +448,8 @@ def add_joint_work(j, joints: ti.template(), tris: ti.template(), mats: ti.templ
                    step: ti.template()):
     """Second half of the work done on joint j over the step (see :func:`eval_joint`) [J/m].
 
-    Also, at the end of the step: once the joint has any damage (or is broken), its two
-    triangles are marked DAMAGED and the joint's edge EDGE_FREE in both (``tri_intact`` bits),
+    Also, at the end of the step: once the joint hands its pair over (:func:`handed_over`: broken,
+    or damaged beyond ``handover_damage``), its two triangles are marked DAMAGED and the joint's edge EDGE_FREE in both (``tri_intact`` bits),
     and from the next step on contact is evaluated for the pair itself and for the corner pairs
     this cuts apart at its ends (:func:`switch_on_neighbours`).  Marking it here, after
     every force of the step, keeps the serial and parallel strategies identical.  If the joint
@@ -445,8 +457,7 @@ def add_joint_work(j, joints: ti.template(), tris: ti.template(), mats: ti.templ
     holds at the new positions is taken off its work: contact, which takes over at the next
     step with the same overlap, holds it from then on (the handover, FDEM_SPEC §7.10).
     """
-    dm = joints.joint_dmax[j]
-    if (joints.joint_state[j] != 0 or dm[0] > 0.0 or dm[1] > 0.0 or dm[2] > 0.0):
+    if handed_over(j, joints, step):
         jt = joints.joint_tris[j]
         nd = joints.joint_nodes[j]
         ea = jt[2]

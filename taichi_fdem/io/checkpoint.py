@@ -201,7 +201,8 @@ def save(sim, path) -> None:
     md = sim.model
     plain = {"driver": driver, "state": state_plain,
              "build": {"dt": md.dt, "buffer": md.buffer, "speed_limit": md.speed_limit,
-                       "quasi_static": getattr(md, "qs_alpha", 0.0), "joined_pairs": md.joined_pairs}}
+                       "quasi_static": getattr(md, "qs_alpha", 0.0), "joined_pairs": md.joined_pairs,
+                       "handover_damage": md.handover_damage}}
     try:
         scene_bytes = pickle.dumps(_scene_bundle(sim), protocol=pickle.HIGHEST_PROTOCOL)
     except Exception as exc:
@@ -310,7 +311,8 @@ def load(path):
     sim = scene.build(dt=build["dt"], force_dt=True, strategy=strategy,
                       buffer=build["buffer"], speed_limit=build["speed_limit"], check_overlap=False,
                       quasi_static=build.get("quasi_static", 0.0) or False,
-                      joined_pairs=build.get("joined_pairs", "contact"))     # (older checkpoints: "contact")
+                      joined_pairs=build.get("joined_pairs", "contact"),     # (older checkpoints: "contact",
+                      handover_damage=build.get("handover_damage", 0.0))     # and the handover at first damage)
     st = sim.state
     for name, value in state_plain.items():
         setattr(st, name, value)

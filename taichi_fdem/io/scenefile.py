@@ -110,6 +110,8 @@ force_dt       —       accept a dt above the estimated stable limit [false]
 check_overlap  —       warn when bodies overlap at the start [true]
 joined_pairs   —       "joint" or "contact": who resists the overlap of triangles joined by
                        an undamaged joint (``Scene.build(joined_pairs=...)``) ["joint"]
+handover_damage —      joint damage in [0, 1] at which contact takes over a joined pair
+                       (``Scene.build(handover_damage=...)``) [0.05]
 =============  ======  ===================================================================
 
 ``[output]`` (all optional)
@@ -141,6 +143,7 @@ from __future__ import annotations
 import os
 import re
 
+from ..engine.joints import HANDOVER_DAMAGE
 from .toml_check import SceneFileError, _Checker, _Key, _suggest, read_toml  # noqa: F401 (re-exported)
 from .scenespec import RunSettings, SceneSpec, _BoxSelector  # noqa: F401 (re-exported; old pickles name it here)
 
@@ -228,6 +231,7 @@ SOLVER_KEYS = {
     "force_dt": _Key("bool", False),
     "check_overlap": _Key("bool", True),
     "joined_pairs": _Key("choice", "joint", choices=("joint", "contact")),
+    "handover_damage": _Key("float", HANDOVER_DAMAGE, lo=0.0, hi=1.0),
 }
 COLOR_BY = ("body", "material", "speed", "displacement", "von_mises", "max_principal", "min_principal")
 OUTPUT_KEYS = {

@@ -171,7 +171,7 @@ class SceneSpec:
         try:
             sim = scene.build(dt=s["dt"], safety=s["safety"], force_dt=s["force_dt"], buffer=s["buffer"],
                               strategy=s["strategy"], check_overlap=s["check_overlap"],
-                              joined_pairs=s["joined_pairs"])
+                              joined_pairs=s["joined_pairs"], handover_damage=s["handover_damage"])
         except ValueError as exc:
             key = "dt" if "dt" in str(exc) else "solver"
             where = self._checker.where(("solver", key)) if self._checker else self.path
