@@ -602,13 +602,15 @@ class Scene:
             such pairs from the start, alongside the joint's own compression law, as in Y2D.
         handover_damage : with ``joined_pairs="joint"``, the damage D in [0, 1] (at any of the
             joint's three integration points, FDEM_SPEC §7.5) beyond which the joint hands its
-            pair over to contact, and no longer ties the corner pairs around its ends (default
-            0.05; a broken joint always has).  0: at the first damage, as Y-Geo's contact would
-            take a damaged pair.  Up to D = 0.05 the two edges have slid or opened by at most
-            the elastic displacement plus 5 % of the softening span (3 G/f), so the overlap is
-            still the thin strip along the edge that the carried stiffness reproduces; a higher
-            value saves more contact work in a fragmenting body (most damaged joints of an
-            impact stay below a few per cent, ``benchmarks/fracture.py``).
+            pair over to contact (a broken joint always has).  Default 0: at the first damage.
+            A speed option for impacts: most joints an impact damages stay below a few per
+            cent, and each one carried longer is a pair contact does not evaluate (0.05: the
+            10k-triangle plate of ``benchmarks/fracture.py`` runs its slowest 1,000 steps ~1.6×
+            faster, energy balance unchanged).  But it changes the response of damaged joints:
+            the carried friction share μ|σ| stays in the joint's shear strength instead of
+            contact friction, and the unconfined peak of ``verification.rock.case_triaxial``
+            rises from 1.04 to 1.09 (0.01) and 1.18 (0.05) × Mohr–Coulomb of the joints.  The
+            corner pairs around a joint are freed at its first damage whatever the value.
         """
         return Simulation(self, dt=dt, safety=safety, force_dt=force_dt, buffer=buffer, strategy=strategy,
                           check_overlap=check_overlap, speed_limit=speed_limit,

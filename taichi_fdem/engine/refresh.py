@@ -9,18 +9,17 @@ import taichi as ti
 
 from .contact import edge_pair_bonded, shared_vertices
 from .groups import NB_HELD, NB_PAIRS, ContactGroup, JointGroup, StepGroup, TriGroup
-from .joints import (FAN_ENTRY, FAN_HEAD, fan_code_bit, fan_joint_base, fan_mask_slot, handed_over, softening_z,
+from .joints import (FAN_ENTRY, FAN_HEAD, damaged_beyond, fan_code_bit, fan_joint_base, fan_mask_slot, softening_z,
                      switch_on_corners)
 
 
 @ti.func
-def joint_cut(j, joints: ti.template(), tris: ti.template(), step: ti.template()):
-    """Does joint j no longer tie its triangles: handed over to contact
-    (:func:`taichi_fdem.engine.joints.handed_over`, the event on which
-    :func:`taichi_fdem.engine.joints.add_joint_work` switches contact on), or a triangle
-    removed (its forces are skipped from then on)?"""
+def joint_cut(j, joints: ti.template(), tris: ti.template()):
+    """Does joint j no longer tie the corner pairs around its ends: damaged or broken (the event
+    on which :func:`taichi_fdem.engine.joints.add_joint_work` switches them on), or a triangle
+    removed (its forces are skipped from then on)?  (Edge pairs follow the tri_intact bits.)"""
     jt = joints.joint_tris[j]
-    return handed_over(j, joints, step) or tris.tri_intact[jt[0]] < 0 or tris.tri_intact[jt[1]] < 0
+    return damaged_beyond(j, 0.0, joints) or tris.tri_intact[jt[0]] < 0 or tris.tri_intact[jt[1]] < 0
 
 
 @ti.kernel
@@ -36,7 +35,7 @@ def refresh_neighbours(tris: TriGroup, con: ContactGroup, joints: JointGroup, st
     for v in range(V):
         tris.tri_nb_on[fan_mask_slot(v, step)] = tris.tri_fans[FAN_HEAD + V + 1 + v]
     for j in range(tris.tri_fans[1]):
-        if joint_cut(j, joints, tris, step):
+        if joint_cut(j, joints, tris):
             base = fan_joint_base(j, tris)
             for end in ti.static(range(2)):
                 code = tris.tri_fans[base + end]

@@ -111,7 +111,7 @@ check_overlap  —       warn when bodies overlap at the start [true]
 joined_pairs   —       "joint" or "contact": who resists the overlap of triangles joined by
                        an undamaged joint (``Scene.build(joined_pairs=...)``) ["joint"]
 handover_damage —      joint damage in [0, 1] at which contact takes over a joined pair
-                       (``Scene.build(handover_damage=...)``) [0.05]
+                       (``Scene.build(handover_damage=...)``) [0]
 =============  ======  ===================================================================
 
 ``[output]`` (all optional)
