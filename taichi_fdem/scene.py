@@ -609,7 +609,7 @@ class Scene:
             faster, energy balance unchanged).  But it changes the response of damaged joints:
             the carried friction share μ|σ| stays in the joint's shear strength instead of
             contact friction, and the unconfined peak of ``verification.rock.case_triaxial``
-            rises from 1.04 to 1.09 (0.01) and 1.18 (0.05) × Mohr–Coulomb of the joints.  The
+            rises from 1.04 to 1.07 (0.01) and 1.18 (0.05) × Mohr–Coulomb of the joints.  The
             corner pairs around a joint are freed at its first damage whatever the value.
         """
         return Simulation(self, dt=dt, safety=safety, force_dt=force_dt, buffer=buffer, strategy=strategy,

@@ -322,7 +322,7 @@ def triaxial_test(sigma3: float, resolution: int = 6, safety: float = 0.2, mater
                   strain_rate_transits: float = 60.0, max_strain: float | None = None, samples: int = 150,
                   stop_drop: float = 0.8,
                   video: str | None = None, history: str | None = None, frame=None, quasi_static=True,
-                  penalty_factor: float = 10.0):
+                  penalty_factor: float = 10.0, handover_damage: float = 0.0):
     """Run one triaxial (σ3 > 0) or unconfined (σ3 = 0) compression of a jointed specimen
     0.05 × 0.1 m (``resolution`` elements across its width, ``fracture=True``).
 
@@ -356,7 +356,7 @@ def triaxial_test(sigma3: float, resolution: int = 6, safety: float = 0.2, mater
         tol = 1e-6 * W
         scene.apply_pressure(lambda x, y: np.abs(x) >= 0.5 * W - tol, sigma3, body=spec,
                              curve=Curve.ramp(t1, name="confinement"))
-    sim, build = _build(scene, safety, quasi_static=quasi_static)
+    sim, build = _build(scene, safety, quasi_static=quasi_static, handover_damage=handover_damage)
     max_strain = 2.5 * eps_peak if max_strain is None else max_strain
     duration = t1 + 5 * transit + max_strain / rate
     rec = []
@@ -381,7 +381,7 @@ def triaxial_test(sigma3: float, resolution: int = 6, safety: float = 0.2, mater
 
 
 def case_triaxial(resolution: int = 6, safety: float = 0.2, penalty_factor: float = 10.0, precision: str = "f64",
-                  confinements=(0.0, 1e5)) -> dict:
+                  confinements=(0.0, 1e5), handover_damage: float = 0.0) -> dict:
     """Peak strength of a jointed specimen (``fracture=True``, joints with c = 0.1 MPa, φ = 30°,
     f_t = c) under confinements σ3 (0 and 0.1 MPa by default), against Mohr–Coulomb of the
     joints' c and φ (FDEM_SPEC §12.6):
@@ -401,14 +401,17 @@ def case_triaxial(resolution: int = 6, safety: float = 0.2, penalty_factor: floa
     joint compliance, the irregular cells along the specimen's edges, the stress the joints'
     tensile cut-off allows; tolerance 10 %.
 
-    Returns the peaks, the MC peaks, the fitted (c, φ) of the specimen from the two peaks, and
-    error = the largest relative error of the peaks.
+    ``handover_damage``: ``Scene.build``'s (a damaged joint that carries its pair keeps the
+    pair's friction share in its shear strength, which raises the unconfined peak).  Returns the
+    peaks, the MC peaks, the fitted (c, φ) of the specimen from the two peaks, and error = the
+    largest relative error of the peaks.
     """
     _precision(precision)
     peaks, mcs, walls, steps, builds = [], [], 0.0, 0, 0.0
     sim = None
     for s3 in confinements:
-        r = triaxial_test(s3, resolution=resolution, safety=safety, penalty_factor=penalty_factor)
+        r = triaxial_test(s3, resolution=resolution, safety=safety, penalty_factor=penalty_factor,
+                          handover_damage=handover_damage)
         peaks.append(r["peak"])
         mcs.append(r["peak_mc"])
         walls += r["wall"]
