@@ -293,8 +293,10 @@ def measure(args, strategies):
               f"{'RECOMPILED (a new size should not recompile)' if rc['recompiled'] else 'no recompilation'}",
               flush=True)
         for size in args.sizes:
-            row = bench_size(fdem, size, strategy, args.steps, args.seconds, not args.no_profile, args.velocity)
+            steps = args.steps or json.loads(args.steps_map).get(f"{strategy}:{size}")
+            row = bench_size(fdem, size, strategy, steps, args.seconds, not args.no_profile, args.velocity)
             row["threads"] = threads
+            row["size"] = size
             rows.append(row)
             print(f"  {row['triangles']:>8,} triangles ({row['strategy']}, {threads} thread(s)): {row['couples']:,} "
                   f"couples ({row['couples_per_tri']:.2f}/triangle), {row['steps_per_s']:,.1f} steps/s = "
@@ -304,11 +306,13 @@ def measure(args, strategies):
     return rows, resolved
 
 
-def argv_for_worker(args, threads: int) -> list:
+def argv_for_worker(args, threads: int, steps_map: dict | None = None) -> list:
     a = ["--sizes", *map(str, args.sizes), "--seconds", str(args.seconds), "--precision", args.precision,
          "--strategy", args.strategy, "--velocity", str(args.velocity), "--worker-threads", str(threads)]
     if args.steps:
         a += ["--steps", str(args.steps)]
+    elif steps_map:
+        a += ["--steps-map", json.dumps(steps_map)]
     if args.no_profile:
         a.append("--no-profile")
     return a
@@ -353,6 +357,7 @@ def main(argv=None) -> int:
                     help="CPU thread counts (Taichi cpu_max_num_threads), each measured in its own "
                          "subprocess (default 1 2)")
     ap.add_argument("--worker-threads", type=int, default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--steps-map", default="{}", help=argparse.SUPPRESS)
     ap.add_argument("--startup", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--startup-size", type=int, default=STARTUP_SIZE, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -372,12 +377,19 @@ def main(argv=None) -> int:
         return 0
 
     # the driver: one subprocess per thread count (Taichi takes cpu_max_num_threads once, at ti.init)
-    rows, resolved = [], {}
+    # every thread count runs the steps the first one calibrated (for --seconds): the pile settles
+    # as it runs and its steps get dearer, so a faster run of more steps would meet a later, slower
+    # pile (the 10k pile's windows ran at 6,900 down to 4,500 steps/s in one 2-thread run), which
+    # biased the thread ratios low
+    rows, resolved, steps_map = [], {}, {}
     t_all = time.perf_counter()
     for threads in args.threads:
-        r, res = run_worker(argv_for_worker(args, threads))
+        r, res = run_worker(argv_for_worker(args, threads, steps_map))
         rows += r
         resolved.update(res)
+        if not steps_map:
+            inverse = {v: k for k, v in res.items()}
+            steps_map = {f"{inverse.get(row['strategy'], row['strategy'])}:{row['size']}": row["steps"] for row in r}
 
     startup = {}
     if not args.no_startup:
