@@ -305,6 +305,23 @@ def test_fragmenting_impact_energy_balance_with_a_later_handover(handover):
     assert worst < 1e-3
 
 
+def test_restart_with_a_later_handover_continues_exactly(tmp_path):
+    """A checkpoint keeps ``handover_damage`` (its step_real slot and the build setting): a
+    fragmenting impact restarted mid-run continues bit for bit, flags and bonds included."""
+    from taichi_fdem.verification import fragment_plate_scene
+    sim, _ = fragment_plate_scene(h_plate=0.025, h_ball=0.02, friction=0.5)
+    a = sim.scene.build(handover_damage=0.05)
+    a.step(400)
+    a.save(tmp_path / "run.ckpt")
+    a.step(300)
+    b = fdem.Simulation.load(tmp_path / "run.ckpt")
+    assert b.model.handover_damage == 0.05
+    b.step(300)
+    assert a.broken_joint_count == b.broken_joint_count > 0
+    for name in ("node_x", "node_v", "tri_nb_on", "tri_intact", "joint_dmax", "couple_hist"):
+        np.testing.assert_array_equal(getattr(a.state, name).to_numpy(), getattr(b.state, name).to_numpy(), name)
+
+
 def test_corner_pairs_of_a_partly_jointed_body_follow_joints_and_uncut_edges():
     """In a plate with joints only in a band (the rest of its mesh continuous), the corner pairs'
     flags follow the same brute-force rule, where an uncut edge ties its two triangles for

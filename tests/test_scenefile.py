@@ -99,6 +99,9 @@ def test_base_scene_values(tmp_path):
     assert sim.model.joined_pairs == "joint"
     sim2, _ = scenefile.load(write(tmp_path, BASE + 'joined_pairs = "contact"\n', "b.toml")).build()
     assert sim2.model.joined_pairs == "contact"
+    assert spec.solver["handover_damage"] == 0.0 and sim.model.handover_damage == 0.0
+    sim3, _ = scenefile.load(write(tmp_path, BASE + 'handover_damage = 0.05\n', "c.toml")).build()
+    assert sim3.model.handover_damage == 0.05
     floor, block = sim.bodies
     assert floor.fixed and not block.fixed
     # the block's centroid is placed at (0, 0.05) m
@@ -230,6 +233,7 @@ def test_unknown_table(tmp_path):
     ("duration = 0.001", "duration = 0.001\nsafety = 1.5", [r"safety must be <= 1"]),
     ("duration = 0.001", 'duration = 0.001\nstrategy = "fast"', [r"strategy must be one of 'auto', 'serial', 'parallel'"]),
     ("duration = 0.001", 'duration = 0.001\njoined_pairs = "joints"', [r"joined_pairs must be one of 'joint', 'contact'"]),
+    ("duration = 0.001", "duration = 0.001\nhandover_damage = 1.5", [r"handover_damage must be <= 1"]),
     ('name = "block"', 'name = "floor"', [r"body name 'floor' is used twice"]),
     ("fixed = true", "fixed = 1", [r"fixed must be true or false"]),
     ('[scene]\ngravity = [0.0, -9.81]', '[scene]\nplane = "stres"', [r"plane must be one of", "did you mean 'stress'"]),
