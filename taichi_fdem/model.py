@@ -99,8 +99,11 @@ class Scratch(_Arrays):
 
 def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_limit=None,
                 quasi_static: float = 0.0, joined_pairs: str = "joint",
-                handover_damage: float = HANDOVER_DAMAGE) -> Model:
-    """Compute the :class:`Model` of ``scene`` (validating the time step against its limit)."""
+                handover_damage: float | None = None) -> Model:
+    """Compute the :class:`Model` of ``scene`` (validating the time step against its limit);
+    ``handover_damage`` None: :data:`taichi_fdem.engine.joints.HANDOVER_DAMAGE`."""
+    if handover_damage is None:
+        handover_damage = HANDOVER_DAMAGE
     if joined_pairs not in ("joint", "contact"):
         raise ValueError(f"Scene.build: joined_pairs must be 'joint' or 'contact', got {joined_pairs!r}")
     if isinstance(handover_damage, bool) or not isinstance(handover_damage, (int, float, np.integer, np.floating)) \

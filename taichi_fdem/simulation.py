@@ -25,7 +25,6 @@ import taichi as ti
 
 from . import backend, guards
 from .engine import refresh, step as kernels
-from .engine.joints import HANDOVER_DAMAGE
 from .engine.tiutil import launch_cached
 from .guards import SimulationError
 from .engine.groups import (COUPLES, DACC, DACC_FORCE, DETECTIONS, FORCE_BLOCKS, FOUND, MAX_FORCE_BLOCKS, REBALANCE,
@@ -81,7 +80,7 @@ class Simulation(SimulationResults):
         return cls.checkpoint_io
 
     def __init__(self, scene, dt=None, safety=0.2, force_dt=False, buffer=None, strategy="auto", check_overlap=True,
-                 speed_limit=None, quasi_static=0.0, joined_pairs="joint", handover_damage=HANDOVER_DAMAGE):
+                 speed_limit=None, quasi_static=0.0, joined_pairs="joint", handover_damage=None):
         backend.ensure_init()
         if strategy not in ("auto", "serial", "parallel"):
             raise ValueError(f"Scene.build: strategy must be 'auto', 'serial' or 'parallel', got {strategy!r}")
