@@ -322,7 +322,7 @@ def triaxial_test(sigma3: float, resolution: int = 6, safety: float = 0.2, mater
                   strain_rate_transits: float = 60.0, max_strain: float | None = None, samples: int = 150,
                   stop_drop: float = 0.8,
                   video: str | None = None, history: str | None = None, frame=None, quasi_static=True,
-                  penalty_factor: float = 10.0, handover_damage: float = 0.0):
+                  penalty_factor: float = 10.0, handover_damage: float | None = None):
     """Run one triaxial (σ3 > 0) or unconfined (σ3 = 0) compression of a jointed specimen
     0.05 × 0.1 m (``resolution`` elements across its width, ``fracture=True``).
 
@@ -381,7 +381,7 @@ def triaxial_test(sigma3: float, resolution: int = 6, safety: float = 0.2, mater
 
 
 def case_triaxial(resolution: int = 6, safety: float = 0.2, penalty_factor: float = 10.0, precision: str = "f64",
-                  confinements=(0.0, 1e5), handover_damage: float = 0.0) -> dict:
+                  confinements=(0.0, 1e5), handover_damage: float | None = None) -> dict:
     """Peak strength of a jointed specimen (``fracture=True``, joints with c = 0.1 MPa, φ = 30°,
     f_t = c) under confinements σ3 (0 and 0.1 MPa by default), against Mohr–Coulomb of the
     joints' c and φ (FDEM_SPEC §12.6):
@@ -401,7 +401,7 @@ def case_triaxial(resolution: int = 6, safety: float = 0.2, penalty_factor: floa
     joint compliance, the irregular cells along the specimen's edges, the stress the joints'
     tensile cut-off allows; tolerance 10 %.
 
-    ``handover_damage``: ``Scene.build``'s (a damaged joint that carries its pair keeps the
+    ``handover_damage``: ``Scene.build``'s, None its default (a damaged joint that carries its pair keeps the
     pair's friction share in its shear strength, which raises the unconfined peak).  Returns the
     peaks, the MC peaks, the fitted (c, φ) of the specimen from the two peaks, and error = the
     largest relative error of the peaks.
