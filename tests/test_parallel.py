@@ -68,7 +68,8 @@ def test_parallel_agrees_with_serial(assembly):
     assert np.abs(xs - xp).max() <= 1e-5 * np.abs(xs).max()
     es, ep = out["serial"][2], out["parallel"][2]
     assert es["friction"] > 0.01 * es["total"]
-    assert ep["total"] == pytest.approx(es["total"], rel=1e-6)
+    # (2e-7 to 1.7e-6 measured over 2, 3 and 4 blocks: round-off the fragmentation amplifies)
+    assert ep["total"] == pytest.approx(es["total"], rel=5e-6)
     # the terms, to the round-off the fragmentation amplifies (1e-5 to 4e-5 measured, either
     # assembly); a term dropped or booked twice would be off by O(1)
     for key in ("kinetic", "strain", "friction", "fracture", "joints"):
@@ -291,36 +292,60 @@ def test_team_gives_way_on_a_shared_cpu():
 
 def _couple_costs(sim) -> np.ndarray:
     """Brute-force reference of ``engine.blocks.couple_cost`` for every couple, in numpy: a bonded
-    neighbour pair, boxes apart, triangles apart (no separating edge normal among six), or
-    touching."""
-    from taichi_fdem.engine.groups import COST_APART, COST_BONDED, COST_SEPARATED, COST_TOUCHING
+    neighbour pair; touching (boxes overlap and no separating edge normal among six); apart by
+    less than the rounding margin; or apart by more (then its certificate of separation skips
+    it, plus the share of steps it is tested again: the growth of D_acc per step over the gap)."""
+    from taichi_fdem.engine.groups import COST_BONDED, COST_CERTIFIED, COST_SEPARATED, COST_TOUCHING, VMAX
+    from taichi_fdem.model import counter
+    rel = 1e-8                                  # engine.contact.couple_certificate, f64
     x = sim.node_positions()
     tn = sim.model.tri_nodes.to_numpy()
     pairs = sim.couples()
     A, B = x[tn[pairs[:, 0]]], x[tn[pairs[:, 1]]]              # (C, 3, 2)
-    box = ((A.min(1) < B.max(1)) & (B.min(1) < A.max(1))).all(1)
+    gap = np.maximum(B.min(1) - A.max(1), A.min(1) - B.max(1)).max(1)
+    ext = (A.max(1) - A.min(1)).max(1)
+    cert = np.where(gap < 0.0, -1.0, gap - rel * ext)
 
-    def beyond_an_edge(T, P):
-        out = np.zeros(len(T), bool)
+    def edge_cert(T, P, cert):
         for k in range(3):
-            d = T[:, (k + 1) % 3] - T[:, k]
+            e0 = T[:, k]
+            d = T[:, (k + 1) % 3] - e0
             n = np.stack([d[:, 1], -d[:, 0]], axis=1)
-            out |= (np.einsum("cpi,ci->cp", P - T[:, k][:, None, :], n) >= 0.0).all(1)
-        return out
+            dist = np.einsum("cpi,ci->cp", P - e0[:, None, :], n).min(1)        # g |e|
+            n2 = (n * n).sum(1)
+            c = np.where(dist > 2.0 * rel * n2, (dist - rel * n2) / np.sqrt(n2), 0.0)
+            cert = np.where((cert < 0.0) & (gap < 0.0) & (dist >= 0.0), c, cert)
+        return cert
 
-    apart = beyond_an_edge(A, B) | beyond_an_edge(B, A)
-    cost = np.where(box, np.where(apart, COST_SEPARATED, COST_TOUCHING), COST_APART)
+    cert = edge_cert(B, A, edge_cert(A, B, cert))
+    touching = (gap < 0.0) & (cert < 0.0)
+    growth = 2.0 * sim.dt * counter(sim.state.step_real, VMAX)
+    certified = COST_CERTIFIED + np.floor(COST_SEPARATED * np.minimum(1.0, growth / np.maximum(cert, 1e-300)))
+    cost = np.where(touching, COST_TOUCHING, np.where(cert <= 0.0, COST_SEPARATED, certified))
     M = sim.model.nb_count
     cost[:M] = np.where(sim.state.tri_nb_on.to_numpy()[:M] == 0, COST_BONDED, cost[:M])
     return cost
 
 
+def _block_fixed_costs(sim, nblk) -> np.ndarray:
+    """Brute-force reference of ``engine.blocks.block_fixed_cost``: each block's triangles and
+    joints (ranges by count), a joint costing as intact, damaged or broken."""
+    from taichi_fdem.engine.groups import COST_BROKEN, COST_JOINT, COST_JOINT_DAMAGED, COST_TRI
+    T, J = sim.tri_count, sim.model.joint_count
+    state = sim.state.joint_state.to_numpy()
+    damaged = (sim.state.joint_dmax.to_numpy() > 0.0).any(1)
+    jc = np.where(state != 0, COST_BROKEN, np.where(damaged, COST_JOINT_DAMAGED, COST_JOINT))
+    return np.array([((b + 1) * T // nblk - b * T // nblk) * COST_TRI + jc[b * J // nblk:(b + 1) * J // nblk].sum()
+                     for b in range(nblk)])
+
+
 def test_block_couple_ranges_follow_the_estimated_cost():
-    """The block assembly gives each block a contiguous range of the couples of about equal cost
-    (``engine.blocks.rebalance_couples``), recomputed from the positions: checked against a
-    brute-force classification of every couple in a plate breaking under a disc, 3 blocks, where
-    ranges of equal counts would be far from equal cost.  Each range's cost is within one
-    touching couple of a third of the total; the ranges cover the couples once, in order."""
+    """The block assembly splits the couples into contiguous ranges so that the blocks' estimated
+    costs (their triangles and joints by count, their couples) come out about equal
+    (``engine.blocks.rebalance_couples``), recomputed from the state: checked against a brute-force
+    costing of every couple and joint in a plate breaking under a disc, 3 blocks, where ranges
+    of equal counts would be far from equal cost.  Each block boundary is within one touching
+    couple of its share of the total; the ranges cover the couples once, in order."""
     from taichi_fdem.engine.groups import COST_TOUCHING, REBALANCE, SPLIT
     from taichi_fdem.model import counter, set_counter
     from taichi_fdem.verification import fragment_plate_scene
@@ -329,7 +354,8 @@ def test_block_couple_ranges_follow_the_estimated_cost():
     sim.force_blocks = 3
     sim.step(250)                              # the first joints break under the disc
     assert sim.broken_joint_count > 0
-    cost = _couple_costs(sim)                  # at the positions the next step starts from
+    cost = _couple_costs(sim)                  # at the state the next step starts from
+    fixed = _block_fixed_costs(sim, 3)
     set_counter(sim.state.step_int, REBALANCE, 0)
     sim.step(1)
     assert counter(sim.state.step_int, REBALANCE) == 127
@@ -337,9 +363,10 @@ def test_block_couple_ranges_follow_the_estimated_cost():
     split = sim.state.step_int.to_numpy()[SPLIT:SPLIT + 4]
     assert split[0] == 0 and split[3] == C and np.all(np.diff(split) >= 0)
     prefix = np.concatenate([[0], np.cumsum(cost)])
-    total = prefix[-1]
+    total = prefix[-1] + fixed.sum()
     for b in (1, 2):
-        assert abs(prefix[split[b]] - b * total / 3) <= COST_TOUCHING, (b, split, prefix[split[b]], total)
+        before = fixed[:b].sum() + prefix[split[b]]          # the blocks before b
+        assert abs(before - b * total / 3) <= COST_TOUCHING, (b, split, before, total)
     # the test can fail: equal counts would leave the blocks' costs far apart here
-    by_count = [prefix[b * C // 3] for b in (1, 2)]
+    by_count = [fixed[:b].sum() + prefix[b * C // 3] for b in (1, 2)]
     assert max(abs(by_count[b - 1] - b * total / 3) for b in (1, 2)) > 10 * COST_TOUCHING

@@ -9,12 +9,13 @@ count, so the sums, and the results, are the same bits for any number of threads
 """
 import taichi as ti
 
-from .contact import boxes_overlap, couple_forces, neighbour_flag, separated
+from .contact import couple_certificate, couple_forces, neighbour_flag
 from .elastic import tri_forces
-from .groups import (COST_APART, COST_BONDED, COST_SEPARATED, COST_TOUCHING, COUPLES, DACC, DUE_BIT, INVERTED,
-                     MAX_FORCE_BLOCKS, NONFINITE, QS_ALPHA, REBALANCE, REBALANCE_STEPS, SPLIT, SWITCH_BC,
-                     SWITCH_BC_WORK, SYNC_LINE, TIME, UNSTABLE_BIT, VMAX, WORK_BOUNDARY, WORK_LOCAL)
-from .integrate import asm_blocks, block_work_slot, book_block_work, integrate_span
+from .groups import (COST_BONDED, COST_BROKEN, COST_CERTIFIED, COST_JOINT, COST_JOINT_DAMAGED, COST_SEPARATED,
+                     COST_TOUCHING, COST_TRI, COUPLES, DACC, DUE_BIT, INVERTED, MAX_FORCE_BLOCKS, NONFINITE, QS_ALPHA,
+                     REBALANCE, REBALANCE_STEPS, SPLIT, SWITCH_BC, SWITCH_BC_WORK, SYNC_LINE, TIME, UNSTABLE_BIT, VMAX,
+                     WORK_BOUNDARY, WORK_LOCAL)
+from .integrate import asm_blocks, block_work_slot, book_block_work, clear_ranges, integrate_span, sync_range
 from .joints import add_joint_work, eval_joint
 from .loads import apply_load, book_load
 from .tiutil import vec2
@@ -46,45 +47,87 @@ def add_block_force(nodes: ti.template(), asm: ti.template(), b, n, f):
 
 
 @ti.func
-def couple_cost(c, nodes: ti.template(), tris: ti.template(), con: ti.template(), step: ti.template(),
+def couple_cost(c, growth, nodes: ti.template(), tris: ti.template(), con: ti.template(), step: ti.template(),
                 fracture: ti.template()):
-    """The estimated cost of couple c at the current positions (engine.groups.COST_*): a bonded
-    neighbour pair, boxes apart, triangles apart (:func:`contact.separated`) or touching.  A
-    function of the state alone (not of the certificates of separation, which a restart or a
-    launch drops: the ranges, and so the sums, would depend on how the steps were launched)."""
+    """The estimated cost of couple c per step at the current positions (engine.groups.COST_*):
+    a bonded neighbour pair; apart by more than the rounding margin
+    (:func:`contact.couple_certificate`), so that its certificate of separation skips it until
+    D_acc, growing by ``growth`` per step, passes its gap (then it is tested again); apart by less
+    (tested every step); or touching.  A function of the state alone (not of the certificates
+    themselves, which a restart or a launch drops: the ranges, and so the sums, would depend on
+    how the steps were launched)."""
     cost = COST_BONDED
     nb_pair, on = neighbour_flag(c, tris, step, fracture)
     if not nb_pair or on != 0:
         na = tris.tri_nodes[con.couple_a[c]]
         nb = tris.tri_nodes[con.couple_b[c]]
-        a0, a1, a2 = nodes.node_x[na[0]], nodes.node_x[na[1]], nodes.node_x[na[2]]
-        b0, b1, b2 = nodes.node_x[nb[0]], nodes.node_x[nb[1]], nodes.node_x[nb[2]]
-        cost = COST_APART
-        if boxes_overlap(a0, a1, a2, b0, b1, b2):
-            cost = ti.select(separated(a0, a1, a2, b0, b1, b2), COST_SEPARATED, COST_TOUCHING)
+        cert, hit = couple_certificate(nodes.node_x[na[0]], nodes.node_x[na[1]], nodes.node_x[na[2]],
+                                       nodes.node_x[nb[0]], nodes.node_x[nb[1]], nodes.node_x[nb[2]])
+        if hit:
+            cost = COST_TOUCHING
+        elif cert <= 0.0:
+            cost = COST_SEPARATED
+        else:
+            # tested again every cert / growth steps
+            cost = COST_CERTIFIED + ti.cast(COST_SEPARATED * ti.min(1.0, growth / cert), ti.i32)
+    return cost
+
+
+@ti.func
+def joint_cost(j, joints: ti.template()):
+    """The estimated cost of joint j per step (engine.groups.COST_*): intact (undamaged or
+    damaged), or broken (skipped for one read)."""
+    cost = COST_BROKEN
+    if joints.joint_state[j] == 0:
+        cost = COST_JOINT
+        dm = joints.joint_dmax[j]
+        if dm[0] > 0.0 or dm[1] > 0.0 or dm[2] > 0.0:
+            cost = COST_JOINT_DAMAGED
+    return cost
+
+
+@ti.func
+def block_fixed_cost(b, nblk, T, J, joints: ti.template(), fracture: ti.template()):
+    """The estimated cost of block b's triangles and joints (its ranges by count)."""
+    cost = ti.cast(((b + 1) * T // nblk - b * T // nblk) * COST_TRI, ti.i64)
+    if ti.static(fracture):
+        for j in range(b * J // nblk, (b + 1) * J // nblk):
+            cost += joint_cost(j, joints)
     return cost
 
 
 @ti.func
 def rebalance_couples(nblk, C, nodes: ti.template(), tris: ti.template(), con: ti.template(),
-                      step: ti.template(), fracture: ti.template()):
-    """Split the C couples into nblk contiguous ranges of about equal estimated cost
-    (:func:`couple_cost`) at the current positions: step_int[SPLIT + b] is the first couple of
-    block b (SPLIT + nblk and the unused slots hold C).  Serial, two passes over the couples
-    (~10 ns per couple); run every REBALANCE_STEPS steps and after each detection.  A function
-    of the state only, which keeps the sums the same for any thread count, and, the bounds
-    being part of the state, a restart from a checkpoint bit-identical."""
-    total = ti.cast(0, ti.i64)
+                      joints: ti.template(), step: ti.template(), fracture: ti.template()):
+    """Split the C couples into nblk contiguous ranges so that the blocks' estimated costs,
+    their triangles and joints (:func:`block_fixed_cost`) and their couples (:func:`couple_cost`),
+    come out about equal at the current positions: step_int[SPLIT + b] is the first couple of
+    block b (SPLIT + nblk and the unused slots hold C): the first couple at which the cost of the
+    blocks before b and of the couples before it reaches b / nblk of the total.  Serial, two
+    passes over the couples and the joints (~10 ns per couple); run every REBALANCE_STEPS steps
+    and after each detection.  A function of the state only, which keeps the sums the same for
+    any thread count, and, the bounds being part of the state, a restart from a checkpoint
+    bit-identical."""
+    T = tris.tri_nodes.shape[0]
+    J = 0
+    if ti.static(fracture):
+        J = joints.joint_nodes.shape[0]
+    growth = 2.0 * step.step_dt[None] * step.step_real[VMAX]       # D_acc's growth per step (§4.1)
+    total = ti.cast(T * COST_TRI, ti.i64)
+    if ti.static(fracture):
+        for j in range(J):
+            total += joint_cost(j, joints)
     for c in range(C):
-        total += couple_cost(c, nodes, tris, con, step, fracture)
-    acc = ti.cast(0, ti.i64)
+        total += couple_cost(c, growth, nodes, tris, con, step, fracture)
+    acc = block_fixed_cost(0, nblk, T, J, joints, fracture)      # blocks before b, couples before c
     b = 1
     step.step_int[SPLIT] = 0
     for c in range(C):
         while b < nblk and acc * nblk >= b * total:
             step.step_int[SPLIT + b] = c
+            acc += block_fixed_cost(b, nblk, T, J, joints, fracture)
             b += 1
-        acc += couple_cost(c, nodes, tris, con, step, fracture)
+        acc += couple_cost(c, growth, nodes, tris, con, step, fracture)
     while b <= MAX_FORCE_BLOCKS:
         step.step_int[SPLIT + b] = C
         b += 1
@@ -109,14 +152,19 @@ def block_forces(b, nblk, T, J, C, dacc, nodes: ti.template(), tris: ti.template
                  contact: ti.template(), friction: ti.template(), fracture: ti.template()):
     """Block b's share of :func:`taichi_fdem.engine.step.phase_blocks`: the triangles and the joints of its contiguous
     range by count, and the couples of its range by cost (:func:`couple_range`), added into its
-    copy of the nodal forces; its contact work to its entry of asm_force.  ``dacc``: step_real[DACC]
-    at the start of the step (:func:`contact.couple_forces`)."""
+    copy of the nodal forces; its contact work to its entry of asm_force, and the range of the
+    nodes it wrote to :func:`integrate.sync_range` (block b > 0), which the gather reads.
+    ``dacc``: step_real[DACC] at the start of the step (:func:`contact.couple_forces`)."""
+    lo = nodes.node_x.shape[0]
+    hi = 0
     for e in range(b * T // nblk, (b + 1) * T // nblk):
         f0, f1, f2 = tri_forces(e, nodes, tris, mats, step)
         n = tris.tri_nodes[e]
         add_block_force(nodes, asm, b, n[0], f0)
         add_block_force(nodes, asm, b, n[1], f1)
         add_block_force(nodes, asm, b, n[2], f2)
+        lo = ti.min(lo, ti.min(n[0], ti.min(n[1], n[2])))
+        hi = ti.max(hi, ti.max(n[0], ti.max(n[1], n[2])) + 1)
     if ti.static(fracture):
         for j in range(b * J // nblk, (b + 1) * J // nblk):
             if joints.joint_state[j] == 0:
@@ -129,10 +177,12 @@ def block_forces(b, nblk, T, J, C, dacc, nodes: ti.template(), tris: ti.template
                 add_block_force(nodes, asm, b, nd[1], -g1)
                 add_block_force(nodes, asm, b, nd[2], g1)
                 add_block_force(nodes, asm, b, nd[3], g0)
+                lo = ti.min(lo, ti.min(ti.min(nd[0], nd[1]), ti.min(nd[2], nd[3])))
+                hi = ti.max(hi, ti.max(ti.max(nd[0], nd[1]), ti.max(nd[2], nd[3])) + 1)
     if ti.static(contact):
         bwork = vec2(0.0, 0.0)
-        lo, hi = couple_range(b, nblk, C, step)
-        for c in range(lo, hi):
+        lo_c, hi_c = couple_range(b, nblk, C, step)
+        for c in range(lo_c, hi_c):
             gA, gB, hit, work = couple_forces(c, dacc, nodes, tris, mats, con, step, friction, fracture)
             bwork += work
             if hit:
@@ -141,7 +191,43 @@ def block_forces(b, nblk, T, J, C, dacc, nodes: ti.template(), tris: ti.template
                 for r in ti.static(range(3)):
                     add_block_force(nodes, asm, b, na[r], vec2(gA[r, 0], gA[r, 1]))
                     add_block_force(nodes, asm, b, nb[r], vec2(gB[r, 0], gB[r, 1]))
+                    lo = ti.min(lo, ti.min(na[r], nb[r]))
+                    hi = ti.max(hi, ti.max(na[r], nb[r]) + 1)
         asm.asm_force[block_work_slot(nodes.node_x.shape[0], nblk, b)] = bwork
+    if b > 0:
+        asm.asm_sync[sync_range(nblk, b)] = lo
+        asm.asm_sync[sync_range(nblk, b) + 1] = hi
+
+
+@ti.func
+def claim(asm: ti.template(), b, ticket):
+    """Take block b (none if b < 0) for the phase of a team launch numbered ``ticket`` (increasing
+    within the launch): True for exactly one worker (atomic max on the block's claim slot, whose old value is
+    below the ticket only for the first)."""
+    ok = False
+    if b >= 0:          # (a nested test: Taichi's ``and`` evaluates both operands)
+        ok = ti.atomic_max(asm.asm_sync[sync_claim(b)], ticket) < ticket
+    return ok
+
+
+@ti.func
+def nth_block(k, w, nwork, nblk, tail):
+    """The k-th block that worker w tries in a phase (k = 0 .. nblk − 1; −1: none), and the new
+    ``tail``: first its own blocks w, w + nwork, ... (the same every step, so that their data stay
+    in its core's caches), then the others' from the last down (``tail`` starts at nblk − 1),
+    which a worker that finished early takes over from a slower one (:func:`claim`).  Block 0 is
+    worker 0's alone: its runner adds the loads after its forces, and worker 0 books the loads'
+    work of the step before (phase 3 of :func:`team_worker`; no barrier in between)."""
+    m = (nblk - 1 - w) // nwork + 1              # worker w's own blocks
+    b = w + k * nwork
+    if k >= m:
+        while tail >= 0 and tail % nwork == w:
+            tail -= 1
+        b = tail
+        tail -= 1
+        if b == 0:
+            b = -1
+    return b, tail
 
 
 @ti.func
@@ -162,6 +248,12 @@ def team_barrier(asm: ti.template(), w, target):
 def sync_bad(b):
     """asm_sync slot of block b's "bad" flag (non-finite value): a cache line of its own."""
     return SYNC_LINE * (1 + b)
+
+
+@ti.func
+def sync_claim(b):
+    """asm_sync slot of block b's claim (:func:`claim`): on block b's line."""
+    return SYNC_LINE * (1 + b) + 2
 
 
 @ti.func
@@ -202,22 +294,23 @@ def team_worker(w, nwork, nsteps, nodes: ti.template(), tris: ti.template(), mat
             # 0. when due, worker 0 splits the couples anew (as engine.step.phase_blocks does)
             if rebal <= 0:
                 if w == 0:
-                    rebalance_couples(nblk, C, nodes, tris, con, step, feat.fracture)
+                    rebalance_couples(nblk, C, nodes, tris, con, joints, step, feat.fracture)
                 nbar += 1
                 team_barrier(asm, w, nbar * nwork)
                 rebal = REBALANCE_STEPS
             rebal -= 1
-        # 1. forces: each block's items into its copy (and the loads, worker 0, into node_f after
-        # block 0, as in engine.step.step_parallel)
-        b = w
-        while b < nblk:
-            block_forces(b, nblk, T, J, C, dacc, nodes, tris, mats, con, joints, step, asm, feat.contact,
-                         feat.friction, feat.fracture)
-            b += nwork
-        if ti.static(feat.loads):
-            if w == 0:
-                for k in range(nodes.load_nodes.shape[0]):
-                    apply_load(k, time, dt, nodes, step)
+        # 1. forces: each block's items into its copy (and the loads into node_f after block 0,
+        # by the worker that ran it, as in engine.step.step_parallel)
+        tail = nblk - 1
+        for k in range(nblk):
+            b, tail = nth_block(k, w, nwork, nblk, tail)
+            if claim(asm, b, nbar + 1):
+                block_forces(b, nblk, T, J, C, dacc, nodes, tris, mats, con, joints, step, asm, feat.contact,
+                             feat.friction, feat.fracture)
+                if ti.static(feat.loads):
+                    if b == 0:
+                        for q in range(nodes.load_nodes.shape[0]):
+                            apply_load(q, time, dt, nodes, step)
         nbar += 1
         team_barrier(asm, w, nbar * nwork)
         # 2. gather and integrate each block's share of the nodes; its maxima and work to its partials.
@@ -227,15 +320,16 @@ def team_worker(w, nwork, nsteps, nodes: ti.template(), tris: ti.template(), mat
         inverted = step.step_int[INVERTED]
         if w == 0:
             book_block_work(N, nblk, asm, step)
-        b = w
-        while b < nblk:
-            vmax2, bad, work, local = integrate_span(b * N // nblk, (b + 1) * N // nblk, nodes, joints, asm, dt, g,
-                                                     bc, bc_work, alpha, 2, feat.local_damping)
-            asm.asm_part[3 * b] = vmax2
-            asm.asm_part[3 * b + 1] = work
-            asm.asm_part[3 * b + 2] = local
-            asm.asm_sync[sync_bad(b)] = bad
-            b += nwork
+        tail = nblk - 1
+        for k in range(nblk):
+            b, tail = nth_block(k, w, nwork, nblk, tail)
+            if claim(asm, b, nbar + 1):
+                vmax2, bad, work, local = integrate_span(b * N // nblk, (b + 1) * N // nblk, nodes, joints, asm, dt,
+                                                         g, bc, bc_work, alpha, 2, feat.local_damping)
+                asm.asm_part[3 * b] = vmax2
+                asm.asm_part[3 * b + 1] = work
+                asm.asm_part[3 * b + 2] = local
+                asm.asm_sync[sync_bad(b)] = bad
         nbar += 1
         team_barrier(asm, w, nbar * nwork)
         # 3. the step's counters, from the partials in block order (the same in every worker);
@@ -273,11 +367,12 @@ def team_worker(w, nwork, nsteps, nodes: ti.template(), tris: ti.template(), mat
             # the joints' work and the end of intact bonds, which the next step's forces read:
             # a third barrier (a scene without fracture needs none: the next step's forces
             # write nothing that a worker still reads here)
-            b = w
-            while b < nblk:
-                for j in range(b * J // nblk, (b + 1) * J // nblk):
-                    add_joint_work(j, joints, tris, mats, nodes, step)
-                b += nwork
+            tail = nblk - 1
+            for k in range(nblk):
+                b, tail = nth_block(k, w, nwork, nblk, tail)
+                if claim(asm, b, nbar + 1):
+                    for j in range(b * J // nblk, (b + 1) * J // nblk):
+                        add_joint_work(j, joints, tris, mats, nodes, step)
             nbar += 1
             team_barrier(asm, w, nbar * nwork)
         if code != 0:
@@ -291,5 +386,7 @@ def team_worker(w, nwork, nsteps, nodes: ti.template(), tris: ti.template(), mat
         # does not depend on how the steps were launched (a restart compares it)
         for q in range(nblk):
             asm.asm_sync[sync_bad(q)] = 0
+            asm.asm_sync[sync_claim(q)] = 0
             for r in ti.static(range(3)):
                 asm.asm_part[3 * q + r] = 0.0
+        clear_ranges(nblk, asm)

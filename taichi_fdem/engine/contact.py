@@ -275,16 +275,6 @@ def boxes_overlap(a0, a1, a2, b0, b1, b2):
 
 
 @ti.func
-def separated(a0, a1, a2, b0, b1, b2):
-    """Do the two counter-clockwise triangles lie apart (at most touching along a line)?  The
-    separating-axis test over their six edge normals, complete for two triangles in 2D
-    (:func:`separation_certificate`, whose test it is).  Exact: then no contactor edge of
-    either pass has a positive potential integral (a triangle on or beyond an edge line of the
-    other meets it at most on that line, where the potential is zero)."""
-    return separation_certificate(a0, a1, a2, b0, b1, b2, 0.0) >= 0.0
-
-
-@ti.func
 def box_gap(a0, a1, a2, b0, b1, b2):
     """(gap, extent): the gap between the axis-aligned boxes of the two triangles along x or y
     [m], negative when the boxes overlap (:func:`boxes_overlap`), else a lower bound of the
@@ -302,8 +292,11 @@ def separation_certificate(a0, a1, a2, b0, b1, b2, rel):
     """−1 when the two counter-clockwise triangles overlap; else, with g their gap along the
     outward normal of the first of their six edges (A's, then B's) on or beyond whose line the
     other lies (a lower bound of their distance) and m = rel·|e| a rounding margin relative to
-    that edge: g − m when g > 2m, else 0.  The test is :func:`separated`'s (signs of
-    (p − t0)·perp(t1 − t0), no division); only a certificate costs a square root and a division.
+    that edge: g − m when g > 2m, else 0.  The separating-axis test over the six edge normals,
+    complete for two triangles in 2D (signs of (p − t0)·perp(t1 − t0), no division): apart, no
+    contactor edge of either pass has a positive potential integral (a triangle on or beyond an
+    edge line of the other meets it at most on that line, where the potential is zero).  Only a
+    certificate costs a square root and a division.
     (A runtime loop over the six edges: one copy of the code, which keeps compile time down.)"""
     cert = -1.0
     for q in range(6):
@@ -328,6 +321,23 @@ def separation_certificate(a0, a1, a2, b0, b1, b2, rel):
                 if dmin > 2.0 * rel * n2:
                     cert = (dmin - rel * n2) / ti.sqrt(n2)
     return cert
+
+
+@ti.func
+def couple_certificate(a0, a1, a2, b0, b1, b2):
+    """(cert, hit) of two counter-clockwise triangles: ``hit`` when they overlap (their boxes
+    overlap and no separating edge normal, :func:`separation_certificate`), and ``cert`` > 0
+    when they lie apart by more than a rounding margin: a lower bound of their distance less
+    that margin (the gap of their boxes along x or y, else along a separating edge normal).
+    Margins far above the rounding of a gap, relative to the triangle's size."""
+    rel = ti.static(_eps()) * 100.0
+    gap, ext = box_gap(a0, a1, a2, b0, b1, b2)
+    cert = gap - rel * ext
+    hit = False
+    if gap < 0.0:
+        cert = separation_certificate(a0, a1, a2, b0, b1, b2, rel)
+        hit = cert < 0.0
+    return cert, hit
 
 
 @ti.func
@@ -439,13 +449,7 @@ def couple_forces(c, dacc, nodes: ti.template(), tris: ti.template(), mats: ti.t
         skip = certified_apart(c, dacc, con)
     hit = False
     if not skip:
-        # rounding margins far above the rounding of a gap, relative to the triangle's size
-        rel = ti.static(_eps()) * 100.0
-        gap, ext = box_gap(a0, a1, a2, b0, b1, b2)
-        cert = gap - rel * ext
-        if gap < 0.0:
-            cert = separation_certificate(a0, a1, a2, b0, b1, b2, rel)
-            hit = cert < 0.0
+        cert, hit = couple_certificate(a0, a1, a2, b0, b1, b2)
         if cert > 0.0:
             # apart: certified while dacc grows by less than the gap less its margin (written
             # only then: neighbours apart by less, which a fragmenting mesh has many of, are

@@ -119,19 +119,22 @@ GROUPS = {"nodes": (NodeGroup, NODE_MEMBERS), "tris": (TriGroup, TRI_MEMBERS), "
 FORCE_BLOCKS = 2
 MAX_FORCE_BLOCKS = 64     # the couple ranges' bounds live in step_int[SPLIT + b], b = 0..blocks
 REBALANCE_STEPS = 128     # steps between two recomputations of the couple ranges (and after a detection)
-# estimated cost of a couple per step for the couple ranges, relative units: measured in the
-# block loop on the 10k and 100k plates after the impact, a bonded neighbour pair ~1 ns, boxes
-# apart ~10, triangles apart ~28, touching 190-230 (near-coincident neighbours the dearest).
-# With certificates of separation (engine.contact.couple_forces) many apart couples cost ~2 ns
-# instead, which the estimate cannot see (it depends on the state alone); the weights were kept:
-# lighter ones (3 / 8, 6 / 16) ran the 10k plate's last 1,000 steps 4-8 % slower on 2 threads,
-# and these keep the 1k pile's blocks within 1 % of each other.  The touching weight is set a
-# little higher, where the two blocks' measured times came out equal (within 1 % at 10k and
-# 4 % at 100k, against 2 % and 20 % with weights 1, 2, 6, 80)
-COST_BONDED = 1
-COST_APART = 10
-COST_SEPARATED = 28
-COST_TOUCHING = 300
+# estimated costs per step, ~ns on one thread, for the blocks' couple ranges
+# (engine.blocks.rebalance_couples), measured in the block loop: a couple bonded or skipped by its
+# certificate of separation ~4 (3.5 in a resting 10k pile, 4-5 in the 10k plate after the impact),
+# plus, for a certified one, the share of steps its certificate runs out (D_acc's growth per step
+# over its gap) times a test (~25); touching 160 (pile) to 210 (plate); a triangle's elastic forces
+# 10-18; an intact joint 55, damaged 75, broken 2.  The old weights (1 bonded, 10 boxes apart, 28
+# apart, 300 touching) ignored the certificates, which skip most apart couples: they gave the 10k
+# pile's two blocks 7 % apart on average (14 % after 9,000 steps), these 3 %
+COST_BONDED = 4
+COST_CERTIFIED = 4
+COST_SEPARATED = 25
+COST_TOUCHING = 200
+COST_TRI = 15
+COST_JOINT = 55
+COST_JOINT_DAMAGED = 75
+COST_BROKEN = 2
 BLOCK_STRIDE = 1024       # loop iterations per block (see engine.step.phase_blocks)
 UNSTABLE_BIT = 1 << 24   # added to engine.step.run_steps_serial's return value (steps per launch < 2^24)
 DUE_BIT = 1 << 25        # added to engine.step.run_steps_blocks' return value: contact detection is due

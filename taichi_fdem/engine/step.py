@@ -274,7 +274,7 @@ def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(),
         ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
         for _ in range(1):
             if step.step_int[REBALANCE] <= 0:
-                rebalance_couples(nblk, C, nodes, tris, con, step, fracture)
+                rebalance_couples(nblk, C, nodes, tris, con, joints, step, fracture)
                 step.step_int[REBALANCE] = REBALANCE_STEPS
             step.step_int[REBALANCE] -= 1
     # Taichi 1.7's CPU range-for hands each thread tasks of at least 512 iterations (its adaptive
