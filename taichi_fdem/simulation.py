@@ -183,9 +183,9 @@ class Simulation(SimulationResults):
     def force_blocks(self) -> int:
         """Blocks of the block assembly (default 2): at most this many threads share the force
         work of a parallel step.  The results depend on it (the blocks' sums are added in block
-        order), not on the thread count; each block after the first costs a copy of the nodal
-        forces written and cleared per step, so on 2 cores 2 beat 4 (benchmarks/README.md).  Set it to the cores
-        of a bigger machine (untested here: 2 cores).  May be changed between calls."""
+        order), not on the thread count.  On 2 cores 2 beat 4 and 8 on the pile; 4 won by ~4 %
+        on the fracturing plate (benchmarks/README.md).  Set it to the cores of a bigger machine
+        (untested here: 2 cores).  May be changed between calls."""
         return self._force_blocks
 
     @force_blocks.setter
