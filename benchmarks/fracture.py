@@ -99,6 +99,8 @@ def worker(args) -> dict:
     t0 = time.perf_counter()
     scene, dt, lay = scene_for(fdem, args.worker_size)
     sim = scene.build(dt=dt, strategy=args.strategy, handover_damage=args.handover_damage)
+    if args.force_blocks:
+        sim.force_blocks = args.force_blocks
     build_s = time.perf_counter() - t0
     info = sim.info()
     ntri = info["triangles"]
@@ -151,7 +153,7 @@ def worker(args) -> dict:
 
     return {"triangles": ntri, "joints": info["joints"], "nodes": info["nodes"], "threads": threads,
             "requested_threads": args.worker_threads, "strategy": sim.strategy, "precision": args.precision,
-            "handover_damage": args.handover_damage,
+            "handover_damage": args.handover_damage, "force_blocks": sim.force_blocks,
             "dt": dt, "h": lay["h"], "contact_step": contact_step, "steps": total, "chunk": chunk,
             "compile_s": compile_s, "build_s": build_s, "run_s": sum(c["seconds"] for c in chunks),
             "rate_all": rate(chunks), "rate_first_window": rate(first_window) if first_window else None,
@@ -170,7 +172,7 @@ def run_subprocess(args, size: int, threads: int) -> dict:
     cmd = [sys.executable, os.path.abspath(__file__), "--worker-size", str(size), "--worker-threads", str(threads),
            "--steps", str(args.steps), "--after-contact", str(args.after_contact), "--chunk", str(args.chunk),
            "--strategy", args.strategy, "--precision", args.precision, "--profile-steps", str(args.profile_steps),
-           "--handover-damage", repr(args.handover_damage)]
+           "--handover-damage", repr(args.handover_damage), "--force-blocks", str(args.force_blocks)]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1)
     result, tail = None, []
     for line in proc.stdout:
@@ -206,7 +208,8 @@ def table(head, rows, markdown: bool, left=()):
 def report(results, args) -> None:
     md = args.markdown
     print(f"\nFracture benchmark: plate impact (issue 10), {args.precision}, strategy {args.strategy}, "
-          f"handover_damage {args.handover_damage:g}\n")
+          f"handover_damage {args.handover_damage:g}"
+          + (f", force_blocks {args.force_blocks}" if args.force_blocks else "") + "\n")
     head = ["triangles", "joints", "threads", "strategy", "steps", "1st contact", "M tri-steps/s (all)",
             f"first {args.steps:,}", "after contact", "slowest chunk", "max couples", "broken", "ΔE/E0 end",
             "run s", "kernels s"]
@@ -273,6 +276,8 @@ def main(argv=None):
     ap.add_argument("--handover-damage", type=float, default=0.0,
                     help="Scene.build(handover_damage=...): damage at which a joint hands its pair over to "
                          "contact (default 0, the library's: the first damage; 0.05 is the speed option)")
+    ap.add_argument("--force-blocks", type=int, default=0,
+                    help="Simulation.force_blocks of the parallel strategy (default 0: the library's, 2)")
     ap.add_argument("--profile-steps", type=int, default=200,
                     help="steps of the phase profile after the run (default 200; 0: none)")
     ap.add_argument("--markdown", action="store_true", help="print Markdown tables")

@@ -183,6 +183,86 @@ def test_force_blocks_agree_and_are_checked(tmp_path):
             par.force_blocks = bad
 
 
+@pytest.mark.parametrize("team", [True, False])
+def test_block_copies_are_gathered_over_the_nodes_they_wrote(team):
+    """Each block b > 0 records the band of nodes whose entries of its copy of the nodal forces
+    it wrote (``integrate.sync_range``), and the gather adds and resets the copy over that band
+    only: an entry written outside it would survive the step.  After steps of a fragmenting
+    plate in 5 blocks, mid-launch state included, every copy is zero again and the bands are
+    reset, and the bands were narrower than the nodes (else they would save nothing here)."""
+    from taichi_fdem.engine.integrate import SYNC_LINE
+    from taichi_fdem.verification import fragment_plate_scene
+    sim, _ = fragment_plate_scene(h_plate=0.02, h_ball=0.02, friction=0.5)
+    sim = sim.scene.build(strategy="parallel")
+    sim.force_blocks = 5
+    sim.team_steps = team
+    sim.step(300)
+    assert sim.broken_joint_count > 0
+    N, nblk = sim.node_count, 5
+    copies = sim.scratch.asm_force.to_numpy()[: (nblk - 1) * N]
+    assert not np.any(copies)
+    sync = sim.scratch.asm_sync.to_numpy()
+    assert not np.any(sync[SYNC_LINE * (1 + nblk) + 2:])
+    # the bands: the nodes of each block's triangles, joints and touching couples
+    import taichi as ti
+    from taichi_fdem.engine.blocks import block_forces, item_counts
+    from taichi_fdem.engine.groups import DACC, AssemblyGroup, ContactGroup, JointGroup, MaterialGroup, NodeGroup
+    from taichi_fdem.engine.groups import StepGroup, TriGroup
+    from taichi_fdem.engine.integrate import sync_range
+
+    def bands(nodes, tris, mats, con, joints, step, asm, out, feat):
+        ti.loop_config(serialize=True)
+        for b in range(nblk):
+            T, J, C = item_counts(tris, joints, step, feat.contact, feat.fracture)
+            block_forces(b, nblk, T, J, C, step.step_real[DACC], nodes, tris, mats, con, joints, step, asm,
+                         feat.contact, feat.friction, feat.fracture)
+            out[b, 0] = asm.asm_sync[sync_range(nblk, b)]
+            out[b, 1] = asm.asm_sync[sync_range(nblk, b) + 1]
+
+    # (annotations set here: this module's are strings, ``from __future__ import annotations``)
+    bands.__annotations__ = dict(nodes=NodeGroup, tris=TriGroup, mats=MaterialGroup, con=ContactGroup,
+                                 joints=JointGroup, step=StepGroup, asm=AssemblyGroup, out=ti.types.ndarray(),
+                                 feat=ti.template())
+    bands = ti.kernel(bands)
+    out = np.zeros((nblk, 2), np.int32)
+    bands(*sim._groups["parallel"], out, sim._switches()[0])
+    span = (out[1:, 1] - out[1:, 0]).sum()
+    assert 0 < span < 0.5 * (nblk - 1) * N, out
+
+
+def test_team_workers_take_every_block_once():
+    """The order in which a worker of the team tries the blocks (``blocks.nth_block``): its own
+    blocks w, w + workers, ... first, then the others' from the last down, never block 0 (worker
+    0's, whose runner adds the loads); each block in a worker's order once, and every block in
+    some worker's order, for 1 to 4 workers and 1 to 9 blocks."""
+    import taichi as ti
+    from taichi_fdem.engine.blocks import nth_block
+
+    def order(w, nwork, nblk, out):
+        ti.loop_config(serialize=True)
+        for _ in range(1):
+            tail = nblk - 1
+            for k in range(nblk):
+                b, tail = nth_block(k, w, nwork, nblk, tail)
+                out[k] = b
+
+    order.__annotations__ = dict(w=ti.i32, nwork=ti.i32, nblk=ti.i32, out=ti.types.ndarray())
+    order = ti.kernel(order)
+
+    for nwork in range(1, 5):
+        for nblk in range(nwork, 10):
+            seen = set()
+            for w in range(nwork):
+                out = np.zeros(nblk, np.int32)
+                order(w, nwork, nblk, out)
+                tried = [int(b) for b in out if b >= 0]
+                own = list(range(w, nblk, nwork))
+                others = [b for b in range(nblk - 1, -1, -1) if b % nwork != w and b != 0]
+                assert tried == own + others, (nwork, nblk, w, tried)
+                seen |= set(tried)
+            assert seen == set(range(nblk))
+
+
 def _loaded_pair(strategy="parallel"):
     """A bar under every kind of load and constraint, pressed by a sliding block: a curve-driven
     prescribed velocity (its work booked), a traction, a pressure, a point force, an absorbing
