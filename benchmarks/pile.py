@@ -167,7 +167,7 @@ def recompile_check(fdem, strategy: str) -> dict:
 
 
 def bench_size(fdem, size: int, strategy: str, steps: int | None, seconds: float, profile: bool,
-               v_random: float = V_RANDOM) -> dict:
+               v_random: float = V_RANDOM, windows: int = WINDOWS) -> dict:
     t0 = time.perf_counter()
     scene, layout = build_scene(fdem, size, v_random=v_random)
     t1 = time.perf_counter()
@@ -191,9 +191,10 @@ def bench_size(fdem, size: int, strategy: str, steps: int | None, seconds: float
     n = steps if steps else max(5, int(math.ceil(seconds / per_step)))
     det0 = sim.detection_count
     step0 = sim.step_count
+    paused0 = sim.launches.get("step_parallel", 0)
     # the timed run in WINDOWS equal windows: the whole run's rate, and its best window's (the
     # machine is shared: a window another process slowed down shows in the mean, not the best)
-    per = [n // WINDOWS + (1 if k < n % WINDOWS else 0) for k in range(WINDOWS)]
+    per = [n // windows + (1 if k < n % windows else 0) for k in range(windows)]
     wall, best = 0.0, 0.0
     for m in per:
         if m == 0:
@@ -205,6 +206,9 @@ def bench_size(fdem, size: int, strategy: str, steps: int | None, seconds: float
         best = max(best, m / el)
     assert sim.step_count - step0 == n, (sim.step_count, step0, n)
     dets = sim.detection_count - det0
+    # steps launched one per launch: the team paused, its process having got less than its
+    # workers' CPU time (a busy host; Simulation._check_team)
+    paused = sim.launches.get("step_parallel", 0) - paused0
     x = sim.node_positions()
     if not np.all(np.isfinite(x)):
         raise RuntimeError(f"size {size}: non-finite positions after {sim.step_count} steps")
@@ -214,7 +218,7 @@ def bench_size(fdem, size: int, strategy: str, steps: int | None, seconds: float
            "couples_at_build": couples0, "strategy": sim.strategy, "precision": info["precision"],
            "dt": sim.dt, "steps": n, "seconds": wall, "steps_per_s": n / wall, "steps_per_s_best": best,
            "mtri_steps_per_s": n * sim.tri_count / wall / 1e6,
-           "detections_per_1k_steps": 1000.0 * dets / n,
+           "detections_per_1k_steps": 1000.0 * dets / n, "paused_steps": paused,
            "scene_s": t1 - t0, "build_s": t2 - t1, "first_step_s": t3 - t2}
     for ph in ("elastic", "detection", "contact", "integration"):
         row[ph] = None
@@ -236,7 +240,7 @@ COLUMNS = [  # (header, key, format)
     ("couples/tri", "couples_per_tri", "{:.2f}"), ("steps", "steps", "{:,}"),
     ("steps/s", "steps_per_s", "{:,.0f}"), ("best window", "steps_per_s_best", "{:,.0f}"),
     ("Mtri-steps/s", "mtri_steps_per_s", "{:.1f}"),
-    ("det/1k steps", "detections_per_1k_steps", "{:.1f}"),
+    ("det/1k steps", "detections_per_1k_steps", "{:.1f}"), ("paused steps", "paused_steps", "{:,}"),
     ("elastic", "elastic", "{:.0%}"), ("detection", "detection", "{:.0%}"), ("contact", "contact", "{:.0%}"),
     ("integration", "integration", "{:.0%}"), ("scene s", "scene_s", "{:.2f}"), ("build s", "build_s", "{:.2f}"),
     ("1st step s", "first_step_s", "{:.3f}"), ("cold start s", "cold_s", "{:.1f}"),
@@ -294,21 +298,23 @@ def measure(args, strategies):
               flush=True)
         for size in args.sizes:
             steps = args.steps or json.loads(args.steps_map).get(f"{strategy}:{size}")
-            row = bench_size(fdem, size, strategy, steps, args.seconds, not args.no_profile, args.velocity)
+            row = bench_size(fdem, size, strategy, steps, args.seconds, not args.no_profile, args.velocity,
+                             args.windows)
             row["threads"] = threads
             row["size"] = size
             rows.append(row)
             print(f"  {row['triangles']:>8,} triangles ({row['strategy']}, {threads} thread(s)): {row['couples']:,} "
                   f"couples ({row['couples_per_tri']:.2f}/triangle), {row['steps_per_s']:,.1f} steps/s = "
                   f"{row['mtri_steps_per_s']:.1f} M triangle-steps/s over {row['steps']:,} steps "
-                  f"(best of {WINDOWS} windows {row['steps_per_s_best']:,.0f} steps/s); "
+                  f"(best of {args.windows} windows {row['steps_per_s_best']:,.0f} steps/s); "
                   f"build {row['scene_s'] + row['build_s']:.2f} s", flush=True)
     return rows, resolved
 
 
 def argv_for_worker(args, threads: int, steps_map: dict | None = None) -> list:
     a = ["--sizes", *map(str, args.sizes), "--seconds", str(args.seconds), "--precision", args.precision,
-         "--strategy", args.strategy, "--velocity", str(args.velocity), "--worker-threads", str(threads)]
+         "--strategy", args.strategy, "--velocity", str(args.velocity), "--worker-threads", str(threads),
+         "--windows", str(args.windows)]
     if args.steps:
         a += ["--steps", str(args.steps)]
     elif steps_map:
@@ -349,6 +355,9 @@ def main(argv=None) -> int:
     ap.add_argument("--velocity", type=float, default=V_RANDOM,
                     help=f"std. dev. of the random initial velocity [m/s] (default {V_RANDOM}); larger: "
                          "more frequent contact detection")
+    ap.add_argument("--windows", type=int, default=WINDOWS,
+                    help=f"windows of the timed run (default {WINDOWS}): steps/s is given over the run and in its best "
+                         "window, which a busy host slowed least")
     ap.add_argument("--csv", default=None, help="also write the rows to this CSV file")
     ap.add_argument("--markdown", action="store_true", help="print a Markdown table")
     ap.add_argument("--no-startup", action="store_true", help="skip the cold / warm start subprocesses")
@@ -361,6 +370,8 @@ def main(argv=None) -> int:
     ap.add_argument("--startup", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--startup-size", type=int, default=STARTUP_SIZE, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.windows < 1:
+        ap.error(f"--windows must be at least 1, got {args.windows}")
 
     strategies = [s.strip() for s in args.strategy.split(",") if s.strip()]
     for s in strategies:
