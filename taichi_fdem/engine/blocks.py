@@ -104,7 +104,7 @@ def rebalance_couples(nblk, C, nodes: ti.template(), tris: ti.template(), con: t
     come out about equal at the current positions: step_int[SPLIT + b] is the first couple of
     block b (SPLIT + nblk and the unused slots hold C): the first couple at which the cost of the
     blocks before b and of the couples before it reaches b / nblk of the total.  Serial, two
-    passes over the couples and the joints (~10 ns per couple); run every REBALANCE_STEPS steps
+    passes over the couples and the joints (~25 ns per couple); run every REBALANCE_STEPS steps
     and after each detection.  A function of the state only, which keeps the sums the same for
     any thread count, and, the bounds being part of the state, a restart from a checkpoint
     bit-identical."""
@@ -202,8 +202,8 @@ def block_forces(b, nblk, T, J, C, dacc, nodes: ti.template(), tris: ti.template
 @ti.func
 def claim(asm: ti.template(), b, ticket):
     """Take block b (none if b < 0) for the phase of a team launch numbered ``ticket`` (increasing
-    within the launch): True for exactly one worker (atomic max on the block's claim slot, whose old value is
-    below the ticket only for the first)."""
+    within the launch): True for exactly one worker (an atomic max on the block's claim slot,
+    whose old value is below the ticket only for the first)."""
     ok = False
     if b >= 0:          # (a nested test: Taichi's ``and`` evaluates both operands)
         ok = ti.atomic_max(asm.asm_sync[sync_claim(b)], ticket) < ticket
