@@ -12,8 +12,8 @@ import numpy as np
 import taichi as ti
 
 from . import backend
-from .engine.groups import (COUPLES, DACC, DACC_FORCE, FORCE_BLOCKS, GROUPS, HANDOVER, INT_COUNTERS, NB_PAIRS, QS_ALPHA,
-                            REAL_COUNTERS, REBALANCE, SYNC_LINE)
+from .engine.groups import (COUPLES, DACC, DACC_FORCE, DET_CAND, FORCE_BLOCKS, GROUPS, HANDOVER, INT_COUNTERS,
+                            NB_PAIRS, QS_ALPHA, REAL_COUNTERS, REBALANCE, SYNC_LINE)
 from .model import Model, Scratch, State, _ndarray, _next_pow2, counter, set_counter
 
 
@@ -127,7 +127,8 @@ def allocate_scratch(md: Model, st: State, parallel: bool = False, blocks: bool 
     sw.det_bound = ti.Vector.ndarray(13, rti, shape=K)   # circle (c, r), box (lo, hi), vertices
     sw.det_sort = ti.Vector.ndarray(3, ti.i32, shape=K)
     sw.det_bucket = ti.Vector.ndarray(2, ti.i32, shape=H)
-    for name, n in (("cnew", K + 1), ("old_start", K + 1 if md.friction else 1)):
+    # det_cnew: the K + 1 counts, then DET_CAND partners per contact triangle (engine.detection.cand_slot)
+    for name, n in (("cnew", K + 1 + DET_CAND * K), ("old_start", K + 1 if md.friction else 1)):
         setattr(sw, "det_" + name, ti.ndarray(ti.i32, shape=n))
     size_couple_scratch(md, st, sw)
     return sw

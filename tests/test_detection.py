@@ -113,6 +113,17 @@ def test_couple_buffer_grows_at_build(strategy):
     expected = expected_couples(sim, scene)
     assert len(expected) > 2 * K + 64
     assert couple_set(sim) == expected
+    _assert_both_fill_paths(sim)
+
+
+def _assert_both_fill_paths(sim):
+    """The fill writes a contact triangle's couples from the partners its count scan kept, up to
+    DET_CAND of them, and scans again beyond (``engine.detection.fill_partners``): the scene
+    must have triangles of both kinds for a brute-force comparison to check both."""
+    from taichi_fdem.engine.groups import DET_CAND
+    per = np.bincount(sim.couples()[:, 0])
+    per = per[per > 0]
+    assert per.min() <= DET_CAND < per.max(), (per.min(), per.max())
 
 
 def contracting_lattice(n=15, spacing=0.05, radius=0.01, final_spacing=0.0215, buffer=0.02):

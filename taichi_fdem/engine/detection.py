@@ -20,7 +20,7 @@ caller grows the buffer and fills; no couple is ever dropped.
 """
 import taichi as ti
 
-from .groups import INTACT, RMAX
+from .groups import DET_CAND, INTACT, RMAX
 
 from .tiutil import vec2
 
@@ -129,12 +129,35 @@ def share_a_node(na, nb):
 
 
 @ti.func
+def cand_slot(k, i, det: ti.template()):
+    """det_cnew slot of the i-th partner (i < DET_CAND) that the count scan of contact triangle k
+    kept: after the K + 1 counts."""
+    return det.contact_tri.shape[0] + 1 + DET_CAND * k + i
+
+
+@ti.func
+def write_couple(k, c, ta, tb, det: ti.template(), con: ti.template(), friction: ti.template()):
+    """Couple c = (ta, tb), found by contact triangle k; with friction, the slip history it had
+    at the previous detection (none if it is new)."""
+    con.couple_a[c] = ta
+    con.couple_b[c] = tb
+    if ti.static(friction):
+        for q in ti.static(range(6)):
+            con.couple_hist[6 * c + q] = 0.0
+        for co in range(det.det_old_start[k], det.det_old_start[k + 1]):
+            if det.det_old_b[co] == tb:
+                for q in ti.static(range(6)):
+                    con.couple_hist[6 * c + q] = det.det_old_hist[6 * co + q]
+
+
+@ti.func
 def scan_partners(k, count_only: ti.template(), det: ti.template(), con: ti.template(), tris: ti.template(),
                   step: ti.template(), out_start, friction: ti.template()):
     """Find the couples (k, k2), k2 > k, of contact triangle k.
 
-    With count_only, returns their number; otherwise writes them from out_start on (and, with
-    friction, copies the slip history of couples that existed at the previous detection).
+    With count_only, returns their number and keeps the first DET_CAND partners k2 (:func:`cand_slot`)
+    (in scan order, which the fill copies instead of scanning again: :func:`fill_partners`);
+    otherwise writes them from out_start on (:func:`write_couple`).
     """
     H = det.det_bucket.shape[0]
     d = cell_size(step)
@@ -180,16 +203,26 @@ def scan_partners(k, count_only: ti.template(), det: ti.template(), con: ti.temp
                     if near:
                         tb = det.contact_tri[k2]
                         if not is_excluded(ta, tb, tris, det):
-                            if ti.static(not count_only):
-                                c = out_start + found
-                                con.couple_a[c] = ta
-                                con.couple_b[c] = tb
-                                if ti.static(friction):
-                                    for q in ti.static(range(6)):
-                                        con.couple_hist[6 * c + q] = 0.0
-                                    for co in range(det.det_old_start[k], det.det_old_start[k + 1]):
-                                        if det.det_old_b[co] == tb:
-                                            for q in ti.static(range(6)):
-                                                con.couple_hist[6 * c + q] = det.det_old_hist[6 * co + q]
+                            if ti.static(count_only):
+                                if found < DET_CAND:
+                                    det.det_cnew[cand_slot(k, found, det)] = k2
+                            else:
+                                write_couple(k, out_start + found, ta, tb, det, con, friction)
                             found += 1
     return found
+
+
+@ti.func
+def fill_partners(k, det: ti.template(), con: ti.template(), tris: ti.template(), step: ti.template(),
+                  friction: ti.template()):
+    """Write the couples of contact triangle k from det_cnew[k] on: from the partners its count
+    scan kept (:func:`cand_slot`), or, when it found more than DET_CAND, by scanning again (the same
+    couples in the same order either way)."""
+    lo = det.det_cnew[k]
+    n = det.det_cnew[k + 1] - lo
+    if n > DET_CAND:
+        scan_partners(k, False, det, con, tris, step, lo, friction)
+    else:
+        ta = det.contact_tri[k]
+        for i in range(n):
+            write_couple(k, lo + i, ta, det.contact_tri[det.det_cnew[cand_slot(k, i, det)]], det, con, friction)

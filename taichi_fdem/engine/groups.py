@@ -117,6 +117,8 @@ GROUPS = {"nodes": (NodeGroup, NODE_MEMBERS), "tris": (TriGroup, TRI_MEMBERS), "
 # sums, and the results, are the same bits for any number of threads; at most that many threads
 # share the force work.
 FORCE_BLOCKS = 2
+DET_CAND = 8              # partners of a contact triangle the count scan keeps for the fill (engine.detection,
+                          # in det_cnew after its K + 1 counts: a new array would pass Taichi's 64 arguments)
 MAX_FORCE_BLOCKS = 64     # the couple ranges' bounds live in step_int[SPLIT + b], b = 0..blocks
 REBALANCE_STEPS = 128     # steps between two recomputations of the couple ranges (and after a detection)
 # estimated costs per step, ~ns on one thread, for the blocks' couple ranges

@@ -46,7 +46,7 @@ import taichi as ti
 
 from .blocks import block_forces, item_counts, rebalance_couples, team_worker
 from .contact import book_contact_work, couple_forces, eval_couple
-from .detection import bin_circle, prepare_circle, scan_partners
+from .detection import bin_circle, fill_partners, prepare_circle, scan_partners
 from .elastic import eval_tri_elastic, tri_forces
 from .groups import (BLOCK_STRIDE, COUPLES, DACC, DETECTIONS, DUE_BIT, FOUND, INVERTED, NB_PAIRS, NONFINITE,  # noqa: F401
                      REBALANCE, REBALANCE_STEPS, RMAX, UNSTABLE_BIT, VMAX, AssemblyGroup, ContactGroup, DetectGroup,
@@ -137,7 +137,7 @@ def phase_detect_fill(tris: ti.template(), det: ti.template(), con: ti.template(
             for q in ti.static(range(6)):
                 det.det_old_hist[6 * c + q] = con.couple_hist[6 * c + q]
     for k in range(K):
-        scan_partners(k, False, det, con, tris, step, det.det_cnew[k], friction)
+        fill_partners(k, det, con, tris, step, friction)
     for c in range(det.det_cnew[K]):
         con.couple_skip[c] = 0.0          # no certificate of separation (dacc restarts at 0)
     ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
