@@ -17,7 +17,7 @@ _PRECISIONS = {"f64": (ti.f64, np.float64), "f32": (ti.f32, np.float32)}
 _state = {"initialised": False, "arch": None, "precision": None}
 
 
-def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, debug: bool = False,
+def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, debug: bool | None = None,
          cpu_max_num_threads: int | None = None, fast_compile: bool | None = None) -> None:
     """Initialise Taichi for taichi_fdem.
 
@@ -27,7 +27,9 @@ def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, 
         backend is tested; GPU back ends are expected to work but are untested.
     precision : "f64" (default) or "f32", the floating-point type of every real field.
     offline_cache : keep compiled kernels on disk so that a second run starts fast.
-    debug : Taichi debug mode (bounds checks; slow).
+    debug : Taichi debug mode (bounds checks on every array access; slow).  None (default): on
+        when the environment variable TAICHI_FDEM_DEBUG is "1" (for example
+        ``TAICHI_FDEM_DEBUG=1 make test``).
     cpu_max_num_threads : threads of the CPU back end (default: all cores).
     fast_compile : skip Taichi's advanced IR optimisations.  Measured on the 1k-triangle pile
         (benchmarks/pile.py): cold start 3.0 s instead of 9.8 s, stepping ~22 % slower.  For
@@ -43,6 +45,8 @@ def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, 
         raise ValueError(f"fdem.init: unknown arch {arch!r}; choose one of {sorted(_ARCHS)}")
     if precision not in _PRECISIONS:
         raise ValueError(f"fdem.init: unknown precision {precision!r}; choose 'f64' or 'f32'")
+    if debug is None:
+        debug = os.environ.get("TAICHI_FDEM_DEBUG", "") == "1"
     kwargs = dict(arch=getattr(ti, _ARCHS[arch]), default_fp=_PRECISIONS[precision][0], default_ip=ti.i32,
                   offline_cache=offline_cache, debug=debug, log_level=ti.WARN)
     if cpu_max_num_threads is not None:

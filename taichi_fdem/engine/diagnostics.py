@@ -110,13 +110,23 @@ def energy_terms(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: Con
         prop = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]]
         bonded = False
         if ti.static(fracture):
-            bonded = ((c < step.step_int[NB_PAIRS] and tris.tri_nb_on[c] == 0) or tris.tri_intact[A] < 0
+            bonded = (nb_skipped(c, tris.tri_nb_on, step.step_int[NB_PAIRS]) or tris.tri_intact[A] < 0
                       or tris.tri_intact[B] < 0)
         if not bonded and boxes_overlap(a0, a1, a2, b0, b1, b2):
             out[2] += prop[0] * (pass_potential(b0, b1, b2, a0, a1, a2) + pass_potential(a0, a1, a2, b0, b1, b2))
         if ti.static(friction):
             for q in ti.static(range(6)):
                 out[2] += 0.5 * prop[1] * con.couple_hist[6 * c + q] ** 2
+
+
+@ti.func
+def nb_skipped(c, nb_on: ti.template(), nb_count):
+    """Couple c is a neighbour pair (c < nb_count) that contact skips (nb_on[c] = 0).  Nested:
+    Taichi's ``and`` evaluates both sides, and nb_on holds only the neighbour pairs."""
+    skip = False
+    if c < nb_count:
+        skip = nb_on[c] == 0
+    return skip
 
 
 @ti.kernel
@@ -127,7 +137,7 @@ def overlap_areas(node_x: ti.types.ndarray(), tri_nodes: ti.types.ndarray(), cou
     contact skips: c < nb_count and nb_on[c] = 0)."""
     for c in range(couple_count):
         area = 0.0
-        if c >= nb_count or nb_on[c] != 0:
+        if not nb_skipped(c, nb_on, nb_count):
             na = tri_nodes[couple_a[c]]
             nb = tri_nodes[couple_b[c]]
             area, mom = clip_moments(node_x[na[0]], node_x[na[1]], node_x[na[2]],
@@ -147,7 +157,7 @@ def couple_penetrations(node_x: ti.types.ndarray(), tri_nodes: ti.types.ndarray(
     neighbour pair that contact skips (c < nb_count and nb_on[c] = 0: bonded, or removed) has 0.
     """
     for c in range(couple_count):
-        if c < nb_count and nb_on[c] == 0:
+        if nb_skipped(c, nb_on, nb_count):
             depth[c] = 0.0
             fraction[c] = 0.0
             continue

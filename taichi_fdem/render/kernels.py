@@ -82,6 +82,16 @@ def _clear_kernel(img: ti.types.ndarray(), bg: _vec3f):
 
 
 @ti.func
+def _drawable(x: ti.template(), ia, ib, ic, n):
+    """Nodes ia, ib, ic all in [0, n) (a hidden triangle has -1) and finite.  The range test
+    guards the reads: Taichi's ``and`` evaluates both sides, so the two tests are nested."""
+    ok = False
+    if 0 <= ia < n and 0 <= ib < n and 0 <= ic < n:
+        ok = _finite_tri(x[ia], x[ib], x[ic])
+    return ok
+
+
+@ti.func
 def _finite_tri(a, b, c):
     """All six coordinates finite: a triangle with a NaN / inf node (a blown-up run) is skipped,
     not clamped into a band of stray pixels."""
@@ -104,7 +114,7 @@ def _raster_kernel(p: ti.types.ndarray(), tri: ti.types.ndarray(), col: ti.types
         ia = tri[t][0]
         ib = tri[t][1]
         ic = tri[t][2]
-        if 0 <= ia < n and 0 <= ib < n and 0 <= ic < n and _finite_tri(p[ia], p[ib], p[ic]):
+        if _drawable(p, ia, ib, ic, n):
             a = p[ia]
             b = p[ib]
             c = p[ic]
@@ -291,7 +301,7 @@ def _raster_u8_kernel(x: ti.types.ndarray(), tri: ti.types.ndarray(), col: ti.ty
         ia = tri[t][0]
         ib = tri[t][1]
         ic = tri[t][2]
-        if 0 <= ia < n and 0 <= ib < n and 0 <= ic < n and _finite_tri(x[ia], x[ib], x[ic]):
+        if _drawable(x, ia, ib, ic, n):
             pa = _pix(x[ia], params)
             pb = _pix(x[ib], params)
             pc = _pix(x[ic], params)
