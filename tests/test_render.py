@@ -772,3 +772,36 @@ def test_annotate_crop_equals_full_frame_composite():
                     d.rectangle((l - 2, t - 2, r + 2, b + 2), fill=(255, 255, 255, 170))
                 d.text(xy, "analytic s = 0.123 m", font=font, fill=(200, 0, 0, 255))
                 assert np.array_equal(got, np.asarray(Image.alpha_composite(pil, layer).convert("RGB")))
+
+
+def test_excavated_triangles_render_without_out_of_bounds_reads(tmp_path):
+    """A simulation with removed triangles (their node indices −1 in the drawn list) renders in
+    Taichi's debug mode, which bounds-checks every array access (a fresh process: the debug
+    flag is fixed at init).  Fails if a raster kernel reads a node at index −1: in a release
+    build such a read goes unnoticed."""
+    import subprocess
+    import sys
+    import textwrap
+    code = textwrap.dedent("""
+        import numpy as np
+        import taichi_fdem as fdem
+        from taichi_fdem import render
+        fdem.init()
+        mat = fdem.Material(density=2500.0, young=1e8, poisson=0.25)
+        scene = fdem.Scene()
+        scene.add_body(fdem.mesh.rectangle(0.2, 0.1, 0.025), mat)
+        sim = scene.build()
+        n = sim.remove(where=lambda x, y: x < 0.05)
+        assert n > 0
+        r = render.RendererImage(width=64, height=32)
+        img = r.render_sim(sim)
+        assert img.shape == (32, 64, 3)
+        r.color_by = "speed"
+        r.render_sim(sim)
+        print("ok", n)
+        """)
+    env = dict(os.environ, TAICHI_FDEM_DEBUG="1", TAICHI_FDEM_CACHE=str(tmp_path / "cache"))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600,
+                         cwd=os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert "ok" in out.stdout
