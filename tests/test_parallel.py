@@ -27,7 +27,8 @@ x, v = sim.node_positions(), sim.node_velocities()
 e = sim.energies()
 print(json.dumps({"hash": hashlib.sha1(x.tobytes() + v.tobytes()).hexdigest(),
                   "broken": sim.broken_joint_count, "couples": sim.couple_count,
-                  "friction": e["friction"].hex(), "fracture": e["fracture"].hex(), "joints": e["joints"].hex()}))
+                  "friction": e["friction"].hex(), "fracture": e["fracture"].hex(), "joints": e["joints"].hex(),
+                  "energies": [e[k].hex() for k in ("kinetic", "strain", "contact", "gravity", "damping")]}))
 """
 
 
@@ -42,7 +43,8 @@ def _run(threads: int, assembly: str, blocks: int = 2) -> dict:
 def test_parallel_is_bit_identical_across_thread_counts(assembly, blocks):
     """A fragmenting impact (joints breaking, couples changing, friction) on 1 and 2 threads:
     the same bits, positions and velocities and (blocks: summed in block order) the friction
-    work and the joints' work too; for 3 blocks as well (more blocks than threads)."""
+    work and the joints' work too; for 3 blocks as well (more blocks than threads).  The energy
+    account of the same state is the same bits too (``energies()`` sums serially)."""
     one, two = _run(1, assembly, blocks), _run(2, assembly, blocks)
     assert one["broken"] > 0 and one["couples"] > 0 and float.fromhex(one["friction"]) > 0.0
     if assembly == "slots":                     # its friction work is summed with atomics

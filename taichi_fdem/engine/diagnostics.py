@@ -87,19 +87,25 @@ def energy_terms(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: Con
     Neighbour pairs bonded by intact joints (``tri_nb_on`` 0: those whose forces contact skips,
     :func:`taichi_fdem.engine.contact.couple_forces`), and pairs with a removed triangle, carry
     no contact energy, as they carry no contact force.
+
+    The sums run serially, in index order: the same bits for any number of threads (a parallel
+    loop would add into ``out`` with atomics, in a different order at every call).
     """
     for i in range(5):
         out[i] = 0.0
     g = step.step_gravity[None]
+    ti.loop_config(serialize=True)
     for i in range(nodes.node_x.shape[0]):
         m = nodes.node_mass[i]
         out[0] += 0.5 * m * nodes.node_v[i].norm_sqr()
         out[3] -= m * g.dot(nodes.node_x[i])
     damp_on = step.step_switches[None] & SWITCH_DAMPING
+    ti.loop_config(serialize=True)
     for e in range(tris.tri_nodes.shape[0]):
         out[1] += tri_strain_energy(e, nodes, tris, mats, step)
         if damp_on != 0:
             out[4] += tris.tri_diss[e]
+    ti.loop_config(serialize=True)
     for c in range(couple_count):
         A = con.couple_a[c]
         B = con.couple_b[c]
