@@ -14,7 +14,7 @@ import taichi as ti
 _ARCHS = {"cpu": "cpu", "cuda": "cuda", "gpu": "gpu", "vulkan": "vulkan", "metal": "metal", "opengl": "opengl"}
 _PRECISIONS = {"f64": (ti.f64, np.float64), "f32": (ti.f32, np.float32)}
 
-_state = {"initialised": False, "arch": None, "precision": None}
+_state = {"initialised": False, "arch": None, "precision": None, "generation": 0}
 
 
 def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, debug: bool | None = None,
@@ -39,7 +39,9 @@ def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, 
         default.  None (default): on when the environment variable TAICHI_FDEM_FAST_COMPILE is
         "1".
 
-    Calling ``init`` again re-initialises Taichi: simulations built before become invalid.
+    Calling ``init`` again with the same settings does nothing (a notebook cell or a pasted
+    example may call it twice).  With other settings it re-initialises Taichi: simulations built
+    before become invalid.
     """
     if arch not in _ARCHS:
         raise ValueError(f"fdem.init: unknown arch {arch!r}; choose one of {sorted(_ARCHS)}")
@@ -58,14 +60,30 @@ def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, 
     cache_dir = os.environ.get("TAICHI_FDEM_CACHE")
     if cache_dir:
         kwargs["offline_cache_file_path"] = cache_dir
+    if _state["initialised"] and _state.get("kwargs") == kwargs:
+        return
     ti.init(**kwargs)
-    _state.update(initialised=True, arch=arch, precision=precision)
+    _state.update(initialised=True, arch=arch, precision=precision, kwargs=kwargs, generation=_state["generation"] + 1)
 
 
 def ensure_init() -> None:
     """Initialise with defaults (CPU, f64) unless :func:`init` was already called."""
     if not _state["initialised"]:
         init()
+
+
+def generation() -> int:
+    """How many times :func:`init` has initialised Taichi in this process (0: not yet)."""
+    return _state["generation"]
+
+
+def check_generation(built: int) -> None:
+    """Raise a clear error when Taichi was re-initialised (by :func:`init` with other settings)
+    after a simulation was built at generation ``built``: its arrays were freed with the old
+    Taichi program."""
+    if built != _state["generation"]:
+        raise RuntimeError("this simulation was built before fdem.init(...) re-initialised Taichi with other "
+                           "settings, which freed its arrays; build it again (or load it from a checkpoint)")
 
 
 def is_initialised() -> bool:

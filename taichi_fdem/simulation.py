@@ -82,6 +82,7 @@ class Simulation(SimulationResults):
     def __init__(self, scene, dt=None, safety=0.2, force_dt=False, buffer=None, strategy="auto", check_overlap=True,
                  speed_limit=None, quasi_static=0.0, joined_pairs="joint", handover_damage=None):
         backend.ensure_init()
+        self._generation = backend.generation()
         if strategy not in ("auto", "serial", "parallel"):
             raise ValueError(f"Scene.build: strategy must be 'auto', 'serial' or 'parallel', got {strategy!r}")
         self.scene = scene
@@ -119,12 +120,9 @@ class Simulation(SimulationResults):
         md = self.model
         return md.tri_count + (md.joint_count if md.fracture else 0) + self.couple_count >= AUTO_PARALLEL_ITEMS
 
-    # ------------------------------------------------------------------------------------------
-    # model / state access
-    # ------------------------------------------------------------------------------------------
+    # model / state access ---------------------------------------------------------------------
     def __getattr__(self, name):
-        # only called for names not found normally: the model's counts, flags and time steps,
-        # and (compatibility) the arrays by their names in the model, state or scratch
+        # for names not found normally: the model's counts, flags, time steps and (compatibility) arrays
         if name in ("model", "state", "scratch") or name.startswith("__"):
             raise AttributeError(name)
         name = _ALIASES.get(name, name)
@@ -401,6 +399,7 @@ class Simulation(SimulationResults):
         n = int(n)
         if n < 0:
             raise ValueError(f"step: n must be >= 0, got {n}")
+        backend.check_generation(self._generation)
         t0 = _time.perf_counter()
         self._forget_apart()
         if self.strategy == "serial":

@@ -118,6 +118,63 @@ print(json.dumps(sim.node_positions().tolist()))
     assert np.abs(runs[0] - runs[1]).max() <= 1e-9 * np.abs(runs[0]).max()
 
 
+def test_init_again_with_the_same_settings_keeps_built_simulations():
+    """A second ``fdem.init()`` with the settings in force (a pasted README example, a notebook
+    cell run twice) leaves Taichi as it is: a simulation built before keeps running, to the same
+    bits as one that never saw the second call.  (Re-initialising would free its arrays.)"""
+    code = r"""
+import gc, hashlib, sys
+import taichi_fdem as fdem
+fdem.init()
+from taichi_fdem.verification import two_disks_scene
+sims = [two_disks_scene() for _ in range(2)]
+sims = [s[0] if isinstance(s, tuple) else s for s in sims]
+sims[0].step(100)
+if sys.argv[1] == "1":
+    fdem.init()
+    fdem.init(arch="cpu", precision="f64")
+    gc.collect()
+sims[0].step(100)
+sims[1].step(200)
+print(hashlib.sha1(sims[0].node_positions().tobytes()).hexdigest(),
+      hashlib.sha1(sims[1].node_positions().tobytes()).hexdigest())
+"""
+    outs = []
+    for again in ("0", "1"):
+        r = subprocess.run([sys.executable, "-c", code, again], capture_output=True, text=True, timeout=900)
+        assert r.returncode == 0, r.stderr[-3000:]
+        outs.append(r.stdout.split()[-2:])
+    assert outs[0] == outs[1]
+    assert outs[0][0] == outs[0][1]
+
+
+def test_init_with_other_settings_stops_old_simulations_with_a_clear_error():
+    """Re-initialising Taichi with other settings frees the arrays of every simulation built
+    before: stepping one raises a RuntimeError that says so (not Taichi's 'argument not found'
+    or a crash), and a simulation built afterwards runs."""
+    code = r"""
+import taichi_fdem as fdem
+fdem.init()
+from taichi_fdem.verification import two_disks_scene
+old = two_disks_scene()
+old = old[0] if isinstance(old, tuple) else old
+old.step(10)
+fdem.init(cpu_max_num_threads=1)
+try:
+    old.step(10)
+except RuntimeError as err:
+    print("ERR", err)
+new = two_disks_scene()
+new = new[0] if isinstance(new, tuple) else new
+new.step(10)
+print("OK")
+"""
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert "ERR this simulation was built before fdem.init(...) re-initialised Taichi" in r.stdout
+    assert r.stdout.strip().endswith("OK")
+
+
 def test_auto_strategy_follows_the_work_and_the_threads(monkeypatch):
     """'auto' runs parallel on the CPU with >= 2 threads once triangles + joints + couples reach
     AUTO_PARALLEL_ITEMS, serial below it (and always serial on one thread)."""
