@@ -21,27 +21,28 @@ import time as _time
 from contextlib import closing as _closing, nullcontext
 
 import numpy as np
-import taichi as ti
 
-from . import backend, guards
+from . import backend, excavation, guards
 from .engine import refresh, step as kernels
 from .engine.tiutil import launch_cached
 from .guards import SimulationError
-from .engine.groups import (COUPLES, DACC, DACC_FORCE, DETECTIONS, FORCE_BLOCKS, FOUND, MAX_FORCE_BLOCKS, REBALANCE,
-                            SWITCH_BC)
+from .engine.groups import COUPLES, DACC, DETECTIONS, FORCE_BLOCKS, FOUND, MAX_FORCE_BLOCKS, REBALANCE
 from .model import build_model, counter, set_counter
 from .state import allocate_scratch, allocate_state, grow_couples, pack_groups, size_assembly, size_couple_scratch
 from .cracks import CrackEventLog
 from .results import History, SimulationResults
 from .timestep import CONTACT_LIMIT_FACTOR  # noqa: F401  (re-exported)
 
-__all__ = ["Simulation", "SimulationError", "SERIAL_MAX_STEPS", "SERIAL_TRI_STEPS", "AUTO_PARALLEL_ITEMS"]
+__all__ = ["Simulation", "SimulationError", "SERIAL_MAX_STEPS", "SERIAL_TRI_STEPS", "AUTO_PARALLEL_ITEMS",
+           "DETECT_SERIAL_TRIS"]
 
 SERIAL_MAX_STEPS = 2000          # at most this many steps per serial launch
 SERIAL_TRI_STEPS = 2_000_000     # ~50 ms of work per serial launch: responsive progress and Ctrl-C
 TEAM_CPU_SHARE = 0.6            # a team launch that got less CPU than this share of its workers...
-TEAM_PAUSE = 5.0                # ...makes the parallel strategy launch once per step for this long [s]
+TEAM_PAUSE = 5.0                # ...makes the parallel strategy give way for this long [s]:
+PAUSE_SOLO_ITEMS = 50_000       # a team of one below this many items, one launch per step above
 AUTO_PARALLEL_ITEMS = 20_000     # triangles + joints + couples from which "auto" runs parallel on >= 2 CPU threads
+DETECT_SERIAL_TRIS = 15_000      # up to this many contact triangles, detection runs as one serial launch
 
 # Names the simulation answered before the model/state split (kept for scripts that reach the
 # arrays directly; new code uses sim.model.* and sim.state.*).
@@ -115,10 +116,12 @@ class Simulation(SimulationResults):
 
     def _parallel_pays(self) -> bool:
         """Whether the parallel strategy beats the serial one on this CPU (module docstring)."""
-        if backend.cpu_threads() < 2:
-            return False
+        return backend.cpu_threads() >= 2 and self._items() >= AUTO_PARALLEL_ITEMS
+
+    def _items(self) -> int:
+        """Work items of a step: triangles + joints + contact couples."""
         md = self.model
-        return md.tri_count + (md.joint_count if md.fracture else 0) + self.couple_count >= AUTO_PARALLEL_ITEMS
+        return md.tri_count + (md.joint_count if md.fracture else 0) + self.couple_count
 
     # model / state access ---------------------------------------------------------------------
     def __getattr__(self, name):
@@ -247,78 +250,11 @@ class Simulation(SimulationResults):
         booked in ``energies()["excavated"]`` so that the balance still closes.  Loads on edges
         of removed triangles stay applied.  Selecting no present triangle is an error.
         """
-        md, st = self.model, self.state
-        if body is None and where is None:
-            raise ValueError("remove: give body= and/or where= (a predicate on initial coordinates)")
-        sel = np.ones(md.tri_count, bool)
-        if body is not None:
-            sel[:] = False
-            sel[self._body_obj(body).triangles] = True
-        if where is not None:
-            if not callable(where):
-                raise TypeError("remove: where must be a callable where(x, y) -> bool array (initial coordinates)")
-            c = md.node_rest[md.tri_nodes_np].mean(axis=1)
-            w = np.asarray(where(c[:, 0].copy(), c[:, 1].copy()), dtype=bool)
-            if w.shape != sel.shape:
-                raise ValueError(f"remove: where(x, y) must return a boolean array of shape ({md.tri_count},) "
-                                 "for the triangle centroids")
-            sel &= w
-        intact = st.tri_intact.to_numpy()
-        sel &= intact >= 0
-        if not sel.any():
-            raise ValueError("remove: the selection holds no triangle that is still present")
-        before = self.energies()["total"]
-        intact[sel] = -1
-        st.tri_intact.from_numpy(intact)
-        self._apply_removal()
-        self._repack()
-        self._refresh_neighbours()
-        self._excavated_energy = getattr(self, "_excavated_energy", 0.0) + before - self.energies()["total"]
-        return int(sel.sum())
+        return excavation.remove(self, body, where)
 
     def _apply_removal(self) -> None:
         """Masses, held orphan nodes and joints after triangles were removed (tri_intact < 0)."""
-        md, st = self.model, self.state
-        active = st.tri_intact.to_numpy() >= 0
-        tris = md.tri_nodes_np
-        rho = np.array([m.density for m in md.materials])[md.tri_mat_np]
-        mass = np.zeros(md.node_count)
-        np.add.at(mass, tris[active].ravel(), np.repeat(rho[active] * md.tri_area0_np[active] / 3.0, 3))
-        orphans = mass <= 0.0
-        self._orphans = orphans
-        full = getattr(md, "node_mass_full", None)
-        if full is None:
-            full = md.node_mass_full = md.node_mass_np.copy()
-        mass[orphans] = full[orphans]             # held still: any positive mass will do
-        md.node_mass_np = mass
-        md.node_mass.from_numpy(mass.astype(backend.real_np()))
-        real = backend.real_np()
-        n = md.node_count
-        if md.node_free.shape[0] != n:            # the scene had no prescribed velocities
-            md.node_free = ti.Vector.ndarray(2, backend.real_ti(), shape=n)
-            md.node_free.from_numpy(np.ones((n, 2), real))
-            md.has_bc = True
-            md.step_switches[None] = int(md.step_switches[None]) | SWITCH_BC
-        for name in ("node_vbc", "node_react"):
-            if getattr(st, name).shape[0] != n:
-                arr = ti.Vector.ndarray(2, backend.real_ti(), shape=n)
-                arr.fill(0)
-                setattr(st, name, arr)
-        free = md.node_free.to_numpy()
-        free[orphans] = 0.0
-        md.node_free.from_numpy(free)
-        for name in ("node_vbc", "node_v"):
-            a = getattr(st, name).to_numpy()
-            a[orphans] = 0.0
-            getattr(st, name).from_numpy(a)
-        if md.fracture:                           # joints of removed triangles stop (and book nothing)
-            jt = md.joint_tris_np
-            dead = ~(active[jt[:, 0]] & active[jt[:, 1]])
-            g = st.joint_g.to_numpy()
-            g[: len(jt)][dead] = 0.0
-            st.joint_g.from_numpy(g)
-        if md.contact:
-            set_counter(st.step_real, DACC, DACC_FORCE)       # re-detect without the removed triangles
+        excavation.apply_removal(self)
 
     def _grow_couples(self, capacity: int) -> None:
         grow_couples(self.model, self.state, capacity)
@@ -380,13 +316,22 @@ class Simulation(SimulationResults):
     def _detect(self) -> None:
         t0 = _time.perf_counter()
         p = self._packs
-        found = self._launch("detect_count", kernels.detect_count, p["nodes"], p["tris"], p["detect"], p["contact"],
-                             p["step"])
-        if found > self.state.couple_max:
-            self._grow_couples(int(found * 1.5) + 64)
-            p = self._packs
-        self._launch("detect_fill", kernels.detect_fill, p["tris"], p["detect"], p["contact"], p["step"],
-                     self.model.friction)
+        if self.model.ctri_count <= DETECT_SERIAL_TRIS:      # one serial launch (small scenes)
+            args = (p["nodes"], p["tris"], p["detect"], p["contact"], p["step"], self.model.friction)
+            found = self._launch_cached("detect_serial", kernels.detect_serial, *args)
+            if found > self.state.couple_max:
+                self._grow_couples(int(found * 1.5) + 64)
+                p = self._packs
+                self._launch_cached("detect_serial", kernels.detect_serial, p["nodes"], p["tris"], p["detect"],
+                                    p["contact"], p["step"], self.model.friction)
+        else:
+            found = self._launch("detect_count", kernels.detect_count, p["nodes"], p["tris"], p["detect"],
+                                 p["contact"], p["step"])
+            if found > self.state.couple_max:
+                self._grow_couples(int(found * 1.5) + 64)
+                p = self._packs
+            self._launch("detect_fill", kernels.detect_fill, p["tris"], p["detect"], p["contact"], p["step"],
+                         self.model.friction)
         if self.strategy == "parallel":
             self._build_node_slots()
         self._stats["wall_detect"] += _time.perf_counter() - t0
@@ -420,10 +365,15 @@ class Simulation(SimulationResults):
 
     def _team(self) -> int:
         """Workers of a parallel team launch (:func:`engine.step.run_steps_blocks`), 0 for one
-        launch per step; a worker waiting at a barrier holds its thread: min(blocks, threads)."""
-        team = (self.scratch.blocks and backend.arch() == "cpu" and self.team_steps
-                and _time.perf_counter() >= self._team_pause)
-        return min(self._force_blocks, backend.cpu_threads()) if team else 0
+        launch per step; a worker waiting at a barrier holds its thread: min(blocks, threads).
+        While the team gives way (:meth:`_check_team`): a team of one below PAUSE_SOLO_ITEMS
+        items (no barrier to wait at; one launch per step would cost more than the step), one
+        launch per step above.  The same bits in every case."""
+        if not (self.scratch.blocks and backend.arch() == "cpu" and self.team_steps):
+            return 0
+        if _time.perf_counter() < self._team_pause:
+            return 1 if self._items() < PAUSE_SOLO_ITEMS else 0
+        return min(self._force_blocks, backend.cpu_threads())
 
     _team_pause = 0.0      # perf_counter time until which the team waits (oversubscribed CPU)
     _team_seen = False
@@ -444,7 +394,7 @@ class Simulation(SimulationResults):
         nwork = self._team()
         if nwork:
             per_launch = self.steps_per_launch()
-            while n > 0 and self._team():
+            while n > 0 and nwork:
                 if due:
                     self._detect()
                 chunk = min(n, per_launch)
@@ -452,6 +402,7 @@ class Simulation(SimulationResults):
                 ret = self._launch("run_steps_blocks", kernels.run_steps_blocks, chunk, nwork,
                                    *self._groups["parallel"], *switches)
                 self._check_team(nwork, _time.perf_counter() - w0, _time.process_time() - c0)
+                nwork = self._team()
                 done = ret & (kernels.UNSTABLE_BIT - 1)
                 self.step_count += done
                 n -= done

@@ -14,7 +14,7 @@ LAYERS = [
     ("backend", "material", "mesh", "discontinuity"),
     ("engine",),
     ("timestep", "model", "state"),
-    ("guards", "energies", "cracks", "results", "profiling", "simulation"),
+    ("guards", "energies", "cracks", "results", "profiling", "excavation", "simulation"),
     ("scene",),
     ("render", "io", "viewer", "cli", "sweep", "verification", "stability", "__init__"),
 ]

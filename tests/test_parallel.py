@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -384,13 +385,17 @@ def test_team_steps_stop_at_the_unstable_step(monkeypatch):
     assert steps[True] == steps[False] < 5000
 
 
-def test_parallel_detection_lists_the_couples_in_the_serial_order():
+def test_parallel_detection_lists_the_couples_in_the_serial_order(monkeypatch):
     """The parallel broad phase bins the triangles with atomic slot counters, in whatever order
     the threads take them; each cell is then sorted, so the couple list is the one the serial
     strategy's in-kernel detection builds from the same positions, entry for entry (the block
-    assembly deals couples by list position: a different order would change the sums)."""
+    assembly deals couples by list position: a different order would change the sums).  The
+    one-launch serial detection of the parallel strategy's smaller scenes
+    (``DETECT_SERIAL_TRIS``) lists them in that order too."""
+    import taichi_fdem.simulation as simmod
     from taichi_fdem.engine.groups import DACC, DACC_FORCE
     from taichi_fdem.model import set_counter
+    monkeypatch.setattr(simmod, "DETECT_SERIAL_TRIS", 0)
     mat = fdem.Material(density=1000.0, young=1e7, poisson=0.25)
     scene = fdem.Scene(gravity=(0.0, 0.0))
     rng = np.random.default_rng(3)
@@ -402,8 +407,15 @@ def test_parallel_detection_lists_the_couples_in_the_serial_order():
     assert sim.tri_count > 10_000
     sim.step(200)                                 # the disks have moved and met
     set_counter(sim.state.step_real, DACC, DACC_FORCE)
+    launches = dict(sim.launches)
     sim._detect()                                 # the parallel kernels
     par = sim.couples()
+    assert sim.launches["detect_fill"] == launches.get("detect_fill", 0) + 1
+    monkeypatch.setattr(simmod, "DETECT_SERIAL_TRIS", sim.tri_count)
+    sim._detect()                                 # one serial launch
+    one = sim.couples()
+    assert sim.launches["detect_serial"] == launches.get("detect_serial", 0) + 1
+    assert np.array_equal(par, one)
     sim.strategy = "serial"
     set_counter(sim.state.step_real, DACC, DACC_FORCE)
     sim.step(1)                                   # the serial kernel detects from the same positions
@@ -411,10 +423,12 @@ def test_parallel_detection_lists_the_couples_in_the_serial_order():
     assert len(par) > 2_000 and np.array_equal(par, ser)
 
 
-def test_team_gives_way_on_a_shared_cpu():
+def test_team_gives_way_on_a_shared_cpu(monkeypatch):
     """A team launch whose process got much less CPU time than its workers' share (another busy
-    process on the cores: spinning workers would wait for descheduled ones) switches the
-    simulation to one launch per step for a while; a launch with its cores does not."""
+    process on the cores: spinning workers would wait for descheduled ones) makes the team give
+    way for a while: a team of one below PAUSE_SOLO_ITEMS items (nothing to wait for), one
+    launch per step above; a launch with its cores does not."""
+    import taichi_fdem.simulation as simmod
     sim = _loaded_pair()
     sim.step(5)                                     # the first launch compiles: never judged
     nwork = sim._team()
@@ -422,11 +436,51 @@ def test_team_gives_way_on_a_shared_cpu():
     sim._check_team(2, wall=0.5, cpu=1.0)           # 2 workers, both busy: no pause
     assert sim._team() == nwork
     sim._check_team(2, wall=0.5, cpu=0.5)           # one core's worth for two workers
-    assert sim._team() == 0
+    assert sim._items() < simmod.PAUSE_SOLO_ITEMS and sim._team() == 1
+    sim._check_team(1, wall=0.5, cpu=0.1)           # a team of one never judges itself
     before = dict(sim.launches)
     sim.step(3)
+    assert sim.launches.get("run_steps_blocks") == before.get("run_steps_blocks", 0) + 1
+    assert sim.launches.get("step_parallel", 0) == before.get("step_parallel", 0)
+    monkeypatch.setattr(simmod, "PAUSE_SOLO_ITEMS", sim._items())
+    assert sim._team() == 0
+    sim.step(3)
     assert sim.launches.get("step_parallel", 0) == before.get("step_parallel", 0) + 3
-    assert sim.launches.get("run_steps_blocks") == before.get("run_steps_blocks")
+
+
+def test_a_team_that_gave_way_gives_the_same_bits(monkeypatch):
+    """Loads, contact and friction over several detections: the team, the team of one it gives
+    way to on a shared CPU, and one launch per step reach the same positions and velocities,
+    bit for bit, whenever they take over."""
+    import taichi_fdem.simulation as simmod
+    monkeypatch.setattr(simmod, "TEAM_CPU_SHARE", 0.0)    # no pause but the forced ones below
+    runs = {}
+    for mode in ("team", "solo", "per-step"):
+        if mode == "per-step":
+            monkeypatch.setattr(simmod, "PAUSE_SOLO_ITEMS", 0)
+        sim = _loaded_pair()
+        teams = []
+        launch = sim._launch
+
+        def spy(name, kernel, *args, _launch=launch, _teams=teams):
+            if name == "run_steps_blocks":
+                _teams.append(args[1])                       # nwork
+            return _launch(name, kernel, *args)
+        sim._launch = spy
+        for k in range(6):
+            if mode != "team" and k % 2:
+                sim._team_pause = time.perf_counter() + 3600.0   # give way for this call
+            sim.run(0.0025, progress=False)
+            sim._team_pause = 0.0
+        assert sim.detection_count > 1
+        runs[mode] = sim, set(teams)
+    nwork = runs["team"][1]
+    assert runs["solo"][1] == nwork | {1} and runs["per-step"][1] == nwork
+    assert runs["per-step"][0].launches["step_parallel"] > 0 and "step_parallel" not in runs["solo"][0].launches
+    runs = {mode: sim for mode, (sim, _) in runs.items()}
+    for mode in ("solo", "per-step"):
+        assert np.array_equal(runs[mode].node_positions(), runs["team"].node_positions()), mode
+        assert np.array_equal(runs[mode].node_velocities(), runs["team"].node_velocities()), mode
 
 
 def _couple_costs(sim) -> np.ndarray:

@@ -332,6 +332,21 @@ def detect_fill(tris: TriGroup, det: DetectGroup, con: ContactGroup, step: StepG
 
 
 @ti.kernel
+def detect_serial(nodes: NodeGroup, tris: TriGroup, det: DetectGroup, con: ContactGroup, step: StepGroup,
+                  friction: ti.template()) -> ti.i32:
+    """The whole broad phase in one serial task (small scenes: the parallel kernels' ~10 parallel
+    loops cost ~75 µs each to start, more than a serial pass over a few thousand triangles).
+    The same couple list as :func:`detect_count` + :func:`detect_fill`.  Writes the couples only
+    when they fit; returns the number found (the host grows the buffer and calls again)."""
+    ti.loop_config(serialize=True)
+    for _ in range(1):
+        phase_detect_count(nodes, tris, det, con, step)
+        if step.step_int[FOUND] <= con.couple_a.shape[0]:
+            phase_detect_fill(tris, det, con, step, friction)
+    return step.step_int[FOUND]
+
+
+@ti.kernel
 def build_node_slots(tris: TriGroup, con: ContactGroup, joints: JointGroup, step: StepGroup, asm: AssemblyGroup,
                      contact: ti.template(), fracture: ti.template()):
     """Each node's list of force slots (parallel strategy), sorted: rebuilt after every detection.
