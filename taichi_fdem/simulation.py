@@ -9,8 +9,9 @@ kernels of :mod:`taichi_fdem.engine.step` with the array groups as argpacks (tim
 Execution strategy (:mod:`taichi_fdem.engine.step`): the serial one runs thousands of steps per
 launch on one core; the parallel one sums the forces without atomics and, on the CPU, runs
 thousands of steps per launch in a team of worker threads (:attr:`Simulation.team_steps`),
-returning to the host at each contact detection (~1.5-2 ms at 1k triangles), so small scenes
-whose contacts change often run faster serial.  "auto" picks parallel on the CPU from 2 threads
+returning to the host at each contact detection (a serial detection launch, ~0.4-1 ms at 1k
+triangles, and a new team launch), so small scenes whose contacts change often run faster
+serial.  "auto" picks parallel on the CPU from 2 threads
 and :data:`AUTO_PARALLEL_ITEMS` items (triangles + joints + couples), and on GPUs (untested).
 """
 from __future__ import annotations
@@ -41,7 +42,7 @@ SERIAL_TRI_STEPS = 2_000_000     # ~50 ms of work per serial launch: responsive 
 TEAM_CPU_SHARE = 0.6            # a team launch that got less CPU than this share of its workers...
 TEAM_PAUSE = 5.0                # ...makes the parallel strategy give way for this long [s]:
 PAUSE_SOLO_ITEMS = 50_000       # a team of one below this many items, one launch per step above
-AUTO_PARALLEL_ITEMS = 20_000     # triangles + joints + couples from which "auto" runs parallel on >= 2 CPU threads
+AUTO_PARALLEL_ITEMS = 5_000      # triangles + joints + couples from which "auto" runs parallel on >= 2 CPU threads
 DETECT_SERIAL_TRIS = 15_000      # up to this many contact triangles, detection runs as one serial launch
 
 # Names the simulation answered before the model/state split (kept for scripts that reach the
