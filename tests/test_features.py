@@ -85,7 +85,9 @@ def test_two_bodies_detect_and_collide():
     assert d0 >= 1
     sim.step(2000)
     assert sim.detection_count > d0
-    assert sim.launches.get("detect_count", 0) >= 1          # the build-time detection
+    # the build-time detection: one serial task for a scene this small (detect_serial), the
+    # parallel count-and-fill kernels otherwise
+    assert sim.launches.get("detect_serial", 0) + sim.launches.get("detect_count", 0) >= 1
     b0, b1 = sim.bodies
     _, v1 = mass_centroid(sim, b1)
     _, v0 = mass_centroid(sim, b0)
