@@ -112,14 +112,17 @@ def test_unconfined_triaxial_peak_rises_with_a_later_handover():
     """The physics that ``Scene.build(handover_damage=...)`` changes (README, joined pairs): a
     damaged joint that still carries its pair keeps the pair's friction share μ|σ| in its shear
     strength, so the unconfined peak of the jointed specimen rises with the handover damage:
-    1.04 × Mohr–Coulomb of the joints at 0 (the default, within the 10 % of the slow test),
-    1.07 at 0.01 and 1.18 at 0.05 (measured; held to ±0.05 here)."""
+    1.04-1.05 × Mohr–Coulomb of the joints at 0 (the default, within the 10 % of the slow test),
+    1.09-1.18 at 0.05.  The specimen's first failure is a symmetry break, so the figures move
+    with round-off (measured, D_h = 0 / 0.01 / 0.05: 1.04 / 1.07 / 1.18 on an Intel host,
+    1.053 / 1.040 / 1.085 on an AMD EPYC host, 1.050 / 1.086 / 1.177 there with Taichi's fast
+    math off); at 0.01 the rise is within that spread, so only its bounds are held."""
     ratio = {}
     for dh in (0.0, 0.01, 0.05):
         r = rock.case_triaxial(confinements=(0.0,), handover_damage=dh)
         ratio[dh] = r["peaks"][0] / r["peaks_mc"][0]
     print(f"\nunconfined peak / Mohr-Coulomb by handover damage: {ratio}")
-    assert abs(ratio[0.0] - 1.04) < 0.05
-    assert abs(ratio[0.01] - 1.07) < 0.05
-    assert abs(ratio[0.05] - 1.18) < 0.05
-    assert ratio[0.0] < ratio[0.01] < ratio[0.05]
+    assert abs(ratio[0.0] - 1.045) < 0.03
+    assert 1.0 < ratio[0.01] < 1.12
+    assert 1.06 < ratio[0.05] < 1.22
+    assert ratio[0.05] > ratio[0.0] + 0.02

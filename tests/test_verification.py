@@ -85,16 +85,20 @@ def test_elastic_impact_of_two_disks():
 # README figures (Accuracy and stability): the numbers the README quotes, at its precision
 # ------------------------------------------------------------------------------------------------
 def test_two_bar_penalty_and_safety_readme_figures():
-    """README: in the two-bar impact (40 elements) the penalty 10·E gives the smallest error,
-    0.48 % against 0.64 % at 1·E and 1.8 % at 100·E; safety 0.4 multiplies the error by 4.8
-    (2.3 %).  Held to the README's last digit: ±0.005 percentage points (±0.05 for 1.8 % and 2.3 %)."""
+    """README: in the two-bar impact (40 elements) the penalty 1·E gives 0.64 % (held to the
+    README's last digit, ±0.005 percentage points); 10·E gives the smallest error of the three
+    penalties and 100·E stays below 2 %; safety 0.4 is less accurate than the default 0.2.
+
+    At 10·E and 100·E the interface nodes chatter and the measured error depends on round-off:
+    10·E 0.48 / 0.34 / 0.063 %, 100·E 1.8 / 0.69 / 1.08 %, safety 0.4 2.3 / 2.38 / 0.86 % on an
+    Intel host, on an AMD EPYC (Zen 1) host, and on that host with Taichi's fast math off (the
+    README gives these ranges); 1·E is the same to 10 digits on all three."""
     errs = {p: V.case_two_bars(resolution=40, penalty_factor=p)["error"] for p in (1.0, 10.0, 100.0)}
-    assert errs[10.0] == pytest.approx(0.0048, abs=5e-5), errs
     assert errs[1.0] == pytest.approx(0.0064, abs=5e-5), errs
-    assert errs[100.0] == pytest.approx(0.018, abs=5e-4), errs
+    assert errs[10.0] < errs[1.0] and errs[10.0] < errs[100.0], errs
+    assert errs[100.0] < 0.02, errs
     coarse = V.case_two_bars(resolution=40, safety=0.4)
-    assert coarse["error"] == pytest.approx(0.023, abs=5e-4), coarse
-    assert coarse["error"] / errs[10.0] == pytest.approx(4.8, abs=0.05)
+    assert errs[10.0] < coarse["error"] < 0.03, (coarse, errs)
 
 
 @pytest.mark.slow
