@@ -191,7 +191,7 @@ def bench_size(fdem, size: int, strategy: str, steps: int | None, seconds: float
     n = steps if steps else max(5, int(math.ceil(seconds / per_step)))
     det0 = sim.detection_count
     step0 = sim.step_count
-    paused0 = sim.launches.get("step_parallel", 0)
+    paused0 = sim.paused_steps
     # the timed run in WINDOWS equal windows: the whole run's rate, and its best window's (the
     # machine is shared: a window another process slowed down shows in the mean, not the best)
     per = [n // windows + (1 if k < n % windows else 0) for k in range(windows)]
@@ -206,9 +206,10 @@ def bench_size(fdem, size: int, strategy: str, steps: int | None, seconds: float
         best = max(best, m / el)
     assert sim.step_count - step0 == n, (sim.step_count, step0, n)
     dets = sim.detection_count - det0
-    # steps launched one per launch: the team paused, its process having got less than its
-    # workers' CPU time (a busy host; Simulation._check_team)
-    paused = sim.launches.get("step_parallel", 0) - paused0
+    # steps run on one thread because the team gave way, its process having got less than its
+    # workers' CPU time (a busy host; Simulation._check_team): as a team of one, or one launch
+    # per step
+    paused = sim.paused_steps - paused0
     x = sim.node_positions()
     if not np.all(np.isfinite(x)):
         raise RuntimeError(f"size {size}: non-finite positions after {sim.step_count} steps")

@@ -370,14 +370,21 @@ class Simulation(SimulationResults):
         While the team gives way (:meth:`_check_team`): a team of one below PAUSE_SOLO_ITEMS
         items (no barrier to wait at; one launch per step would cost more than the step), one
         launch per step above.  The same bits in every case."""
+        self._giving_way = False
         if not (self.scratch.blocks and backend.arch() == "cpu" and self.team_steps):
             return 0
-        if _time.perf_counter() < self._team_pause:
+        self._giving_way = _time.perf_counter() < self._team_pause
+        if self._giving_way:
             return 1 if self._items() < PAUSE_SOLO_ITEMS else 0
         return min(self._force_blocks, backend.cpu_threads())
 
     _team_pause = 0.0      # perf_counter time until which the team waits (oversubscribed CPU)
     _team_seen = False
+    _giving_way = False    # the last _team() found the team giving way
+    #: Steps of the parallel strategy run while its team gave way to another busy process
+    #: (:meth:`_check_team`): as a team of one, or one launch per step.  A diagnostic for
+    #: benchmarks: those steps ran on one thread.
+    paused_steps = 0
 
     def _check_team(self, nwork: int, wall: float, cpu: float) -> None:
         """After a team launch of ``wall`` seconds that used ``cpu`` seconds of this process: its
@@ -399,6 +406,7 @@ class Simulation(SimulationResults):
                 if due:
                     self._detect()
                 chunk = min(n, per_launch)
+                paused = self._giving_way
                 w0, c0 = _time.perf_counter(), _time.process_time()
                 ret = self._launch("run_steps_blocks", kernels.run_steps_blocks, chunk, nwork,
                                    *self._groups["parallel"], *switches)
@@ -406,6 +414,8 @@ class Simulation(SimulationResults):
                 nwork = self._team()
                 done = ret & (kernels.UNSTABLE_BIT - 1)
                 self.step_count += done
+                if paused:
+                    self.paused_steps += done
                 n -= done
                 due = bool(self.model.contact and ret & kernels.DUE_BIT)
                 if ret & kernels.UNSTABLE_BIT:
@@ -416,6 +426,8 @@ class Simulation(SimulationResults):
             code = self._launch_cached("step_parallel", kernels.step_parallel, *self._groups["parallel"], *switches,
                                        self.scratch.blocks)
             self.step_count += 1
+            if self._giving_way:
+                self.paused_steps += 1
             due = self.model.contact and bool(code & 1)
             if code & 2:
                 guards.raise_unstable(self)

@@ -467,12 +467,18 @@ def test_a_team_that_gave_way_gives_the_same_bits(monkeypatch):
                 _teams.append(args[1])                       # nwork
             return _launch(name, kernel, *args)
         sim._launch = spy
+        given = 0                                            # steps run while giving way
         for k in range(6):
+            s0 = sim.step_count
             if mode != "team" and k % 2:
                 sim._team_pause = time.perf_counter() + 3600.0   # give way for this call
             sim.run(0.0025, progress=False)
+            if sim._team_pause:
+                given += sim.step_count - s0
             sim._team_pause = 0.0
         assert sim.detection_count > 1
+        # the diagnostic counts exactly the steps run while the team gave way
+        assert sim.paused_steps == given and (given > 0) == (mode != "team")
         runs[mode] = sim, set(teams)
     nwork = runs["team"][1]
     assert runs["solo"][1] == nwork | {1} and runs["per-step"][1] == nwork
