@@ -40,7 +40,9 @@ __all__ = ["Simulation", "SimulationError", "SERIAL_MAX_STEPS", "SERIAL_TRI_STEP
 SERIAL_MAX_STEPS = 2000          # at most this many steps per serial launch
 SERIAL_TRI_STEPS = 2_000_000     # ~50 ms of work per serial launch: responsive progress and Ctrl-C
 TEAM_CPU_SHARE = 0.6            # a team launch that got less CPU than this share of its workers...
-TEAM_PAUSE = 5.0                # ...makes the parallel strategy give way for this long [s]:
+TEAM_PAUSE_FIRST = 0.25         # ...makes the parallel strategy give way for this long [s], doubled
+TEAM_PAUSE = 5.0                # at each pause that follows without a launch between that had its
+                                # cores, up to this long [s] (_check_team):
 PAUSE_SOLO_ITEMS = 50_000       # a team of one below this many items, one launch per step above
 AUTO_PARALLEL_ITEMS = 5_000      # triangles + joints + couples from which "auto" runs parallel on >= 2 CPU threads
 DETECT_SERIAL_TRIS = 15_000      # up to this many contact triangles, detection runs as one serial launch
@@ -380,6 +382,7 @@ class Simulation(SimulationResults):
 
     _team_pause = 0.0      # perf_counter time until which the team waits (oversubscribed CPU)
     _team_seen = False
+    _team_backoff = TEAM_PAUSE_FIRST   # the next pause of the team [s] (_check_team)
     _giving_way = False    # the last _team() found the team giving way
     #: Steps of the parallel strategy run while its team gave way to another busy process
     #: (:meth:`_check_team`): as a team of one, or one launch per step.  A diagnostic for
@@ -390,10 +393,21 @@ class Simulation(SimulationResults):
         """After a team launch of ``wall`` seconds that used ``cpu`` seconds of this process: its
         workers spin at the barriers, so a process that got much less than ``nwork`` cores was
         sharing them (another busy process); spinning then waits for descheduled workers (a
-        10k pile ran 30× slower next to a second one, measured).  Launch once per step (the
-        thread pool blocks instead of spinning: the same bits) for TEAM_PAUSE seconds."""
-        if nwork > 1 and wall > 0.02 and cpu < TEAM_CPU_SHARE * nwork * wall and self._team_seen:
-            self._team_pause = _time.perf_counter() + TEAM_PAUSE
+        10k pile ran 30× slower next to a second one, measured).  Such a launch (of more than
+        20 ms) makes the team give way (:meth:`_team`: the same bits) for TEAM_PAUSE_FIRST
+        seconds, twice as long at each further pause, up to TEAM_PAUSE, until a launch of more
+        than 2 ms has its cores again.  Short pauses first: on a virtual machine the two
+        workers of a fresh team shared one vCPU for the first ~10 launches (CPU share 0.50-0.56,
+        measured), then had one each; a fixed 5 s pause then took a stirred 1k pile's whole
+        benchmark run onto one thread (19.6k steps/s against 31.4k serial, whose launches
+        detection ends every ~130 steps)."""
+        if nwork > 1 and self._team_seen:
+            if cpu < TEAM_CPU_SHARE * nwork * wall:
+                if wall > 0.02:
+                    self._team_pause = _time.perf_counter() + self._team_backoff
+                    self._team_backoff = min(TEAM_PAUSE, 2.0 * self._team_backoff)
+            elif wall > 0.002:
+                self._team_backoff = TEAM_PAUSE_FIRST
         self._team_seen = True    # (not the first launch: it may compile, on one thread)
 
     def _step_parallel(self, n: int) -> None:

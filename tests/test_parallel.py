@@ -435,8 +435,23 @@ def test_team_gives_way_on_a_shared_cpu(monkeypatch):
     assert nwork >= 1
     sim._check_team(2, wall=0.5, cpu=1.0)           # 2 workers, both busy: no pause
     assert sim._team() == nwork
-    sim._check_team(2, wall=0.5, cpu=0.5)           # one core's worth for two workers
+    sim._check_team(2, wall=0.01, cpu=0.0)          # too short to judge: no pause
+    assert sim._team() == nwork
+
+    def pause_after(wall, cpu):                     # the pause [s] a launch starts, 0 for none
+        sim._team_pause = 0.0
+        t0 = time.perf_counter()
+        sim._check_team(2, wall=wall, cpu=cpu)
+        return max(0.0, sim._team_pause - t0)
+    first = pause_after(0.5, 0.5)                   # one core's worth for two workers
     assert sim._items() < simmod.PAUSE_SOLO_ITEMS and sim._team() == 1
+    # each further pause twice as long, up to TEAM_PAUSE, until a launch has its cores
+    pauses = [first] + [pause_after(0.5, 0.5) for _ in range(6)]
+    expect = [min(simmod.TEAM_PAUSE, simmod.TEAM_PAUSE_FIRST * 2 ** k) for k in range(7)]
+    assert np.allclose(pauses, expect, atol=0.05) and pauses[-1] == pytest.approx(simmod.TEAM_PAUSE, abs=0.05)
+    pause_after(0.003, 0.006)                       # a short launch with its cores: back to the first
+    assert pause_after(0.5, 0.4) == pytest.approx(simmod.TEAM_PAUSE_FIRST, abs=0.05)
+    sim._team_pause = time.perf_counter() + 3600.0
     sim._check_team(1, wall=0.5, cpu=0.1)           # a team of one never judges itself
     before = dict(sim.launches)
     sim.step(3)
