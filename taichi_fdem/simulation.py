@@ -280,8 +280,8 @@ class Simulation(SimulationResults):
         return kernel(*args)
 
     def _launch_cached(self, name, kernel, *args):
-        """:meth:`_launch` for the kernel launched once per step (the parallel strategy), without
-        Taichi's per-call variant lookup (:func:`taichi_fdem.engine.tiutil.launch_cached`)."""
+        """:meth:`_launch` for the kernels launched often (the steps, detection), without Taichi's
+        per-call variant lookup (:func:`taichi_fdem.engine.tiutil.launch_cached`)."""
         self.launches[name] = self.launches.get(name, 0) + 1
         return launch_cached(self._launch_cache, name, kernel, *args)
 
@@ -422,8 +422,8 @@ class Simulation(SimulationResults):
                 chunk = min(n, per_launch)
                 paused = self._giving_way
                 w0, c0 = _time.perf_counter(), _time.process_time()
-                ret = self._launch("run_steps_blocks", kernels.run_steps_blocks, chunk, nwork,
-                                   *self._groups["parallel"], *switches)
+                ret = self._launch_cached("run_steps_blocks", kernels.run_steps_blocks, chunk, nwork,
+                                          *self._groups["parallel"], *switches)
                 self._check_team(nwork, _time.perf_counter() - w0, _time.process_time() - c0)
                 nwork = self._team()
                 done = ret & (kernels.UNSTABLE_BIT - 1)
@@ -451,7 +451,8 @@ class Simulation(SimulationResults):
         per_launch = self.steps_per_launch()
         while n > 0:
             chunk = min(n, per_launch)
-            done = self._launch("run_steps_serial", kernels.run_steps_serial, chunk, *self._groups["serial"], *switches)
+            done = self._launch_cached("run_steps_serial", kernels.run_steps_serial, chunk, *self._groups["serial"],
+                                       *switches)
             unstable = done >= kernels.UNSTABLE_BIT
             done &= kernels.UNSTABLE_BIT - 1
             self.step_count += done

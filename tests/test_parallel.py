@@ -475,13 +475,13 @@ def test_a_team_that_gave_way_gives_the_same_bits(monkeypatch):
             monkeypatch.setattr(simmod, "PAUSE_SOLO_ITEMS", 0)
         sim = _loaded_pair()
         teams = []
-        launch = sim._launch
+        launch = sim._launch_cached
 
         def spy(name, kernel, *args, _launch=launch, _teams=teams):
             if name == "run_steps_blocks":
                 _teams.append(args[1])                       # nwork
             return _launch(name, kernel, *args)
-        sim._launch = spy
+        sim._launch_cached = spy
         given = 0                                            # steps run while giving way
         for k in range(6):
             s0 = sim.step_count
@@ -584,3 +584,4 @@ def test_block_couple_ranges_follow_the_estimated_cost():
     # the test can fail: equal counts would leave the blocks' costs far apart here
     by_count = [fixed[:b].sum() + prefix[b * C // 3] for b in (1, 2)]
     assert max(abs(by_count[b - 1] - b * total / 3) for b in (1, 2)) > 10 * COST_TOUCHING
+
