@@ -396,9 +396,9 @@ class Simulation(SimulationResults):
         10k pile ran 30× slower next to a second one, measured).  Such a launch (of more than
         20 ms) makes the team give way (:meth:`_team`: the same bits) for TEAM_PAUSE_FIRST
         seconds, twice as long at each further pause, up to TEAM_PAUSE, until a launch of more
-        than 2 ms has its cores again.  Short pauses first: on a virtual machine the two
-        workers of a fresh team shared one vCPU for the first ~10 launches (CPU share 0.50-0.56,
-        measured), then had one each; a fixed 5 s pause then took a stirred 1k pile's whole
+        than 2 ms has its cores again.  Short pauses first: on a virtual machine a fresh team got
+        one core's worth of CPU time in its first ~10 launches (a share of 0.50-0.56, measured),
+        then two; a fixed 5 s pause then took a stirred 1k pile's whole
         benchmark run onto one thread (19.6k steps/s against 31.4k serial, whose launches
         detection ends every ~130 steps)."""
         if nwork > 1 and self._team_seen:
