@@ -581,7 +581,7 @@ class Scene:
         strategy : "auto", "serial" (one launch runs many steps on one core: small scenes) or
             "parallel" (forces summed without atomics by several threads: larger scenes, GPUs).
             "auto" (default) is parallel on GPUs, and on the CPU when it has at least 2 threads
-            and the scene at least ``AUTO_PARALLEL_ITEMS`` (5,000) triangles + joints +
+            and the scene at least ``AUTO_PARALLEL_ITEMS`` (600) triangles + joints +
             contact couples; serial otherwise (:mod:`taichi_fdem.simulation`).
         check_overlap : warn when bodies overlap at the start.
         speed_limit : a node speed [m/s] above which the run stops as unstable (default: 2× the

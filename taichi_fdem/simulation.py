@@ -8,11 +8,11 @@ kernels of :mod:`taichi_fdem.engine.step` with the array groups as argpacks (tim
 
 Execution strategy (:mod:`taichi_fdem.engine.step`): the serial one runs thousands of steps per
 launch on one core; the parallel one sums the forces without atomics and, on the CPU, runs
-thousands of steps per launch in a team of worker threads (:attr:`Simulation.team_steps`),
-returning to the host at each contact detection (a serial detection launch, ~0.4-1 ms at 1k
-triangles, and a new team launch), so small scenes whose contacts change often run faster
-serial.  "auto" picks parallel on the CPU from 2 threads
-and :data:`AUTO_PARALLEL_ITEMS` items (triangles + joints + couples), and on GPUs (untested).
+thousands of steps per launch in a team of worker threads (:attr:`Simulation.team_steps`); up
+to :data:`DETECT_SERIAL_TRIS` contact triangles the team's first worker runs each contact
+detection inside the launch, larger scenes return to the host for the parallel broad phase.
+"auto" picks parallel on the CPU from 2 threads and :data:`AUTO_PARALLEL_ITEMS` items
+(triangles + joints + couples), and on GPUs (untested).
 """
 from __future__ import annotations
 
@@ -44,7 +44,7 @@ TEAM_PAUSE_FIRST = 0.25         # ...makes the parallel strategy give way for th
 TEAM_PAUSE = 5.0                # at each pause that follows without a launch between that had its
                                 # cores, up to this long [s] (_check_team):
 PAUSE_SOLO_ITEMS = 50_000       # a team of one below this many items, one launch per step above
-AUTO_PARALLEL_ITEMS = 5_000      # triangles + joints + couples from which "auto" runs parallel on >= 2 CPU threads
+AUTO_PARALLEL_ITEMS = 600        # triangles + joints + couples from which "auto" runs parallel on >= 2 CPU threads
 DETECT_SERIAL_TRIS = 15_000      # up to this many contact triangles, detection runs as one serial launch
 
 # Names the simulation answered before the model/state split (kept for scripts that reach the
@@ -145,7 +145,8 @@ class Simulation(SimulationResults):
         p = self._packs
         # the groups each step kernel takes, in order
         self._groups = {"serial": (p["nodes"], p["tris"], p["mats"], p["contact"], p["detect"], p["joints"], p["step"]),
-                        "parallel": (p["nodes"], p["tris"], p["mats"], p["contact"], p["joints"], p["step"], p["asm"])}
+                        "parallel": (p["nodes"], p["tris"], p["mats"], p["contact"], p["joints"], p["step"], p["asm"]),
+                        "team": (p["team"],)}
 
     @property
     def strategy(self) -> str:
@@ -416,14 +417,17 @@ class Simulation(SimulationResults):
         nwork = self._team()
         if nwork:
             per_launch = self.steps_per_launch()
+            # small scenes detect inside the team launch (one serial task, as _detect), large
+            # ones return to the host for the parallel broad phase
+            detect_in = int(self.model.ctri_count <= DETECT_SERIAL_TRIS)
             while n > 0 and nwork:
                 if due:
                     self._detect()
                 chunk = min(n, per_launch)
                 paused = self._giving_way
                 w0, c0 = _time.perf_counter(), _time.process_time()
-                ret = self._launch_cached("run_steps_blocks", kernels.run_steps_blocks, chunk, nwork,
-                                          *self._groups["parallel"], *switches)
+                ret = self._launch_cached("run_steps_blocks", kernels.run_steps_blocks, chunk, nwork, detect_in,
+                                          *self._groups["team"], *switches)
                 self._check_team(nwork, _time.perf_counter() - w0, _time.process_time() - c0)
                 nwork = self._team()
                 done = ret & (kernels.UNSTABLE_BIT - 1)

@@ -12,8 +12,9 @@ import numpy as np
 import taichi as ti
 
 from . import backend
-from .engine.groups import (COUPLES, DACC, DACC_FORCE, DET_CAND, FORCE_BLOCKS, GROUPS, HANDOVER, INT_COUNTERS,
+from .engine.groups import (TEAM_MEMBERS, COUPLES, DACC, DACC_FORCE, DET_CAND, FORCE_BLOCKS, GROUPS, HANDOVER, INT_COUNTERS,
                             NB_PAIRS, QS_ALPHA, REAL_COUNTERS, REBALANCE, SYNC_LINE)
+from .engine.groups import TeamGroup
 from .model import Model, Scratch, State, _ndarray, _next_pow2, counter, set_counter
 
 
@@ -178,13 +179,13 @@ def size_assembly(md: Model, st: State, sw: Scratch) -> None:
 
 
 def pack_groups(md: Model, st: State, sw: Scratch) -> dict:
-    """The argpacks the kernels take, {group name: ArgPack}, drawn from model, state and scratch.
+    """The argpacks the kernels take, {group name: ArgPack}, drawn from model, state and scratch,
+    and "team": the one argpack of the team launch (engine.groups.TeamGroup).
 
     Build again after any array of the state is reallocated (the couple buffer grows).
     """
-    packs = {}
+    packs, arrays = {}, {}
     for group, (ptype, names) in GROUPS.items():
-        arrays = {}
         for name in names:
             arr = getattr(st, name, None)
             if arr is None:
@@ -192,5 +193,6 @@ def pack_groups(md: Model, st: State, sw: Scratch) -> dict:
             if arr is None:
                 arr = getattr(sw, name)
             arrays[name] = arr
-        packs[group] = ptype(**arrays)
+        packs[group] = ptype(**{name: arrays[name] for name in names})
+    packs["team"] = TeamGroup(**{name: arrays[name] for name in TEAM_MEMBERS})
     return packs

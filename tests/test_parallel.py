@@ -366,6 +366,32 @@ def test_team_steps_give_the_same_bits_as_one_launch_per_step(monkeypatch):
         assert ea[key] == pytest.approx(val, rel=1e-12, abs=1e-15), key
 
 
+def test_team_detects_inside_its_launch_with_the_same_bits(monkeypatch):
+    """Up to DETECT_SERIAL_TRIS contact triangles the team's first worker runs each contact
+    detection inside the launch (the serial broad phase; no return to the host, whose waking of
+    the team cost ~1 ms per launch on the 2-core VM); above it the launch ends when detection is
+    due and the host runs the parallel broad phase.  The same couples, so the same bits.  (A
+    couple buffer too small for the new couples ends the launch and the host grows it:
+    tests/test_detection.py::test_redetection_while_moving_and_buffer_growth.)"""
+    import taichi_fdem.simulation as simmod
+    monkeypatch.setattr(simmod, "TEAM_CPU_SHARE", 0.0)
+    runs = {}
+    for inside in (True, False):
+        monkeypatch.setattr(simmod, "DETECT_SERIAL_TRIS", 10**9 if inside else 0)
+        sim = _loaded_pair()
+        sim.run(0.02, progress=False)
+        runs[inside] = sim
+    a, b = runs[True], runs[False]
+    assert a.step_count == b.step_count and a.detection_count == b.detection_count >= 3
+    assert np.array_equal(a.couples(), b.couples())
+    assert np.array_equal(a.node_positions(), b.node_positions())
+    assert np.array_equal(a.node_velocities(), b.node_velocities())
+    # the host detected at build, the team every other time
+    assert a.launches["detect_serial"] == 1
+    assert b.launches.get("detect_serial", 0) == 0 and b.launches["detect_fill"] >= b.detection_count - 1
+    assert a.launches["run_steps_blocks"] < b.launches["run_steps_blocks"]
+
+
 def test_team_steps_stop_at_the_unstable_step(monkeypatch):
     """A time step 4× the stable limit: the team launch stops after the first unstable step,
     as the per-step launches do, and the run ends with a diagnosis."""

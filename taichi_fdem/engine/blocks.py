@@ -10,9 +10,10 @@ count, so the sums, and the results, are the same bits for any number of threads
 import taichi as ti
 
 from .contact import couple_certificate, couple_forces, neighbour_flag
+from .detection import phase_detect_count, phase_detect_fill
 from .elastic import tri_forces
 from .groups import (COST_BONDED, COST_BROKEN, COST_CERTIFIED, COST_JOINT, COST_JOINT_DAMAGED, COST_SEPARATED,
-                     COST_TOUCHING, COST_TRI, COUPLES, DACC, DUE_BIT, INVERTED, MAX_FORCE_BLOCKS, NONFINITE, QS_ALPHA,
+                     COST_TOUCHING, COST_TRI, COUPLES, DACC, DUE_BIT, FOUND, INVERTED, MAX_FORCE_BLOCKS, NONFINITE, QS_ALPHA,
                      REBALANCE, REBALANCE_STEPS, SPLIT, SWITCH_BC, SWITCH_BC_WORK, SYNC_LINE, TIME, UNSTABLE_BIT, VMAX,
                      WORK_BOUNDARY, WORK_LOCAL)
 from .integrate import asm_blocks, block_work_slot, book_block_work, clear_ranges, integrate_span, sync_range
@@ -263,13 +264,17 @@ def sync_own(w):
 
 
 @ti.func
-def team_worker(w, nwork, nsteps, nodes: ti.template(), tris: ti.template(), mats: ti.template(),
-                con: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
-                feat: ti.template()):
+def team_worker(w, nwork, nsteps, detect_in, nodes: ti.template(), tris: ti.template(), mats: ti.template(),
+                con: ti.template(), det: ti.template(), joints: ti.template(), step: ti.template(),
+                asm: ti.template(), feat: ti.template()):
     """Worker w of :func:`taichi_fdem.engine.step.run_steps_blocks`: up to ``nsteps`` steps of the parallel strategy for
     blocks w, w + nwork, ..., in step with the other workers through two barriers per step (three with fracture).
     Every block's work and partial sums are the same whoever runs it, and the partials are
-    combined in block order: the results do not depend on nwork."""
+    combined in block order: the results do not depend on nwork.  ``detect_in`` != 0: when
+    contact detection is due, worker 0 runs it (the serial broad phase of
+    :func:`taichi_fdem.engine.step.detect_serial`, the same couples) while the others wait at a
+    barrier, and the launch goes on; 0: the launch ends when detection is due (the host runs
+    the parallel broad phase of a large scene)."""
     N = nodes.node_x.shape[0]
     nblk = asm_blocks(N, asm)
     T, J, C = item_counts(tris, joints, step, feat.contact, feat.fracture)
@@ -291,7 +296,22 @@ def team_worker(w, nwork, nsteps, nodes: ti.template(), tris: ti.template(), mat
     code = 0
     while done < nsteps:
         if ti.static(feat.contact):
-            # 0. when due, worker 0 splits the couples anew (as engine.step.phase_blocks does)
+            # 0a. contact detection when due, by worker 0 (small scenes: see the docstring); a
+            # couple buffer too small ends the launch before the step (the host grows it)
+            if detect_in != 0 and dacc >= step.step_buffer[None]:
+                if w == 0:
+                    phase_detect_count(nodes, tris, det, con, step)
+                    if step.step_int[FOUND] <= con.couple_a.shape[0]:
+                        phase_detect_fill(tris, det, con, step, feat.friction)
+                nbar += 1
+                team_barrier(asm, w, nbar * nwork)
+                if step.step_int[FOUND] > con.couple_a.shape[0]:
+                    code = 1
+                    break
+                C = step.step_int[COUPLES]
+                dacc = 0.0
+                rebal = 0                       # new couples: split anew (as the fill asks)
+            # 0b. when due, worker 0 splits the couples anew (as engine.step.phase_blocks does)
             if rebal <= 0:
                 if w == 0:
                     rebalance_couples(nblk, C, nodes, tris, con, joints, step, feat.fracture)
@@ -359,7 +379,7 @@ def team_worker(w, nwork, nsteps, nodes: ti.template(), tris: ti.template(), mat
         done += 1
         code = 0
         if ti.static(feat.contact):
-            if dacc >= step.step_buffer[None]:
+            if detect_in == 0 and dacc >= step.step_buffer[None]:
                 code |= 1
         if nonfinite != 0 or inverted != 0 or vmax > step.step_vlimit[None]:
             code |= 2

@@ -20,7 +20,7 @@ caller grows the buffer and fills; no couple is ever dropped.
 """
 import taichi as ti
 
-from .groups import DET_CAND, INTACT, RMAX
+from .groups import COUPLES, DACC, DET_CAND, DETECTIONS, FOUND, INTACT, NB_PAIRS, REBALANCE, RMAX
 
 from .tiutil import vec2
 
@@ -226,3 +226,84 @@ def fill_partners(k, det: ti.template(), con: ti.template(), tris: ti.template()
         ta = det.contact_tri[k]
         for i in range(n):
             write_couple(k, lo + i, ta, det.contact_tri[det.det_cnew[cand_slot(k, i, det)]], det, con, friction)
+
+
+# ---------------------------------------------------------------------------------------------
+# the broad phase as two phases of a step (engine.step, engine.blocks.team_worker)
+# ---------------------------------------------------------------------------------------------
+@ti.func
+def phase_detect_count(nodes: ti.template(), tris: ti.template(), det: ti.template(), con: ti.template(),
+                       step: ti.template()):
+    """Bounding circles, counting sort and couple count; det.det_cnew = exclusive prefix of counts."""
+    K = det.contact_tri.shape[0]
+    H = det.det_bucket.shape[0]
+    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
+    for _ in range(1):
+        step.step_real[RMAX] = 0.0
+    for k in range(K):
+        prepare_circle(k, det, tris, nodes, step)
+    for h in range(H):
+        det.det_bucket[h] = ti.Vector([0, 0])
+    for k in range(K):
+        bin_circle(k, det, step)
+    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
+    for _ in range(1):
+        s = 0
+        for h in range(H):
+            det.det_bucket[h][0] = s
+            s += det.det_bucket[h][1]
+    for k in range(K):
+        bn = det.det_sort[k]
+        det.det_sort[det.det_bucket[bn[0]][0] + bn[1]][2] = k
+    for h in range(H):
+        # each cell's triangles in increasing k: the order of a serial binning, whatever order the
+        # parallel one took its slots in, so that the couple list (and every sum over it) is the
+        # same for any thread count
+        lo = det.det_bucket[h][0]
+        for a in range(lo + 1, lo + det.det_bucket[h][1]):
+            key = det.det_sort[a][2]
+            b = a - 1
+            while b >= lo:
+                if det.det_sort[b][2] > key:
+                    det.det_sort[b + 1][2] = det.det_sort[b][2]
+                    b -= 1
+                else:
+                    break
+            det.det_sort[b + 1][2] = key
+    for k in range(K):
+        det.det_cnew[k] = scan_partners(k, True, det, con, tris, step, 0, False)
+    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
+    for _ in range(1):
+        s = step.step_int[NB_PAIRS]     # after the neighbour pairs
+        for k in range(K):              # counts -> exclusive prefix, in place
+            n = det.det_cnew[k]
+            det.det_cnew[k] = s
+            s += n
+        det.det_cnew[K] = s
+        step.step_int[FOUND] = s
+
+
+@ti.func
+def phase_detect_fill(tris: ti.template(), det: ti.template(), con: ti.template(), step: ti.template(),
+                      friction: ti.template()):
+    """Write the couples counted by :func:`phase_detect_count` (capacity already checked)."""
+    K = det.contact_tri.shape[0]
+    if ti.static(friction):
+        # keep the previous couples and their slip history to carry it over (§4.1, §9.4)
+        for k in range(K + 1):
+            det.det_old_start[k] = det.couple_start[k]
+            det.couple_start[k] = det.det_cnew[k]
+        for c in range(step.step_int[COUPLES]):
+            det.det_old_b[c] = con.couple_b[c]
+            for q in ti.static(range(6)):
+                det.det_old_hist[6 * c + q] = con.couple_hist[6 * c + q]
+    for k in range(K):
+        fill_partners(k, det, con, tris, step, friction)
+    for c in range(det.det_cnew[K]):
+        con.couple_skip[c] = 0.0          # no certificate of separation (dacc restarts at 0)
+    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
+    for _ in range(1):
+        step.step_int[COUPLES] = step.step_int[FOUND]
+        step.step_int[DETECTIONS] += 1
+        step.step_int[REBALANCE] = 0        # new couples: the block assembly splits them anew
+        step.step_real[DACC] = 0.0

@@ -106,6 +106,14 @@ GROUPS = {"nodes": (NodeGroup, NODE_MEMBERS), "tris": (TriGroup, TRI_MEMBERS), "
           "joints": (JointGroup, JOINT_MEMBERS), "step": (StepGroup, STEP_MEMBERS),
           "asm": (AssemblyGroup, ASSEMBLY_MEMBERS)}
 
+# The team launch of the parallel strategy (engine.step.run_steps_blocks) takes every group but
+# the slot lists of the assembly, detection included, as ONE argpack: seven argpacks would cost
+# seven leaves more than the 64 Taichi allows (LEAVES_TEAM).  Its members keep their names, so
+# the kernel passes the one argpack as each group of the phases.
+TEAM_MEMBERS = (NODE_MEMBERS + TRI_MEMBERS + MAT_MEMBERS + CONTACT_MEMBERS + DETECT_MEMBERS + JOINT_MEMBERS
+                + STEP_MEMBERS + ("asm_force", "asm_sync", "asm_part"))
+TeamGroup = _group(*TEAM_MEMBERS)
+
 # Block assembly of the parallel strategy on the CPU (FDEM_SPEC §6.1; see engine.step): the items
 # are split into a fixed number of blocks, each a contiguous range (triangles, joints and nodes by
 # count, couples by estimated cost: engine.blocks.rebalance_couples), and each block adds its forces
@@ -205,4 +213,7 @@ LEAVES_SERIAL = 1 + _leaves(NODE_MEMBERS, TRI_MEMBERS, MAT_MEMBERS, CONTACT_MEMB
                             STEP_MEMBERS)
 LEAVES_PARALLEL = _leaves(NODE_MEMBERS, TRI_MEMBERS, MAT_MEMBERS, CONTACT_MEMBERS, JOINT_MEMBERS, STEP_MEMBERS,
                           ASSEMBLY_MEMBERS)
-assert LEAVES_SERIAL <= 64 and LEAVES_PARALLEL <= 64, (LEAVES_SERIAL, LEAVES_PARALLEL)
+# the team launch: nsteps, nwork, detect_in and one argpack
+LEAVES_TEAM = 3 + _leaves(TEAM_MEMBERS)
+assert LEAVES_SERIAL <= 64 and LEAVES_PARALLEL <= 64 and LEAVES_TEAM <= 64, (LEAVES_SERIAL, LEAVES_PARALLEL,
+                                                                             LEAVES_TEAM)

@@ -46,11 +46,11 @@ import taichi as ti
 
 from .blocks import block_forces, item_counts, rebalance_couples, team_worker
 from .contact import book_contact_work, couple_forces, eval_couple
-from .detection import bin_circle, fill_partners, prepare_circle, scan_partners
+from .detection import phase_detect_count, phase_detect_fill
 from .elastic import eval_tri_elastic, tri_forces
 from .groups import (BLOCK_STRIDE, COUPLES, DACC, DETECTIONS, DUE_BIT, FOUND, INVERTED, NB_PAIRS, NONFINITE,  # noqa: F401
                      REBALANCE, REBALANCE_STEPS, RMAX, UNSTABLE_BIT, VMAX, AssemblyGroup, ContactGroup, DetectGroup,
-                     JointGroup, MaterialGroup, NodeGroup, StepGroup, TriGroup)
+                     JointGroup, MaterialGroup, NodeGroup, StepGroup, TeamGroup, TriGroup)
 from .integrate import asm_blocks, integrate_nodes, integrate_nodes_gathered
 from .joints import add_joint_work, eval_joint
 from .loads import apply_loads, book_load_work
@@ -70,84 +70,6 @@ __all__ = ["UNSTABLE_BIT", "DUE_BIT", "Features", "detect_count", "detect_fill",
 # ---------------------------------------------------------------------------------------------
 # phases
 # ---------------------------------------------------------------------------------------------
-@ti.func
-def phase_detect_count(nodes: ti.template(), tris: ti.template(), det: ti.template(), con: ti.template(),
-                       step: ti.template()):
-    """Bounding circles, counting sort and couple count; det.det_cnew = exclusive prefix of counts."""
-    K = det.contact_tri.shape[0]
-    H = det.det_bucket.shape[0]
-    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
-    for _ in range(1):
-        step.step_real[RMAX] = 0.0
-    for k in range(K):
-        prepare_circle(k, det, tris, nodes, step)
-    for h in range(H):
-        det.det_bucket[h] = ti.Vector([0, 0])
-    for k in range(K):
-        bin_circle(k, det, step)
-    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
-    for _ in range(1):
-        s = 0
-        for h in range(H):
-            det.det_bucket[h][0] = s
-            s += det.det_bucket[h][1]
-    for k in range(K):
-        bn = det.det_sort[k]
-        det.det_sort[det.det_bucket[bn[0]][0] + bn[1]][2] = k
-    for h in range(H):
-        # each cell's triangles in increasing k: the order of a serial binning, whatever order the
-        # parallel one took its slots in, so that the couple list (and every sum over it) is the
-        # same for any thread count
-        lo = det.det_bucket[h][0]
-        for a in range(lo + 1, lo + det.det_bucket[h][1]):
-            key = det.det_sort[a][2]
-            b = a - 1
-            while b >= lo:
-                if det.det_sort[b][2] > key:
-                    det.det_sort[b + 1][2] = det.det_sort[b][2]
-                    b -= 1
-                else:
-                    break
-            det.det_sort[b + 1][2] = key
-    for k in range(K):
-        det.det_cnew[k] = scan_partners(k, True, det, con, tris, step, 0, False)
-    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
-    for _ in range(1):
-        s = step.step_int[NB_PAIRS]     # after the neighbour pairs
-        for k in range(K):              # counts -> exclusive prefix, in place
-            n = det.det_cnew[k]
-            det.det_cnew[k] = s
-            s += n
-        det.det_cnew[K] = s
-        step.step_int[FOUND] = s
-
-
-@ti.func
-def phase_detect_fill(tris: ti.template(), det: ti.template(), con: ti.template(), step: ti.template(),
-                      friction: ti.template()):
-    """Write the couples counted by :func:`phase_detect_count` (capacity already checked)."""
-    K = det.contact_tri.shape[0]
-    if ti.static(friction):
-        # keep the previous couples and their slip history to carry it over (§4.1, §9.4)
-        for k in range(K + 1):
-            det.det_old_start[k] = det.couple_start[k]
-            det.couple_start[k] = det.det_cnew[k]
-        for c in range(step.step_int[COUPLES]):
-            det.det_old_b[c] = con.couple_b[c]
-            for q in ti.static(range(6)):
-                det.det_old_hist[6 * c + q] = con.couple_hist[6 * c + q]
-    for k in range(K):
-        fill_partners(k, det, con, tris, step, friction)
-    for c in range(det.det_cnew[K]):
-        con.couple_skip[c] = 0.0          # no certificate of separation (dacc restarts at 0)
-    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
-    for _ in range(1):
-        step.step_int[COUPLES] = step.step_int[FOUND]
-        step.step_int[DETECTIONS] += 1
-        step.step_int[REBALANCE] = 0        # new couples: the block assembly splits them anew
-        step.step_real[DACC] = 0.0
-
-
 @ti.func
 def phase_elastic(nodes: ti.template(), tris: ti.template(), mats: ti.template(), step: ti.template()):
     for e in range(tris.tri_nodes.shape[0]):
@@ -427,27 +349,28 @@ def step_parallel(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: Co
 
 
 @ti.kernel
-def run_steps_blocks(nsteps: ti.i32, nwork: ti.i32, nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup,
-                     con: ContactGroup, joints: JointGroup, step: StepGroup, asm: AssemblyGroup,
-                     feat: ti.template()) -> ti.i32:
+def run_steps_blocks(nsteps: ti.i32, nwork: ti.i32, detect_in: ti.i32, g: TeamGroup, feat: ti.template()) -> ti.i32:
     """Up to ``nsteps`` steps of the parallel strategy with the block assembly in one launch: a
     team of ``nwork`` workers, each a thread for the whole launch (:func:`team_worker`), runs
     the blocks (worker w: blocks w, w + nwork, ...), the phases separated by barriers; no launch
     and no parallel-loop start per step.  ``nwork`` must not exceed the CPU threads (a worker
-    waiting at a barrier holds its thread).  Stops after a step that makes contact detection
-    due or is unstable.  Returns the steps done, plus ``UNSTABLE_BIT`` if unstable and
+    waiting at a barrier holds its thread).  ``detect_in`` != 0: contact detection, when due,
+    runs inside the launch on worker 0 (the serial broad phase, small scenes); 0: the launch
+    stops after a step that makes detection due.  Stops after a step that is unstable, and
+    before a detection whose couples do not fit the buffer (with ``DUE_BIT``).  Returns the steps done, plus ``UNSTABLE_BIT`` if unstable and
     ``DUE_BIT`` if detection is due.  The same bits as :func:`step_parallel` for positions,
     velocities, joints and contact work, for any ``nwork``."""
     ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
     for _ in range(1):
-        asm.asm_sync[0] = 0
-    # BLOCK_STRIDE iterations per worker put each worker in its own task (see phase_blocks)
+        g.asm_sync[0] = 0
+    # BLOCK_STRIDE iterations per worker put each worker in its own task (see phase_blocks); the
+    # one argpack g (engine.groups.TeamGroup) serves as every group
     for t in range(nwork * BLOCK_STRIDE):
         if t % BLOCK_STRIDE == 0:
-            team_worker(t // BLOCK_STRIDE, nwork, nsteps, nodes, tris, mats, con, joints, step, asm, feat)
-    ret = asm.asm_sync[1]
-    asm.asm_sync[0] = 0              # the scratch left as it was found: a restart reproduces it
-    asm.asm_sync[1] = 0
+            team_worker(t // BLOCK_STRIDE, nwork, nsteps, detect_in, g, g, g, g, g, g, g, g, feat)
+    ret = g.asm_sync[1]
+    g.asm_sync[0] = 0              # the scratch left as it was found: a restart reproduces it
+    g.asm_sync[1] = 0
     return ret
 
 
