@@ -31,9 +31,11 @@ def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, 
         when the environment variable TAICHI_FDEM_DEBUG is "1" (for example
         ``TAICHI_FDEM_DEBUG=1 make test``).
     cpu_max_num_threads : threads of the CPU back end (default: all cores).
-    fast_compile : skip Taichi's advanced IR optimisations.  Measured on the 1k-triangle pile
-        (benchmarks/pile.py): cold start 3.0 s instead of 9.8 s, stepping ~22 % slower.  For
-        short runs on a cold cache; the offline cache makes later starts fast either way.
+    fast_compile : skip Taichi's advanced IR optimisations.  The default build already leaves
+        out the CFG optimisation, the part whose compile time grew fastest (same bits, same
+        speed): on the 1k-triangle pile (benchmarks/pile.py) fast_compile starts cold in 2.9 s
+        instead of 3.4 s and steps ~22 % slower.  The offline cache makes later starts fast
+        either way.
         Round-off differs from the default build, which can shift discrete events (the step at
         which two bodies separate): the figures of the accuracy benchmark are measured with the
         default.  None (default): on when the environment variable TAICHI_FDEM_FAST_COMPILE is
