@@ -203,6 +203,23 @@ class Simulation(SimulationResults):
         self._force_blocks = int(value)
         self._sync_assembly()
 
+    @property
+    def team_workers(self) -> int | None:
+        """Worker threads of a team launch of the parallel strategy on the CPU: None (default)
+        for min(:attr:`force_blocks`, CPU threads); an integer caps it (at least 1).  Any number
+        gives the same bits (the blocks' sums are added in block order whoever ran them), so one
+        process can compare a team of one with a team of two under the same load
+        (``benchmarks/threads.py``).  May be changed between calls."""
+        return self._team_workers
+
+    @team_workers.setter
+    def team_workers(self, value) -> None:
+        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1):
+            raise ValueError(f"team_workers must be None or an integer >= 1, got {value!r}")
+        self._team_workers = None if value is None else int(value)
+
+    _team_workers = None
+
     def _sync_assembly(self) -> None:
         """Make the scratch's assembly arrays follow strategy, assembly and force_blocks (once
         parallel, they stay allocated), and rebuild what depends on them."""
@@ -386,7 +403,7 @@ class Simulation(SimulationResults):
         self._giving_way = _time.perf_counter() < self._team_pause
         if self._giving_way:
             return 1 if self._items() < PAUSE_SOLO_ITEMS else 0
-        return min(self._force_blocks, backend.cpu_threads())
+        return min(self._force_blocks, backend.cpu_threads(), self._team_workers or MAX_FORCE_BLOCKS)
 
     _team_pause = 0.0      # perf_counter time until which the team waits (oversubscribed CPU)
     _team_seen = False

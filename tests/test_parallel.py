@@ -611,3 +611,30 @@ def test_block_couple_ranges_follow_the_estimated_cost():
     by_count = [fixed[:b].sum() + prefix[b * C // 3] for b in (1, 2)]
     assert max(abs(by_count[b - 1] - b * total / 3) for b in (1, 2)) > 10 * COST_TOUCHING
 
+
+
+def test_team_workers_cap_the_team_and_keep_the_bits(monkeypatch):
+    """``Simulation.team_workers`` caps the workers of a team launch (benchmarks/threads.py
+    compares a team of one with a team of two in one process): the same bits either way, and a
+    bad value is refused by name."""
+    import taichi_fdem.simulation as simmod
+    monkeypatch.setattr(simmod, "TEAM_CPU_SHARE", 0.0)
+    out = {}
+    for workers in (1, None):
+        sim = _loaded_pair()
+        sim.team_workers = workers
+        assert sim.team_workers == workers
+        assert sim._team() == (1 if workers == 1 else min(sim.force_blocks, backend_threads()))
+        sim.run(0.01, progress=False)
+        assert "run_steps_blocks" in sim.launches
+        out[workers] = sim
+    assert np.array_equal(out[1].node_positions(), out[None].node_positions())
+    assert np.array_equal(out[1].node_velocities(), out[None].node_velocities())
+    for bad in (0, -1, 1.5, True, "2"):
+        with pytest.raises(ValueError, match="team_workers"):
+            out[1].team_workers = bad
+
+
+def backend_threads():
+    from taichi_fdem import backend
+    return backend.cpu_threads()
