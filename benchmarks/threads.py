@@ -58,7 +58,7 @@ def measure(fdem, scene_kind: str, size: int, window: int, reps: int, warmup: in
     return {"scene": scene_kind, "triangles": a.tri_count, "couples": a.couple_count, "window": window,
             "reps": reps, "first": warmup + 1, "last": a.step_count, "median1": med[1], "median2": med[2],
             "best1": best[1], "best2": best[2], "ratio_median": med[2] / med[1], "ratio_best": best[2] / best[1],
-            "same_bits": same}
+            "same_bits": same, "paused": b.paused_steps}
 
 
 def main(argv=None) -> int:
@@ -80,15 +80,15 @@ def main(argv=None) -> int:
     if args.scene in ("plate", "both"):
         runs += [("plate", n) for n in (args.sizes or [10000])]
     print("| scene | triangles | steps timed | window × reps | 1 worker steps/s (median, best) "
-          "| 2 workers steps/s (median, best) | 2 / 1 median | 2 / 1 best | same bits |")
-    print("|:--|---:|:--|:--|---:|---:|---:|---:|:--|")
+          "| 2 workers steps/s (median, best) | 2 / 1 median | 2 / 1 best | same bits | paused steps |")
+    print("|:--|---:|:--|:--|---:|---:|---:|---:|:--|---:|")
     for kind, n in runs:
         warmup = args.warmup if args.warmup is not None else (50 if kind == "pile" else 4500)
         window = args.window or max(20, int(4_000_000 // n)) if kind == "pile" else (args.window or 300)
         r = measure(fdem, kind, n, window, args.reps, warmup)
         print(f"| {kind} | {r['triangles']:,} | {r['first']:,}-{r['last']:,} | {window} × {args.reps} "
               f"| {r['median1']:,.0f}, {r['best1']:,.0f} | {r['median2']:,.0f}, {r['best2']:,.0f} "
-              f"| **{r['ratio_median']:.2f}×** | {r['ratio_best']:.2f}× | {r['same_bits']} |", flush=True)
+              f"| **{r['ratio_median']:.2f}×** | {r['ratio_best']:.2f}× | {r['same_bits']} | {r['paused']:,} |", flush=True)
     return 0
 
 
