@@ -98,6 +98,9 @@ def test_serial_kernel_fits_taichi_argument_budget():
     from taichi_fdem.engine import groups
     # Taichi 1.7 refuses a launch with more than 64 argument leaves (argpack members included)
     assert groups.LEAVES_SERIAL <= 64
+    # the team launch takes one argpack of every member it uses (detection included)
+    assert groups.LEAVES_PARALLEL <= 64 and groups.LEAVES_TEAM <= 64
+    assert set(groups.TEAM_MEMBERS) <= {n for _, members in groups.GROUPS.values() for n in members}
     names = [n for _, members in groups.GROUPS.values() for n in members]
     assert len(names) == len(set(names)), "argpack members must be unique across groups"
 
