@@ -1,8 +1,11 @@
 """Per-phase timing of a simulation's steps (:meth:`Simulation.profile`): one launch per phase,
-so that each phase's wall time can be measured (the strategies fuse them)."""
+so that each phase's wall time can be measured (the strategies fuse them); and the nodal forces of
+the current state from the same single-phase kernels (:meth:`Simulation.forces`)."""
 from __future__ import annotations
 
 import time as _time
+
+import numpy as np
 
 from . import guards
 from .engine import step as kernels
@@ -50,3 +53,27 @@ def profile(sim, steps: int = 100) -> dict:
     t["total"] = sum(t.values())
     t["steps"] = int(steps)
     return t
+
+
+def evaluate_forces(sim, contact_only: bool = False) -> np.ndarray:
+    """:meth:`Simulation.forces`: the nodal forces [N] at the current state from the single-phase
+    kernels (elastic, joints, contact), the state left untouched."""
+    st, md, p = sim.state, sim.model, sim._packs
+    keep = {k: v for k, v in st.ndarrays().items()
+            if k.startswith(("step_", "joint_")) or k in ("couple_hist", "tri_diss", "tri_intact")}
+    saved = {k: v.to_numpy() for k, v in keep.items()}
+    st.node_f.fill(0)
+    sim._forget_apart()
+    if not contact_only:
+        sim._launch("eval_elastic", kernels.eval_elastic, p["nodes"], p["tris"], p["mats"], p["step"])
+        if md.fracture:
+            sim._launch("eval_joints", kernels.eval_joints, p["nodes"], p["tris"], p["mats"], p["joints"],
+                        p["step"])
+    if md.contact:
+        sim._launch("eval_contact", kernels.eval_contact, p["nodes"], p["tris"], p["mats"], p["contact"],
+                    p["step"], md.friction, md.fracture)
+    f = st.node_f.to_numpy().astype(np.float64) * sim.thickness
+    st.node_f.fill(0)
+    for k, v in saved.items():
+        keep[k].from_numpy(v)
+    return f

@@ -498,25 +498,8 @@ class Simulation(SimulationResults):
         Shape (n, 2), multiplied by the thickness.  Gravity is not included.  The state is left
         untouched: the friction slip history and the dissipation accumulators are restored.
         """
-        st, md, p = self.state, self.model, self._packs
-        keep = {k: v for k, v in st.ndarrays().items()
-                if k.startswith(("step_", "joint_")) or k in ("couple_hist", "tri_diss", "tri_intact")}
-        saved = {k: v.to_numpy() for k, v in keep.items()}
-        st.node_f.fill(0)
-        self._forget_apart()
-        if not contact_only:
-            self._launch("eval_elastic", kernels.eval_elastic, p["nodes"], p["tris"], p["mats"], p["step"])
-            if md.fracture:
-                self._launch("eval_joints", kernels.eval_joints, p["nodes"], p["tris"], p["mats"], p["joints"],
-                             p["step"])
-        if md.contact:
-            self._launch("eval_contact", kernels.eval_contact, p["nodes"], p["tris"], p["mats"], p["contact"],
-                         p["step"], md.friction, md.fracture)
-        f = st.node_f.to_numpy().astype(np.float64) * self.thickness
-        st.node_f.fill(0)
-        for k, v in saved.items():
-            keep[k].from_numpy(v)
-        return f
+        from .profiling import evaluate_forces
+        return evaluate_forces(self, contact_only)
 
     def profile(self, steps: int = 100) -> dict:
         """Run ``steps`` steps with one launch per phase and time each phase [s]
