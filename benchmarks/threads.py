@@ -84,7 +84,7 @@ def main(argv=None) -> int:
     print("|:--|---:|:--|:--|---:|---:|---:|---:|:--|---:|")
     for kind, n in runs:
         warmup = args.warmup if args.warmup is not None else (50 if kind == "pile" else 4500)
-        window = args.window or max(20, int(4_000_000 // n)) if kind == "pile" else (args.window or 300)
+        window = args.window or (max(20, 4_000_000 // n) if kind == "pile" else 300)
         r = measure(fdem, kind, n, window, args.reps, warmup)
         print(f"| {kind} | {r['triangles']:,} | {r['first']:,}-{r['last']:,} | {window} × {args.reps} "
               f"| {r['median1']:,.0f}, {r['best1']:,.0f} | {r['median2']:,.0f}, {r['best2']:,.0f} "

@@ -34,8 +34,8 @@ from .cracks import CrackEventLog
 from .results import History, SimulationResults
 from .timestep import CONTACT_LIMIT_FACTOR  # noqa: F401  (re-exported)
 
-__all__ = ["Simulation", "SimulationError", "SERIAL_MAX_STEPS", "SERIAL_TRI_STEPS", "TEAM_TRI_STEPS", "AUTO_PARALLEL_ITEMS",
-           "DETECT_SERIAL_TRIS"]
+__all__ = ["Simulation", "SimulationError", "SERIAL_MAX_STEPS", "SERIAL_TRI_STEPS", "TEAM_TRI_STEPS",
+           "AUTO_PARALLEL_ITEMS", "DETECT_SERIAL_TRIS"]
 
 SERIAL_MAX_STEPS = 2000          # at most this many steps per serial launch
 SERIAL_TRI_STEPS = 2_000_000     # ~50 ms of work per serial launch: responsive progress and Ctrl-C
@@ -333,9 +333,7 @@ class Simulation(SimulationResults):
         (SERIAL_TRI_STEPS); a team launch of the parallel strategy: TEAM_TRI_STEPS, about as long
         on two threads, since waking a team costs ~1 ms on a VM (100k pile on 2 threads, medians
         of 6 alternating windows: 20 steps per launch 1,158 steps/s, 100 1,204, 200 1,218)."""
-        budget = SERIAL_TRI_STEPS
-        if self.strategy == "parallel" and self.scratch.blocks and backend.arch() == "cpu" and self.team_steps:
-            budget = TEAM_TRI_STEPS
+        budget = TEAM_TRI_STEPS if self.strategy == "parallel" and self._team_launches() else SERIAL_TRI_STEPS
         return max(1, min(SERIAL_MAX_STEPS, budget // max(1, self.tri_count)))
 
     # ------------------------------------------------------------------------------------------
@@ -344,7 +342,7 @@ class Simulation(SimulationResults):
     def _detect(self) -> None:
         t0 = _time.perf_counter()
         p = self._packs
-        if self.model.ctri_count <= DETECT_SERIAL_TRIS:      # one serial launch (small scenes)
+        if self._detect_serially():                          # one serial launch (small scenes)
             args = (p["nodes"], p["tris"], p["detect"], p["contact"], p["step"], self.model.friction)
             found = self._launch_cached("detect_serial", kernels.detect_serial, *args)
             if found > self.state.couple_max:
@@ -391,6 +389,15 @@ class Simulation(SimulationResults):
         st = self.state
         return bool(self.model.contact and counter(st.step_real, DACC) >= self.model.buffer)
 
+    def _detect_serially(self) -> bool:
+        """Whether detection runs as one serial task (:data:`DETECT_SERIAL_TRIS`): a launch of its
+        own on the host, or inside a team launch."""
+        return self.model.ctri_count <= DETECT_SERIAL_TRIS
+
+    def _team_launches(self) -> bool:
+        """Whether the parallel strategy runs team launches (block assembly on the CPU, team_steps)."""
+        return bool(self.scratch.blocks and backend.arch() == "cpu" and self.team_steps)
+
     def _team(self) -> int:
         """Workers of a parallel team launch (:func:`engine.step.run_steps_blocks`), 0 for one
         launch per step; a worker waiting at a barrier holds its thread: min(blocks, threads).
@@ -398,7 +405,7 @@ class Simulation(SimulationResults):
         items (no barrier to wait at; one launch per step would cost more than the step), one
         launch per step above.  The same bits in every case."""
         self._giving_way = False
-        if not (self.scratch.blocks and backend.arch() == "cpu" and self.team_steps):
+        if not self._team_launches():
             return 0
         self._giving_way = _time.perf_counter() < self._team_pause
         if self._giving_way:
@@ -441,9 +448,9 @@ class Simulation(SimulationResults):
         nwork = self._team()
         if nwork:
             per_launch = self.steps_per_launch()
-            # small scenes detect inside the team launch (one serial task, as _detect), large
-            # ones return to the host for the parallel broad phase
-            detect_in = int(self.model.ctri_count <= DETECT_SERIAL_TRIS)
+            # small scenes detect inside the team launch (the serial task of _detect), large ones
+            # return to the host for the parallel broad phase
+            detect_in = int(self._detect_serially())
             while n > 0 and nwork:
                 if due:
                     self._detect()

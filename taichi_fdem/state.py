@@ -12,9 +12,8 @@ import numpy as np
 import taichi as ti
 
 from . import backend
-from .engine.groups import (TEAM_MEMBERS, COUPLES, DACC, DACC_FORCE, DET_CAND, FORCE_BLOCKS, GROUPS, HANDOVER, INT_COUNTERS,
-                            NB_PAIRS, QS_ALPHA, REAL_COUNTERS, REBALANCE, SYNC_LINE)
-from .engine.groups import TeamGroup
+from .engine.groups import (COUPLES, DACC, DACC_FORCE, DET_CAND, FORCE_BLOCKS, GROUPS, HANDOVER, INT_COUNTERS,
+                            NB_PAIRS, QS_ALPHA, REAL_COUNTERS, REBALANCE, SYNC_LINE, TEAM_MEMBERS, TeamGroup)
 from .model import Model, Scratch, State, _ndarray, _next_pow2, counter, set_counter
 
 

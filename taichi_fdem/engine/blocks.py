@@ -13,9 +13,9 @@ from .contact import couple_certificate, couple_forces, neighbour_flag
 from .detection import phase_detect_count, phase_detect_fill
 from .elastic import tri_forces
 from .groups import (COST_BONDED, COST_BROKEN, COST_CERTIFIED, COST_JOINT, COST_JOINT_DAMAGED, COST_SEPARATED,
-                     COST_TOUCHING, COST_TRI, COUPLES, DACC, DUE_BIT, FOUND, INVERTED, MAX_FORCE_BLOCKS, NONFINITE, QS_ALPHA,
-                     REBALANCE, REBALANCE_STEPS, SPLIT, SWITCH_BC, SWITCH_BC_WORK, SYNC_LINE, TIME, UNSTABLE_BIT, VMAX,
-                     WORK_BOUNDARY, WORK_LOCAL)
+                     COST_TOUCHING, COST_TRI, COUPLES, DACC, DUE_BIT, FOUND, INVERTED, MAX_FORCE_BLOCKS, NONFINITE,
+                     QS_ALPHA, REBALANCE, REBALANCE_STEPS, SPLIT, SWITCH_BC, SWITCH_BC_WORK, SYNC_LINE, TIME,
+                     UNSTABLE_BIT, VMAX, WORK_BOUNDARY, WORK_LOCAL)
 from .integrate import asm_blocks, block_work_slot, book_block_work, clear_ranges, integrate_span, sync_range
 from .joints import add_joint_work, eval_joint
 from .loads import apply_load, book_load

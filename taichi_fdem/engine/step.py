@@ -357,9 +357,9 @@ def run_steps_blocks(nsteps: ti.i32, nwork: ti.i32, detect_in: ti.i32, g: TeamGr
     waiting at a barrier holds its thread).  ``detect_in`` != 0: contact detection, when due,
     runs inside the launch on worker 0 (the serial broad phase, small scenes); 0: the launch
     stops after a step that makes detection due.  Stops after a step that is unstable, and
-    before a detection whose couples do not fit the buffer (with ``DUE_BIT``).  Returns the steps done, plus ``UNSTABLE_BIT`` if unstable and
-    ``DUE_BIT`` if detection is due.  The same bits as :func:`step_parallel` for positions,
-    velocities, joints and contact work, for any ``nwork``."""
+    before a detection whose couples do not fit the buffer.  Returns the steps done, plus
+    ``UNSTABLE_BIT`` if unstable and ``DUE_BIT`` if the host must detect.  The same bits as
+    :func:`step_parallel` for positions, velocities, joints and contact work, for any ``nwork``."""
     ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
     for _ in range(1):
         g.asm_sync[0] = 0
