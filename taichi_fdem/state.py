@@ -13,7 +13,7 @@ import taichi as ti
 
 from . import backend
 from .engine.groups import (COUPLES, DACC, DACC_FORCE, DET_CAND, FORCE_BLOCKS, GROUPS, HANDOVER, INT_COUNTERS,
-                            NB_PAIRS, NODE_CHUNK, QS_ALPHA, REAL_COUNTERS, REBALANCE, SYNC_LINE, TEAM_MEMBERS, TeamGroup)
+                            NB_PAIRS, QS_ALPHA, REAL_COUNTERS, REBALANCE, SYNC_LINE, TEAM_MEMBERS, TeamGroup)
 from .model import Model, Scratch, State, _ndarray, _next_pow2, counter, set_counter
 
 
@@ -172,9 +172,8 @@ def size_assembly(md: Model, st: State, sw: Scratch) -> None:
         sw.asm_node_slots = ti.ndarray(ti.i32, shape=1)
         sw.asm_node_start = ti.ndarray(ti.i32, shape=1)
     team = sw.force_blocks if sw.parallel and sw.blocks else 0
-    # engine.blocks.sync_bad, sync_own, sync_claim; engine.integrate.mark_slot (blocks 1.., chunks of nodes)
-    marks = (team - 1) * -(-N // NODE_CHUNK) if team else 0
-    sw.asm_sync = ti.ndarray(ti.i32, shape=SYNC_LINE * (2 + team) + marks)
+    # engine.blocks.sync_bad, sync_own, sync_claim; engine.integrate.sync_range
+    sw.asm_sync = ti.ndarray(ti.i32, shape=SYNC_LINE * (1 + team) + 2 + 2 * team)
     sw.asm_part = ti.ndarray(rti, shape=max(1, 3 * team))
 
 

@@ -244,15 +244,13 @@ def test_force_blocks_agree_and_are_checked(tmp_path):
 
 
 @pytest.mark.parametrize("team", [True, False])
-def test_block_copies_are_gathered_over_the_chunks_they_marked(team):
-    """Each block b > 0 marks the chunks of NODE_CHUNK nodes in which it wrote an entry of its
-    copy of the nodal forces (``integrate.mark_slot``), and the gather adds and resets the copy
-    over the marked chunks only: an entry written in an unmarked chunk would survive the step.
-    After steps of a fragmenting plate in 5 blocks, mid-launch state included, every copy is
-    zero again and every mark reset; the marks of one step cover every node each block's
-    triangles, joints and touching couples touch (a brute-force list), and far fewer chunks than
-    all (else they would save nothing)."""
-    from taichi_fdem.engine.groups import NODE_CHUNK, SYNC_LINE
+def test_block_copies_are_gathered_over_the_nodes_they_wrote(team):
+    """Each block b > 0 records the band of nodes whose entries of its copy of the nodal forces
+    it wrote (``integrate.sync_range``), and the gather adds and resets the copy over that band
+    only: an entry written outside it would survive the step.  After steps of a fragmenting
+    plate in 5 blocks, mid-launch state included, every copy is zero again and the bands are
+    reset, and the bands were narrower than the nodes (else they would save nothing here)."""
+    from taichi_fdem.engine.integrate import SYNC_LINE
     from taichi_fdem.verification import fragment_plate_scene
     sim, _ = fragment_plate_scene(h_plate=0.02, h_ball=0.02, friction=0.5)
     sim = sim.scene.build(strategy="parallel")
@@ -261,51 +259,42 @@ def test_block_copies_are_gathered_over_the_chunks_they_marked(team):
     sim.step(300)
     assert sim.broken_joint_count > 0
     N, nblk = sim.node_count, 5
-    nch = -(-N // NODE_CHUNK)
     copies = sim.scratch.asm_force.to_numpy()[: (nblk - 1) * N]
     assert not np.any(copies)
     sync = sim.scratch.asm_sync.to_numpy()
-    assert sync.size == SYNC_LINE * (2 + nblk) + (nblk - 1) * nch
-    assert not np.any(sync[SYNC_LINE * (2 + nblk):])
-    # one step's forces, block by block, then the marks they left
+    assert not np.any(sync[SYNC_LINE * (1 + nblk) + 2:])
+    # the bands: the nodes of each block's triangles, joints and touching couples
     import taichi as ti
     from taichi_fdem.engine.blocks import block_forces, item_counts
     from taichi_fdem.engine.groups import DACC, AssemblyGroup, ContactGroup, JointGroup, MaterialGroup, NodeGroup
     from taichi_fdem.engine.groups import StepGroup, TriGroup
+    from taichi_fdem.engine.integrate import sync_range
 
-    def forces(nodes, tris, mats, con, joints, step, asm, feat):
+    def bands(nodes, tris, mats, con, joints, step, asm, out, feat):
         ti.loop_config(serialize=True)
         for b in range(nblk):
             T, J, C = item_counts(tris, joints, step, feat.contact, feat.fracture)
             block_forces(b, nblk, T, J, C, step.step_real[DACC], nodes, tris, mats, con, joints, step, asm,
                          feat.contact, feat.friction, feat.fracture)
+            out[b, 0] = asm.asm_sync[sync_range(nblk, b)]
+            out[b, 1] = asm.asm_sync[sync_range(nblk, b) + 1]
 
     # (annotations set here: this module's are strings, ``from __future__ import annotations``)
-    forces.__annotations__ = dict(nodes=NodeGroup, tris=TriGroup, mats=MaterialGroup, con=ContactGroup,
-                                  joints=JointGroup, step=StepGroup, asm=AssemblyGroup, feat=ti.template())
-    forces = ti.kernel(forces)
-    forces(*sim._groups["parallel"], sim._switches()[0])
-    marks = sim.scratch.asm_sync.to_numpy()[SYNC_LINE * (2 + nblk):].reshape(nblk - 1, nch) != 0
-    copies = sim.scratch.asm_force.to_numpy()[: (nblk - 1) * N].reshape(nblk - 1, N, 2)
-    written = np.any(copies != 0.0, axis=2)                 # entries a block wrote (nonzero sums)
-    for b in range(1, nblk):
-        chunks = np.unique(np.nonzero(written[b - 1])[0] // NODE_CHUNK)
-        assert marks[b - 1, chunks].all(), b
-    # the nodes of a block's triangles (by count) are marked
-    tri_nodes = sim.model.tri_nodes.to_numpy()
-    T = len(tri_nodes)
-    for b in range(1, nblk):
-        nodes_b = tri_nodes[b * T // nblk:(b + 1) * T // nblk].ravel()
-        assert marks[b - 1, np.unique(nodes_b // NODE_CHUNK)].all(), b
-    assert 0 < marks.sum() < 0.5 * (nblk - 1) * nch, marks.sum(axis=1)
+    bands.__annotations__ = dict(nodes=NodeGroup, tris=TriGroup, mats=MaterialGroup, con=ContactGroup,
+                                 joints=JointGroup, step=StepGroup, asm=AssemblyGroup, out=ti.types.ndarray(),
+                                 feat=ti.template())
+    bands = ti.kernel(bands)
+    out = np.zeros((nblk, 2), np.int32)
+    bands(*sim._groups["parallel"], out, sim._switches()[0])
+    span = (out[1:, 1] - out[1:, 0]).sum()
+    assert 0 < span < 0.5 * (nblk - 1) * N, out
 
 
 def test_team_workers_take_every_block_once():
     """The order in which a worker of the team tries the blocks (``blocks.nth_block``): its own
-    contiguous run of blocks w · blocks // workers .. (w + 1) · blocks // workers − 1 upwards
-    first, then the others' from the last down, never block 0 (worker 0's, whose runner adds the
-    loads); each block in a worker's order once, and every block in some worker's order, for 1
-    to 4 workers and 1 to 9 blocks."""
+    blocks w, w + workers, ... first, then the others' from the last down, never block 0 (worker
+    0's, whose runner adds the loads); each block in a worker's order once, and every block in
+    some worker's order, for 1 to 4 workers and 1 to 9 blocks."""
     import taichi as ti
     from taichi_fdem.engine.blocks import nth_block
 
@@ -327,8 +316,8 @@ def test_team_workers_take_every_block_once():
                 out = np.zeros(nblk, np.int32)
                 order(w, nwork, nblk, out)
                 tried = [int(b) for b in out if b >= 0]
-                own = list(range(w * nblk // nwork, (w + 1) * nblk // nwork))
-                others = [b for b in range(nblk - 1, -1, -1) if b not in own and b != 0]
+                own = list(range(w, nblk, nwork))
+                others = [b for b in range(nblk - 1, -1, -1) if b % nwork != w and b != 0]
                 assert tried == own + others, (nwork, nblk, w, tried)
                 seen |= set(tried)
             assert seen == set(range(nblk))

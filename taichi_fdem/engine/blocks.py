@@ -13,11 +13,10 @@ from .contact import couple_certificate, couple_forces, neighbour_flag
 from .detection import phase_detect_count, phase_detect_fill
 from .elastic import tri_forces
 from .groups import (COST_BONDED, COST_BROKEN, COST_CERTIFIED, COST_JOINT, COST_JOINT_DAMAGED, COST_SEPARATED,
-                     COST_TOUCHING, COST_TRI, COUPLES, DACC, DUE_BIT, FOUND, INVERTED, MAX_FORCE_BLOCKS, NODE_CHUNK,
-                     NONFINITE,
+                     COST_TOUCHING, COST_TRI, COUPLES, DACC, DUE_BIT, FOUND, INVERTED, MAX_FORCE_BLOCKS, NONFINITE,
                      QS_ALPHA, REBALANCE, REBALANCE_STEPS, SPLIT, SWITCH_BC, SWITCH_BC_WORK, SYNC_LINE, TIME,
                      UNSTABLE_BIT, VMAX, WORK_BOUNDARY, WORK_LOCAL)
-from .integrate import asm_blocks, block_work_slot, book_block_work, integrate_span, mark_slot, node_span
+from .integrate import asm_blocks, block_work_slot, book_block_work, clear_ranges, integrate_span, sync_range
 from .joints import add_joint_work, eval_joint
 from .loads import apply_load, book_load
 from .tiutil import vec2
@@ -38,17 +37,14 @@ def item_counts(tris: ti.template(), joints: ti.template(), step: ti.template(),
 
 
 @ti.func
-def add_block_force(nodes: ti.template(), asm: ti.template(), nblk, b, n, f):
+def add_block_force(nodes: ti.template(), asm: ti.template(), b, n, f):
     """Add f to node n's force in block b: node_f for block 0, else the block's copy (see
-    :func:`integrate.asm_blocks`), whose chunk it marks (:func:`integrate.mark_slot`: the gather
-    visits only the marked chunks); plain reads and writes (one thread runs a block)."""
+    :func:`integrate.asm_blocks`); a plain read and write (one thread runs a block)."""
     if b == 0:
         nodes.node_f[n] = nodes.node_f[n] + f
     else:
-        N = nodes.node_x.shape[0]
-        k = (b - 1) * N + n
+        k = (b - 1) * nodes.node_x.shape[0] + n
         asm.asm_force[k] = asm.asm_force[k] + f
-        asm.asm_sync[mark_slot(N, nblk, b, n // NODE_CHUNK)] = 1
 
 
 @ti.func
@@ -157,15 +153,19 @@ def block_forces(b, nblk, T, J, C, dacc, nodes: ti.template(), tris: ti.template
                  contact: ti.template(), friction: ti.template(), fracture: ti.template()):
     """Block b's share of :func:`taichi_fdem.engine.step.phase_blocks`: the triangles and the joints of its contiguous
     range by count, and the couples of its range by cost (:func:`couple_range`), added into its
-    copy of the nodal forces (:func:`add_block_force`, which marks the chunks of nodes it wrote
-    for the gather); its contact work to its entry of asm_force.
+    copy of the nodal forces; its contact work to its entry of asm_force, and the range of the
+    nodes it wrote to :func:`integrate.sync_range` (block b > 0), which the gather reads.
     ``dacc``: step_real[DACC] at the start of the step (:func:`contact.couple_forces`)."""
+    lo = nodes.node_x.shape[0]
+    hi = 0
     for e in range(b * T // nblk, (b + 1) * T // nblk):
         f0, f1, f2 = tri_forces(e, nodes, tris, mats, step)
         n = tris.tri_nodes[e]
-        add_block_force(nodes, asm, nblk, b, n[0], f0)
-        add_block_force(nodes, asm, nblk, b, n[1], f1)
-        add_block_force(nodes, asm, nblk, b, n[2], f2)
+        add_block_force(nodes, asm, b, n[0], f0)
+        add_block_force(nodes, asm, b, n[1], f1)
+        add_block_force(nodes, asm, b, n[2], f2)
+        lo = ti.min(lo, ti.min(n[0], ti.min(n[1], n[2])))
+        hi = ti.max(hi, ti.max(n[0], ti.max(n[1], n[2])) + 1)
     if ti.static(fracture):
         for j in range(b * J // nblk, (b + 1) * J // nblk):
             if joints.joint_state[j] == 0:
@@ -174,10 +174,12 @@ def block_forces(b, nblk, T, J, C, dacc, nodes: ti.template(), tris: ti.template
                 nd = joints.joint_nodes[j]
                 g0 = vec2(gj[0], gj[1])
                 g1 = vec2(gj[2], gj[3])
-                add_block_force(nodes, asm, nblk, b, nd[0], -g0)
-                add_block_force(nodes, asm, nblk, b, nd[1], -g1)
-                add_block_force(nodes, asm, nblk, b, nd[2], g1)
-                add_block_force(nodes, asm, nblk, b, nd[3], g0)
+                add_block_force(nodes, asm, b, nd[0], -g0)
+                add_block_force(nodes, asm, b, nd[1], -g1)
+                add_block_force(nodes, asm, b, nd[2], g1)
+                add_block_force(nodes, asm, b, nd[3], g0)
+                lo = ti.min(lo, ti.min(ti.min(nd[0], nd[1]), ti.min(nd[2], nd[3])))
+                hi = ti.max(hi, ti.max(ti.max(nd[0], nd[1]), ti.max(nd[2], nd[3])) + 1)
     if ti.static(contact):
         bwork = vec2(0.0, 0.0)
         lo_c, hi_c = couple_range(b, nblk, C, step)
@@ -188,9 +190,14 @@ def block_forces(b, nblk, T, J, C, dacc, nodes: ti.template(), tris: ti.template
                 na = tris.tri_nodes[con.couple_a[c]]
                 nb = tris.tri_nodes[con.couple_b[c]]
                 for r in ti.static(range(3)):
-                    add_block_force(nodes, asm, nblk, b, na[r], vec2(gA[r, 0], gA[r, 1]))
-                    add_block_force(nodes, asm, nblk, b, nb[r], vec2(gB[r, 0], gB[r, 1]))
+                    add_block_force(nodes, asm, b, na[r], vec2(gA[r, 0], gA[r, 1]))
+                    add_block_force(nodes, asm, b, nb[r], vec2(gB[r, 0], gB[r, 1]))
+                    lo = ti.min(lo, ti.min(na[r], nb[r]))
+                    hi = ti.max(hi, ti.max(na[r], nb[r]) + 1)
         asm.asm_force[block_work_slot(nodes.node_x.shape[0], nblk, b)] = bwork
+    if b > 0:
+        asm.asm_sync[sync_range(nblk, b)] = lo
+        asm.asm_sync[sync_range(nblk, b) + 1] = hi
 
 
 @ti.func
@@ -207,18 +214,15 @@ def claim(asm: ti.template(), b, ticket):
 @ti.func
 def nth_block(k, w, nwork, nblk, tail):
     """The k-th block that worker w tries in a phase (k = 0 .. nblk − 1; −1: none), and the new
-    ``tail``: first its own blocks, the contiguous run w · nblk // nwork .. (w + 1) · nblk //
-    nwork − 1 (the same every step, so that their data, and the nodes between them, stay in its
-    core's caches), then the others' from the last down (``tail`` starts at nblk − 1), which a
-    worker that finished early takes over from a slower one (:func:`claim`; each worker runs its
-    own run upwards, so the thief takes the other's last blocks).  Block 0 is worker 0's alone:
-    its runner adds the loads after its forces, and worker 0 books the loads' work of the step
-    before (phase 3 of :func:`team_worker`; no barrier in between)."""
-    lo = w * nblk // nwork
-    hi = (w + 1) * nblk // nwork
-    b = lo + k
-    if k >= hi - lo:
-        while tail >= lo and tail < hi:
+    ``tail``: first its own blocks w, w + nwork, ... (the same every step, so that their data stay
+    in its core's caches), then the others' from the last down (``tail`` starts at nblk − 1),
+    which a worker that finished early takes over from a slower one (:func:`claim`).  Block 0 is
+    worker 0's alone: its runner adds the loads after its forces, and worker 0 books the loads'
+    work of the step before (phase 3 of :func:`team_worker`; no barrier in between)."""
+    m = (nblk - 1 - w) // nwork + 1              # worker w's own blocks
+    b = w + k * nwork
+    if k >= m:
+        while tail >= 0 and tail % nwork == w:
             tail -= 1
         b = tail
         tail -= 1
@@ -263,9 +267,8 @@ def sync_own(w):
 def team_worker(w, nwork, nsteps, detect_in, nodes: ti.template(), tris: ti.template(), mats: ti.template(),
                 con: ti.template(), det: ti.template(), joints: ti.template(), step: ti.template(),
                 asm: ti.template(), feat: ti.template()):
-    """Worker w of :func:`taichi_fdem.engine.step.run_steps_blocks`: up to ``nsteps`` steps of
-    the parallel strategy for its own contiguous run of blocks (:func:`nth_block`), in step with
-    the other workers through two barriers per step (three with fracture).
+    """Worker w of :func:`taichi_fdem.engine.step.run_steps_blocks`: up to ``nsteps`` steps of the parallel strategy for
+    blocks w, w + nwork, ..., in step with the other workers through two barriers per step (three with fracture).
     Every block's work and partial sums are the same whoever runs it, and the partials are
     combined in block order: the results do not depend on nwork.  ``detect_in`` != 0: when
     contact detection is due, worker 0 runs it (the serial broad phase of
@@ -341,9 +344,8 @@ def team_worker(w, nwork, nsteps, detect_in, nodes: ti.template(), tris: ti.temp
         for k in range(nblk):
             b, tail = nth_block(k, w, nwork, nblk, tail)
             if claim(asm, b, nbar + 1):
-                lo, hi = node_span(b, nblk, N)
-                vmax2, bad, work, local = integrate_span(lo, hi, nodes, joints, asm, dt, g, bc, bc_work, alpha, 2,
-                                                         feat.local_damping)
+                vmax2, bad, work, local = integrate_span(b * N // nblk, (b + 1) * N // nblk, nodes, joints, asm, dt,
+                                                         g, bc, bc_work, alpha, 2, feat.local_damping)
                 asm.asm_part[3 * b] = vmax2
                 asm.asm_part[3 * b + 1] = work
                 asm.asm_part[3 * b + 2] = local
@@ -407,3 +409,4 @@ def team_worker(w, nwork, nsteps, detect_in, nodes: ti.template(), tris: ti.temp
             asm.asm_sync[sync_claim(q)] = 0
             for r in ti.static(range(3)):
                 asm.asm_part[3 * q + r] = 0.0
+        clear_ranges(nblk, asm)

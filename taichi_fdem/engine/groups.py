@@ -149,8 +149,6 @@ BLOCK_STRIDE = 1024       # loop iterations per block (see engine.step.phase_blo
 UNSTABLE_BIT = 1 << 24   # added to engine.step.run_steps_serial's return value (steps per launch < 2^24)
 DUE_BIT = 1 << 25        # added to engine.step.run_steps_blocks' return value: contact detection is due
 SYNC_LINE = 16            # i32 slots per cache line: the team's flags in asm_sync are a line apart
-NODE_CHUNK = 16           # nodes per chunk: the integration's reductions (one atomic per chunk) and the
-                          # blocks' touched-chunk marks (engine.integrate.mark_slot)
 
 # tris.tri_intact of a triangle of a fracturing body (FDEM_SPEC §7.10; engine.joints.pair_carried):
 # INTACT | (EDGE_FREE << e for every edge e without a joint that carries its pair) | (DAMAGED once

@@ -13,12 +13,12 @@ step_real[WORK_LOCAL].
 """
 import taichi as ti
 
-from .groups import (DACC, NODE_CHUNK, NONFINITE, QS_ALPHA, SWITCH_BC, SWITCH_BC_WORK, SYNC_LINE, TIME, VMAX,
-                     WORK_BOUNDARY, WORK_CDAMPING, WORK_FRICTION, WORK_LOCAL)
+from .groups import (DACC, NONFINITE, QS_ALPHA, SWITCH_BC, SWITCH_BC_WORK, SYNC_LINE, TIME, VMAX, WORK_BOUNDARY,
+                     WORK_CDAMPING, WORK_FRICTION, WORK_LOCAL)
 from .tiutil import vec2
 
-# NODE_CHUNK: nodes per chunk in reductions (one atomic per chunk, not per node); small enough that
-# the chunk loop has several of Taichi's 512-iteration CPU tasks, so that it runs in parallel
+CHUNK = 16    # nodes per chunk in reductions (one atomic per chunk, not per node); small enough that
+              # the chunk loop has several of Taichi's 512-iteration CPU tasks, so that it runs in parallel
 
 
 @ti.func
@@ -107,21 +107,12 @@ def asm_blocks(N, asm: ti.template()):
 
 
 @ti.func
-def mark_slot(N, nblk, b, c):
-    """asm_sync slot of block b's mark (b > 0) on node chunk c (NODE_CHUNK nodes): nonzero when
-    block b wrote an entry of its copy of the nodal forces in that chunk this step
-    (:func:`taichi_fdem.engine.blocks.add_block_force`); the gather adds and resets the copy only
-    over the marked chunks, and resets the marks (zero between steps).  After the team's cache
-    lines (:func:`taichi_fdem.engine.blocks.sync_own`), which the waiting workers write."""
-    return SYNC_LINE * (2 + nblk) + (b - 1) * ((N + NODE_CHUNK - 1) // NODE_CHUNK) + c
-
-
-@ti.func
-def node_span(b, nblk, N):
-    """Block b's share of the nodes in the gather and integration of a team launch, [lo, hi):
-    whole chunks of NODE_CHUNK nodes (the marks' unit), shared out by count."""
-    nch = (N + NODE_CHUNK - 1) // NODE_CHUNK
-    return b * nch // nblk * NODE_CHUNK, ti.min(N, (b + 1) * nch // nblk * NODE_CHUNK)
+def sync_range(nblk, b):
+    """asm_sync slot of block b's node range [lo, hi) (the next slot): the nodes whose entries of
+    its copy of the nodal forces it wrote this step (:func:`taichi_fdem.engine.blocks.block_forces`),
+    which the gather adds and resets; 0 and 0 between launches.  After the team's cache lines
+    (:func:`taichi_fdem.engine.blocks.sync_own`), which the waiting workers write."""
+    return SYNC_LINE * (1 + nblk) + 2 + 2 * b
 
 
 @ti.func
@@ -143,45 +134,46 @@ def book_block_work(N, nblk, asm: ti.template(), step: ti.template()):
 
 
 @ti.func
+def clear_ranges(nblk, asm: ti.template()):
+    """Reset the blocks' node ranges (:func:`sync_range`) after the gather: the scratch does not
+    depend on how the steps were launched (a restart compares it)."""
+    for b in range(nblk):
+        asm.asm_sync[sync_range(nblk, b)] = 0
+        asm.asm_sync[sync_range(nblk, b) + 1] = 0
+
+
+@ti.func
 def integrate_span(lo, hi, nodes: ti.template(), joints: ti.template(), asm: ti.template(), dt, g, bc, bc_work, alpha,
                    gathered: ti.template(), local_damping: ti.template()):
     """Integrate nodes lo..hi-1 (:func:`integrate_node`), each under node_f plus (``gathered``
-    1) its slots or (2) its block copies, which are reset.  With block copies, lo and hi must
-    bound whole chunks of NODE_CHUNK nodes (or hi = N; :func:`node_span`).  Returns the span's
-    (max |v|², largest bad index + 1, constraint work, local-damping work)."""
+    1) its slots or (2) its block copies, which are reset.  Returns the span's (max |v|²,
+    largest bad index + 1, constraint work, local-damping work)."""
     N = nodes.node_x.shape[0]
     vmax2 = 0.0
     bad = 0
     work = 0.0
     local = 0.0
-    nblk = 1
     if ti.static(gathered == 2):
+        # node_f holds block 0's sum (then the loads); add the other blocks' copies in block
+        # order, each over the nodes it wrote (its range), each entry reset for the next step
         nblk = asm_blocks(N, asm)
-    for c in range(lo // NODE_CHUNK, (hi + NODE_CHUNK - 1) // NODE_CHUNK):
-        i0 = ti.max(lo, c * NODE_CHUNK)
-        i1 = ti.min(hi, c * NODE_CHUNK + NODE_CHUNK)
-        if ti.static(gathered == 2):
-            # node_f holds block 0's sum (then the loads); add the other blocks' copies in block
-            # order over the chunks they marked, each entry and mark reset for the next step
-            for b in range(1, nblk):
-                m = mark_slot(N, nblk, b, c)
-                if asm.asm_sync[m] != 0:
-                    asm.asm_sync[m] = 0
-                    for i in range(i0, i1):
-                        k = (b - 1) * N + i
-                        nodes.node_f[i] = nodes.node_f[i] + asm.asm_force[k]
-                        asm.asm_force[k] = vec2(0.0, 0.0)
-        for i in range(i0, i1):
-            f = nodes.node_f[i]
-            if ti.static(gathered == 1):
-                # the node's slots, in the sorted order of build_node_slots: a fixed summation order
-                for a in range(asm.asm_node_start[i], asm.asm_node_start[i + 1]):
-                    f += _slot_force(asm.asm_node_slots[a], joints, asm)
-            s, w, lw, bd = integrate_node(i, f, nodes, dt, g, bc, bc_work, alpha, local_damping)
-            work += w
-            local += lw
-            bad = ti.max(bad, bd)
-            vmax2 = ti.max(vmax2, s)
+        for b in range(1, nblk):
+            r = sync_range(nblk, b)
+            for i in range(ti.max(lo, asm.asm_sync[r]), ti.min(hi, asm.asm_sync[r + 1])):
+                k = (b - 1) * N + i
+                nodes.node_f[i] = nodes.node_f[i] + asm.asm_force[k]
+                asm.asm_force[k] = vec2(0.0, 0.0)
+    for i in range(lo, hi):
+        f = nodes.node_f[i]
+        if ti.static(gathered == 1):
+            # the node's slots, in the sorted order of build_node_slots: a fixed summation order
+            for a in range(asm.asm_node_start[i], asm.asm_node_start[i + 1]):
+                f += _slot_force(asm.asm_node_slots[a], joints, asm)
+        s, w, lw, bd = integrate_node(i, f, nodes, dt, g, bc, bc_work, alpha, local_damping)
+        work += w
+        local += lw
+        bad = ti.max(bad, bd)
+        vmax2 = ti.max(vmax2, s)
     return vmax2, bad, work, local
 
 
@@ -200,10 +192,9 @@ def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.templat
     ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
     for _ in range(1):
         step.step_real[VMAX] = 0.0
-    for chunk in range((N + NODE_CHUNK - 1) // NODE_CHUNK):
-        lo = chunk * NODE_CHUNK
-        vmax2, bad, work, local = integrate_span(lo, ti.min(N, lo + NODE_CHUNK), nodes, joints, asm, dt, g, bc,
-                                                 bc_work, alpha, gathered, local_damping)
+    for chunk in range((N + CHUNK - 1) // CHUNK):
+        vmax2, bad, work, local = integrate_span(chunk * CHUNK, ti.min(N, chunk * CHUNK + CHUNK), nodes, joints, asm,
+                                                 dt, g, bc, bc_work, alpha, gathered, local_damping)
         ti.atomic_max(step.step_real[VMAX], ti.sqrt(vmax2))
         if bad > 0:
             ti.atomic_max(step.step_int[NONFINITE], bad)
@@ -217,6 +208,7 @@ def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.templat
             # the blocks' dissipated contact work, in block order (engine.step.phase_blocks)
             nblk = asm_blocks(N, asm)
             book_block_work(N, nblk, asm, step)
+            clear_ranges(nblk, asm)
         # re-detection trigger D_acc += 2 Δt v_max (§4.1)
         step.step_real[DACC] += 2.0 * dt * step.step_real[VMAX]
         step.step_real[TIME] += dt

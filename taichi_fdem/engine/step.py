@@ -352,7 +352,7 @@ def step_parallel(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: Co
 def run_steps_blocks(nsteps: ti.i32, nwork: ti.i32, detect_in: ti.i32, g: TeamGroup, feat: ti.template()) -> ti.i32:
     """Up to ``nsteps`` steps of the parallel strategy with the block assembly in one launch: a
     team of ``nwork`` workers, each a thread for the whole launch (:func:`team_worker`), runs
-    the blocks (worker w: its contiguous run of blocks, :func:`blocks.nth_block`), the phases separated by barriers; no launch
+    the blocks (worker w: blocks w, w + nwork, ...), the phases separated by barriers; no launch
     and no parallel-loop start per step.  ``nwork`` must not exceed the CPU threads (a worker
     waiting at a barrier holds its thread).  ``detect_in`` != 0: contact detection, when due,
     runs inside the launch on worker 0 (the serial broad phase, small scenes); 0: the launch
