@@ -17,6 +17,74 @@ _PRECISIONS = {"f64": (ti.f64, np.float64), "f32": (ti.f32, np.float32)}
 _state = {"initialised": False, "arch": None, "precision": None, "generation": 0}
 
 
+def _memoise_front_end() -> None:
+    """Make Taichi's front end do its pure source bookkeeping once per function, not per use.
+
+    Taichi 1.7 turns every kernel's Python AST into its IR at each process start, even when the
+    offline cache then supplies the compiled kernel (the cache key comes from that IR), and it
+    re-reads and re-parses the source of a ``ti.func`` each time a kernel inlines it
+    (``inspect.getsourcelines``, then ``textwrap`` on every line), and formats for every AST
+    node a message locating it in the source (``get_pos_info``, with ``textwrap``) for its error
+    messages.  Our functions are inlined into many kernels, and twice into the team kernel, so
+    the same ~7,000 messages were formatted ~40,000 times and the same sources read ~700 times:
+    on the 1k pile about half of the first step of a warm start.  The memos return the same
+    values (so the kernels and their cache keys do not change): the source of a function object
+    by that object; a position message by everything it reads (the function, its file and
+    line offset, the node's type and span, the line of a block statement's first statement).
+    Does nothing if Taichi's internals differ from 1.7's.
+    """
+    import functools
+    import textwrap as _textwrap
+    import types
+    try:
+        from taichi.lang import kernel_impl
+        from taichi.lang.ast.ast_transformer_utils import ASTTransformerContext
+    except ImportError:            # another Taichi layout: leave it alone
+        return
+    original = getattr(ASTTransformerContext, "get_pos_info", None)
+    if (original is None or getattr(original, "_fdem_memo", False)
+            or not all(hasattr(kernel_impl, n) for n in ("getsourcefile", "getsourcelines", "textwrap"))):
+        return
+    memo = {}
+
+    def get_pos_info(self, node):
+        body = getattr(node, "body", None)
+        first = body[0].lineno if isinstance(body, list) and body and hasattr(body[0], "lineno") else None
+        key = (self.file, self.func.func.__qualname__, self.lineno_offset, self.indent, type(node).__name__,
+               node.lineno, node.col_offset, getattr(node, "end_lineno", None), getattr(node, "end_col_offset", None),
+               first)
+        msg = memo.get(key)
+        if msg is None:
+            msg = memo[key] = original(self, node)
+        return msg
+
+    get_pos_info._fdem_memo = True
+    get_pos_info._fdem_original = original
+    ASTTransformerContext.get_pos_info = get_pos_info
+    sourcefile, sourcelines = kernel_impl.getsourcefile, kernel_impl.getsourcelines
+    files, lines = {}, {}
+
+    def getsourcefile(obj):
+        if obj not in files:
+            files[obj] = sourcefile(obj)
+        return files[obj]
+
+    def getsourcelines(obj):
+        if obj not in lines:
+            src, start = sourcelines(obj)
+            lines[obj] = (tuple(src), start)
+        src, start = lines[obj]
+        return list(src), start
+
+    kernel_impl.getsourcefile, kernel_impl.getsourcelines = getsourcefile, getsourcelines
+    # kernel_impl uses textwrap.fill on each source line and textwrap.dedent on the source
+    kernel_impl.textwrap = types.SimpleNamespace(fill=functools.lru_cache(maxsize=None)(_textwrap.fill),
+                                                 dedent=functools.lru_cache(maxsize=None)(_textwrap.dedent))
+
+
+_memoise_front_end()
+
+
 def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, debug: bool | None = None,
          cpu_max_num_threads: int | None = None, fast_compile: bool | None = None) -> None:
     """Initialise Taichi for taichi_fdem.
