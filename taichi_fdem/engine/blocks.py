@@ -157,7 +157,7 @@ def block_forces(b, nblk, T, J, C, dacc, nodes: ti.template(), tris: ti.template
     nodes it wrote to :func:`integrate.sync_range` (block b > 0), which the gather reads.
     ``dacc``: step_real[DACC] at the start of the step (:func:`contact.couple_forces`).
     Compiled twice, for block 0 (into node_f) and for the others (into a copy): a branch on the
-    block in every addition made the loops ~10 % slower on one thread (100k pile)."""
+    block in every addition made the pile 5-7 % slower (benchmarks/README.md, nineteenth session)."""
     if b == 0:
         _block_items(b, nblk, T, J, C, dacc, nodes, tris, mats, con, joints, step, asm, contact, friction, fracture,
                      False)
