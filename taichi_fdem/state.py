@@ -172,8 +172,8 @@ def size_assembly(md: Model, st: State, sw: Scratch) -> None:
         sw.asm_node_slots = ti.ndarray(ti.i32, shape=1)
         sw.asm_node_start = ti.ndarray(ti.i32, shape=1)
     team = sw.force_blocks if sw.parallel and sw.blocks else 0
-    # engine.blocks.sync_bad, sync_own, sync_claim; engine.integrate.sync_range
-    sw.asm_sync = ti.ndarray(ti.i32, shape=SYNC_LINE * (1 + team) + 2 + 2 * team)
+    # the barrier counter and the launch's result (line 0); engine.blocks.sync_bad, sync_own, sync_claim
+    sw.asm_sync = ti.ndarray(ti.i32, shape=SYNC_LINE * (1 + team))
     sw.asm_part = ti.ndarray(rti, shape=max(1, 3 * team))
 
 

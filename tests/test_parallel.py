@@ -244,13 +244,15 @@ def test_force_blocks_agree_and_are_checked(tmp_path):
 
 
 @pytest.mark.parametrize("team", [True, False])
-def test_block_copies_are_gathered_over_the_nodes_they_wrote(team):
-    """Each block b > 0 records the band of nodes whose entries of its copy of the nodal forces
-    it wrote (``integrate.sync_range``), and the gather adds and resets the copy over that band
-    only: an entry written outside it would survive the step.  After steps of a fragmenting
-    plate in 5 blocks, mid-launch state included, every copy is zero again and the bands are
-    reset, and the bands were narrower than the nodes (else they would save nothing here)."""
-    from taichi_fdem.engine.integrate import SYNC_LINE
+def test_block_copies_are_gathered_over_the_nodes_they_can_write(team):
+    """Each block b > 0 adds into its copy of the nodal forces, and the gather adds and resets
+    that copy over the block's node range only (step_int[RANGE + 2b], set with the couple ranges
+    by ``blocks.block_node_ranges``): an entry written outside it would survive the step.  After
+    steps of a fragmenting plate in 5 blocks, mid-launch state included, every copy is zero
+    again; each range holds every node of its block's triangles, joints and couples (brute force
+    from the arrays and the couple split), and the ranges are narrower than the nodes (else they
+    would save nothing here)."""
+    from taichi_fdem.engine.groups import COUPLES, RANGE, SPLIT
     from taichi_fdem.verification import fragment_plate_scene
     sim, _ = fragment_plate_scene(h_plate=0.02, h_ball=0.02, friction=0.5)
     sim = sim.scene.build(strategy="parallel")
@@ -261,33 +263,23 @@ def test_block_copies_are_gathered_over_the_nodes_they_wrote(team):
     N, nblk = sim.node_count, 5
     copies = sim.scratch.asm_force.to_numpy()[: (nblk - 1) * N]
     assert not np.any(copies)
-    sync = sim.scratch.asm_sync.to_numpy()
-    assert not np.any(sync[SYNC_LINE * (1 + nblk) + 2:])
-    # the bands: the nodes of each block's triangles, joints and touching couples
-    import taichi as ti
-    from taichi_fdem.engine.blocks import block_forces, item_counts
-    from taichi_fdem.engine.groups import DACC, AssemblyGroup, ContactGroup, JointGroup, MaterialGroup, NodeGroup
-    from taichi_fdem.engine.groups import StepGroup, TriGroup
-    from taichi_fdem.engine.integrate import sync_range
-
-    def bands(nodes, tris, mats, con, joints, step, asm, out, feat):
-        ti.loop_config(serialize=True)
-        for b in range(nblk):
-            T, J, C = item_counts(tris, joints, step, feat.contact, feat.fracture)
-            block_forces(b, nblk, T, J, C, step.step_real[DACC], nodes, tris, mats, con, joints, step, asm,
-                         feat.contact, feat.friction, feat.fracture)
-            out[b, 0] = asm.asm_sync[sync_range(nblk, b)]
-            out[b, 1] = asm.asm_sync[sync_range(nblk, b) + 1]
-
-    # (annotations set here: this module's are strings, ``from __future__ import annotations``)
-    bands.__annotations__ = dict(nodes=NodeGroup, tris=TriGroup, mats=MaterialGroup, con=ContactGroup,
-                                 joints=JointGroup, step=StepGroup, asm=AssemblyGroup, out=ti.types.ndarray(),
-                                 feat=ti.template())
-    bands = ti.kernel(bands)
-    out = np.zeros((nblk, 2), np.int32)
-    bands(*sim._groups["parallel"], out, sim._switches()[0])
-    span = (out[1:, 1] - out[1:, 0]).sum()
-    assert 0 < span < 0.5 * (nblk - 1) * N, out
+    ints = sim.state.step_int.to_numpy()
+    tri = sim.model.tri_nodes.to_numpy()
+    jn = sim.model.joint_nodes.to_numpy()
+    T, J, C = len(tri), sim.model.joint_count, int(ints[COUPLES])
+    ca = sim.state.couple_a.to_numpy()[:C]
+    cb = sim.state.couple_b.to_numpy()[:C]
+    span = 0
+    for b in range(1, nblk):
+        lo_c = min(max(int(ints[SPLIT + b]), 0), C)
+        hi_c = C if b == nblk - 1 else min(max(int(ints[SPLIT + b + 1]), 0), C)
+        nodes = np.concatenate([tri[b * T // nblk:(b + 1) * T // nblk].ravel(),
+                                jn[b * J // nblk:(b + 1) * J // nblk].ravel(),
+                                tri[ca[lo_c:hi_c]].ravel(), tri[cb[lo_c:hi_c]].ravel()])
+        lo, hi = int(ints[RANGE + 2 * b]), int(ints[RANGE + 2 * b + 1])
+        assert lo == nodes.min() and hi == nodes.max() + 1, (b, lo, hi, nodes.min(), nodes.max())
+        span += hi - lo
+    assert 0 < span < 0.5 * (nblk - 1) * N, span
 
 
 def test_team_workers_take_every_block_once():

@@ -14,9 +14,9 @@ from .detection import phase_detect_count, phase_detect_fill
 from .elastic import tri_forces
 from .groups import (COST_BONDED, COST_BROKEN, COST_CERTIFIED, COST_JOINT, COST_JOINT_DAMAGED, COST_SEPARATED,
                      COST_TOUCHING, COST_TRI, COUPLES, DACC, DUE_BIT, FOUND, INVERTED, MAX_FORCE_BLOCKS, NONFINITE,
-                     QS_ALPHA, REBALANCE, REBALANCE_STEPS, SPLIT, SWITCH_BC, SWITCH_BC_WORK, SYNC_LINE, TIME,
+                     QS_ALPHA, RANGE, REBALANCE, REBALANCE_STEPS, SPLIT, SWITCH_BC, SWITCH_BC_WORK, SYNC_LINE, TIME,
                      UNSTABLE_BIT, VMAX, WORK_BOUNDARY, WORK_LOCAL)
-from .integrate import asm_blocks, block_work_slot, book_block_work, clear_ranges, integrate_span, sync_range
+from .integrate import asm_blocks, block_work_slot, book_block_work, integrate_span
 from .joints import add_joint_work, eval_joint
 from .loads import apply_load, book_load
 from .tiutil import vec2
@@ -148,13 +148,57 @@ def couple_range(b, nblk, C, step: ti.template()):
 
 
 @ti.func
+def block_node_ranges(nblk, T, J, C, tris: ti.template(), con: ti.template(), joints: ti.template(),
+                      step: ti.template(), contact: ti.template(), fracture: ti.template()):
+    """step_int[RANGE + 2b], [RANGE + 2b + 1] = [lo, hi): the nodes that block b > 0's items can
+    write into its copy of the nodal forces, the nodes of its triangles, of its joints and of
+    every couple of its range (:func:`couple_range`; touching or not), which the gather adds
+    (:func:`integrate.integrate_span`).  Serial, one pass over the items of blocks 1 .. nblk − 1;
+    run with the couple ranges (:func:`rebalance_blocks`, every REBALANCE_STEPS steps and after
+    each detection), a function of the state.  (Before, each block tracked the nodes it wrote in
+    its force loop: a loop-carried min and max per item, which made the block with a copy the
+    slower one; benchmarks/README.md, twentieth session.)"""
+    for b in range(1, nblk):
+        lo = 2147483647
+        hi = 0
+        for e in range(b * T // nblk, (b + 1) * T // nblk):
+            n = tris.tri_nodes[e]
+            lo = ti.min(lo, ti.min(n[0], ti.min(n[1], n[2])))
+            hi = ti.max(hi, ti.max(n[0], ti.max(n[1], n[2])) + 1)
+        if ti.static(fracture):
+            for j in range(b * J // nblk, (b + 1) * J // nblk):
+                nd = joints.joint_nodes[j]
+                lo = ti.min(lo, ti.min(ti.min(nd[0], nd[1]), ti.min(nd[2], nd[3])))
+                hi = ti.max(hi, ti.max(ti.max(nd[0], nd[1]), ti.max(nd[2], nd[3])) + 1)
+        if ti.static(contact):
+            lo_c, hi_c = couple_range(b, nblk, C, step)
+            for c in range(lo_c, hi_c):
+                na = tris.tri_nodes[con.couple_a[c]]
+                nb = tris.tri_nodes[con.couple_b[c]]
+                lo = ti.min(lo, ti.min(ti.min(na[0], ti.min(na[1], na[2])), ti.min(nb[0], ti.min(nb[1], nb[2]))))
+                hi = ti.max(hi, ti.max(ti.max(na[0], ti.max(na[1], na[2])), ti.max(nb[0], ti.max(nb[1], nb[2]))) + 1)
+        step.step_int[RANGE + 2 * b] = ti.min(lo, hi)
+        step.step_int[RANGE + 2 * b + 1] = hi
+
+
+@ti.func
+def rebalance_blocks(nblk, T, J, C, nodes: ti.template(), tris: ti.template(), con: ti.template(),
+                     joints: ti.template(), step: ti.template(), contact: ti.template(), fracture: ti.template()):
+    """The blocks' couple ranges (with contact, :func:`rebalance_couples`) and their node ranges
+    (:func:`block_node_ranges`), anew."""
+    if ti.static(contact):
+        rebalance_couples(nblk, C, nodes, tris, con, joints, step, fracture)
+    block_node_ranges(nblk, T, J, C, tris, con, joints, step, contact, fracture)
+
+
+@ti.func
 def block_forces(b, nblk, T, J, C, dacc, nodes: ti.template(), tris: ti.template(), mats: ti.template(),
                  con: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
                  contact: ti.template(), friction: ti.template(), fracture: ti.template()):
     """Block b's share of :func:`taichi_fdem.engine.step.phase_blocks`: the triangles and the joints of its contiguous
     range by count, and the couples of its range by cost (:func:`couple_range`), added into its
-    copy of the nodal forces; its contact work to its entry of asm_force, and the range of the
-    nodes it wrote to :func:`integrate.sync_range` (block b > 0), which the gather reads.
+    copy of the nodal forces; its contact work to its entry of asm_force.  The gather adds a
+    block's copy over the nodes its items can write (:func:`block_node_ranges`).
     ``dacc``: step_real[DACC] at the start of the step (:func:`contact.couple_forces`).
     Compiled twice, for block 0 (into node_f) and for the others (into a copy): a branch on the
     block in every addition made the pile 5-7 % slower (benchmarks/README.md, nineteenth session)."""
@@ -171,20 +215,15 @@ def _block_items(b, nblk, T, J, C, dacc, nodes: ti.template(), tris: ti.template
                  con: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
                  contact: ti.template(), friction: ti.template(), fracture: ti.template(), copy: ti.template()):
     """:func:`block_forces` for block b, adding into node_f (``copy`` False, block 0) or into
-    its copy (``copy`` True, which also records the range of the nodes it wrote)."""
+    its copy (``copy`` True) at the nodes of its range (:func:`block_node_ranges`)."""
     N = nodes.node_x.shape[0]
     base = (b - 1) * N
-    lo = N
-    hi = 0
     for e in range(b * T // nblk, (b + 1) * T // nblk):
         f0, f1, f2 = tri_forces(e, nodes, tris, mats, step)
         n = tris.tri_nodes[e]
         add_block_force(nodes, asm, base, n[0], f0, copy)
         add_block_force(nodes, asm, base, n[1], f1, copy)
         add_block_force(nodes, asm, base, n[2], f2, copy)
-        if ti.static(copy):
-            lo = ti.min(lo, ti.min(n[0], ti.min(n[1], n[2])))
-            hi = ti.max(hi, ti.max(n[0], ti.max(n[1], n[2])) + 1)
     if ti.static(fracture):
         for j in range(b * J // nblk, (b + 1) * J // nblk):
             if joints.joint_state[j] == 0:
@@ -197,9 +236,6 @@ def _block_items(b, nblk, T, J, C, dacc, nodes: ti.template(), tris: ti.template
                 add_block_force(nodes, asm, base, nd[1], -g1, copy)
                 add_block_force(nodes, asm, base, nd[2], g1, copy)
                 add_block_force(nodes, asm, base, nd[3], g0, copy)
-                if ti.static(copy):
-                    lo = ti.min(lo, ti.min(ti.min(nd[0], nd[1]), ti.min(nd[2], nd[3])))
-                    hi = ti.max(hi, ti.max(ti.max(nd[0], nd[1]), ti.max(nd[2], nd[3])) + 1)
     if ti.static(contact):
         bwork = vec2(0.0, 0.0)
         lo_c, hi_c = couple_range(b, nblk, C, step)
@@ -212,13 +248,7 @@ def _block_items(b, nblk, T, J, C, dacc, nodes: ti.template(), tris: ti.template
                 for r in ti.static(range(3)):
                     add_block_force(nodes, asm, base, na[r], vec2(gA[r, 0], gA[r, 1]), copy)
                     add_block_force(nodes, asm, base, nb[r], vec2(gB[r, 0], gB[r, 1]), copy)
-                    if ti.static(copy):
-                        lo = ti.min(lo, ti.min(na[r], nb[r]))
-                        hi = ti.max(hi, ti.max(na[r], nb[r]) + 1)
         asm.asm_force[block_work_slot(N, nblk, b)] = bwork
-    if ti.static(copy):
-        asm.asm_sync[sync_range(nblk, b)] = lo
-        asm.asm_sync[sync_range(nblk, b) + 1] = hi
 
 
 @ti.func
@@ -332,14 +362,15 @@ def team_worker(w, nwork, nsteps, detect_in, nodes: ti.template(), tris: ti.temp
                 C = step.step_int[COUPLES]
                 dacc = 0.0
                 rebal = 0                       # new couples: split anew (as the fill asks)
-            # 0b. when due, worker 0 splits the couples anew (as engine.step.phase_blocks does)
-            if rebal <= 0:
-                if w == 0:
-                    rebalance_couples(nblk, C, nodes, tris, con, joints, step, feat.fracture)
-                nbar += 1
-                team_barrier(asm, w, nbar * nwork)
-                rebal = REBALANCE_STEPS
-            rebal -= 1
+        # 0b. when due, worker 0 splits the couples anew and sets the blocks' node ranges (as
+        # engine.step.phase_blocks does)
+        if rebal <= 0:
+            if w == 0:
+                rebalance_blocks(nblk, T, J, C, nodes, tris, con, joints, step, feat.contact, feat.fracture)
+            nbar += 1
+            team_barrier(asm, w, nbar * nwork)
+            rebal = REBALANCE_STEPS
+        rebal -= 1
         # 1. forces: each block's items into its copy (and the loads into node_f after block 0,
         # by the worker that ran it, as in engine.step.step_parallel)
         tail = nblk - 1
@@ -365,7 +396,7 @@ def team_worker(w, nwork, nsteps, detect_in, nodes: ti.template(), tris: ti.temp
         for k in range(nblk):
             b, tail = nth_block(k, w, nwork, nblk, tail)
             if claim(asm, b, nbar + 1):
-                vmax2, bad, work, local = integrate_span(b * N // nblk, (b + 1) * N // nblk, nodes, joints, asm, dt,
+                vmax2, bad, work, local = integrate_span(b * N // nblk, (b + 1) * N // nblk, nodes, joints, asm, step, dt,
                                                          g, bc, bc_work, alpha, 2, feat.local_damping)
                 asm.asm_part[3 * b] = vmax2
                 asm.asm_part[3 * b + 1] = work
@@ -392,8 +423,7 @@ def team_worker(w, nwork, nsteps, detect_in, nodes: ti.template(), tris: ti.temp
                     step.step_real[WORK_LOCAL] += asm.asm_part[3 * q + 2]
             step.step_real[DACC] = dacc
             step.step_real[TIME] = time
-            if ti.static(feat.contact):
-                step.step_int[REBALANCE] = rebal
+            step.step_int[REBALANCE] = rebal
             if ti.static(feat.loads):
                 for k in range(nodes.load_nodes.shape[0]):
                     book_load(k, dt, nodes, step)
@@ -430,4 +460,3 @@ def team_worker(w, nwork, nsteps, detect_in, nodes: ti.template(), tris: ti.temp
             asm.asm_sync[sync_claim(q)] = 0
             for r in ti.static(range(3)):
                 asm.asm_part[3 * q + r] = 0.0
-        clear_ranges(nblk, asm)

@@ -201,7 +201,9 @@ BROKEN = 5          # joints broken so far
 NB_PAIRS = 6        # neighbour pairs M: the first M couples, never detected (engine.joints.neighbour_pairs)
 REBALANCE = 7       # steps until the block assembly recomputes its couple ranges (≤ 0: at the next step)
 SPLIT = 8           # SPLIT + b, b = 0..blocks: first couple of block b of the block assembly (the last: the count)
-INT_COUNTERS = SPLIT + MAX_FORCE_BLOCKS + 1    # length of step_int
+RANGE = SPLIT + MAX_FORCE_BLOCKS + 1    # RANGE + 2b, RANGE + 2b + 1: the nodes [lo, hi) that block b's items
+                                        # can write (engine.blocks.block_node_ranges), which the gather adds
+INT_COUNTERS = RANGE + 2 * MAX_FORCE_BLOCKS    # length of step_int
 
 def _leaves(*groups):
     return sum(1 + len(m) for m in groups)

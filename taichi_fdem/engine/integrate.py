@@ -13,7 +13,7 @@ step_real[WORK_LOCAL].
 """
 import taichi as ti
 
-from .groups import (DACC, NONFINITE, QS_ALPHA, SWITCH_BC, SWITCH_BC_WORK, SYNC_LINE, TIME, VMAX, WORK_BOUNDARY,
+from .groups import (DACC, NONFINITE, QS_ALPHA, RANGE, SWITCH_BC, SWITCH_BC_WORK, TIME, VMAX, WORK_BOUNDARY,
                      WORK_CDAMPING, WORK_FRICTION, WORK_LOCAL)
 from .tiutil import vec2
 
@@ -107,15 +107,6 @@ def asm_blocks(N, asm: ti.template()):
 
 
 @ti.func
-def sync_range(nblk, b):
-    """asm_sync slot of block b's node range [lo, hi) (the next slot): the nodes whose entries of
-    its copy of the nodal forces it wrote this step (:func:`taichi_fdem.engine.blocks.block_forces`),
-    which the gather adds and resets; 0 and 0 between launches.  After the team's cache lines
-    (:func:`taichi_fdem.engine.blocks.sync_own`), which the waiting workers write."""
-    return SYNC_LINE * (1 + nblk) + 2 + 2 * b
-
-
-@ti.func
 def block_work_slot(N, nblk, b):
     """The asm_force entry of block b's dissipated contact work (see :func:`asm_blocks`)."""
     return (nblk - 1) * N + b
@@ -134,17 +125,8 @@ def book_block_work(N, nblk, asm: ti.template(), step: ti.template()):
 
 
 @ti.func
-def clear_ranges(nblk, asm: ti.template()):
-    """Reset the blocks' node ranges (:func:`sync_range`) after the gather: the scratch does not
-    depend on how the steps were launched (a restart compares it)."""
-    for b in range(nblk):
-        asm.asm_sync[sync_range(nblk, b)] = 0
-        asm.asm_sync[sync_range(nblk, b) + 1] = 0
-
-
-@ti.func
-def integrate_span(lo, hi, nodes: ti.template(), joints: ti.template(), asm: ti.template(), dt, g, bc, bc_work, alpha,
-                   gathered: ti.template(), local_damping: ti.template()):
+def integrate_span(lo, hi, nodes: ti.template(), joints: ti.template(), asm: ti.template(), step: ti.template(), dt,
+                   g, bc, bc_work, alpha, gathered: ti.template(), local_damping: ti.template()):
     """Integrate nodes lo..hi-1 (:func:`integrate_node`), each under node_f plus (``gathered``
     1) its slots or (2) its block copies, which are reset.  Returns the span's (max |v|²,
     largest bad index + 1, constraint work, local-damping work)."""
@@ -155,11 +137,11 @@ def integrate_span(lo, hi, nodes: ti.template(), joints: ti.template(), asm: ti.
     local = 0.0
     if ti.static(gathered == 2):
         # node_f holds block 0's sum (then the loads); add the other blocks' copies in block
-        # order, each over the nodes it wrote (its range), each entry reset for the next step
+        # order, each over the nodes its items can write (its range, step_int[RANGE + 2b],
+        # engine.blocks.block_node_ranges), each entry reset for the next step
         nblk = asm_blocks(N, asm)
         for b in range(1, nblk):
-            r = sync_range(nblk, b)
-            for i in range(ti.max(lo, asm.asm_sync[r]), ti.min(hi, asm.asm_sync[r + 1])):
+            for i in range(ti.max(lo, step.step_int[RANGE + 2 * b]), ti.min(hi, step.step_int[RANGE + 2 * b + 1])):
                 k = (b - 1) * N + i
                 nodes.node_f[i] = nodes.node_f[i] + asm.asm_force[k]
                 asm.asm_force[k] = vec2(0.0, 0.0)
@@ -194,7 +176,7 @@ def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.templat
         step.step_real[VMAX] = 0.0
     for chunk in range((N + CHUNK - 1) // CHUNK):
         vmax2, bad, work, local = integrate_span(chunk * CHUNK, ti.min(N, chunk * CHUNK + CHUNK), nodes, joints, asm,
-                                                 dt, g, bc, bc_work, alpha, gathered, local_damping)
+                                                 step, dt, g, bc, bc_work, alpha, gathered, local_damping)
         ti.atomic_max(step.step_real[VMAX], ti.sqrt(vmax2))
         if bad > 0:
             ti.atomic_max(step.step_int[NONFINITE], bad)
@@ -208,7 +190,6 @@ def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.templat
             # the blocks' dissipated contact work, in block order (engine.step.phase_blocks)
             nblk = asm_blocks(N, asm)
             book_block_work(N, nblk, asm, step)
-            clear_ranges(nblk, asm)
         # re-detection trigger D_acc += 2 Δt v_max (§4.1)
         step.step_real[DACC] += 2.0 * dt * step.step_real[VMAX]
         step.step_real[TIME] += dt

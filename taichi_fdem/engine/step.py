@@ -44,7 +44,7 @@ from collections import namedtuple
 
 import taichi as ti
 
-from .blocks import block_forces, item_counts, rebalance_couples, team_worker
+from .blocks import block_forces, item_counts, rebalance_blocks, team_worker
 from .contact import book_contact_work, couple_forces, eval_couple
 from .detection import phase_detect_count, phase_detect_fill
 from .elastic import eval_tri_elastic, tri_forces
@@ -192,13 +192,12 @@ def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(),
     T, J, C = item_counts(tris, joints, step, contact, fracture)
     nblk = asm_blocks(nodes.node_x.shape[0], asm)
     dacc = step.step_real[DACC]
-    if ti.static(contact):
-        ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
-        for _ in range(1):
-            if step.step_int[REBALANCE] <= 0:
-                rebalance_couples(nblk, C, nodes, tris, con, joints, step, fracture)
-                step.step_int[REBALANCE] = REBALANCE_STEPS
-            step.step_int[REBALANCE] -= 1
+    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
+    for _ in range(1):
+        if step.step_int[REBALANCE] <= 0:
+            rebalance_blocks(nblk, T, J, C, nodes, tris, con, joints, step, contact, fracture)
+            step.step_int[REBALANCE] = REBALANCE_STEPS
+        step.step_int[REBALANCE] -= 1
     # Taichi 1.7's CPU range-for hands each thread tasks of at least 512 iterations (its adaptive
     # block_dim; loop_config(block_dim) is overridden), so a loop of a few iterations would
     # run on one thread: the loop has BLOCK_STRIDE iterations per block and the first of each

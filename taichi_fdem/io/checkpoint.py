@@ -42,7 +42,7 @@ import numpy as np
 import taichi as ti
 
 from .. import backend
-from ..engine.groups import DAMAGED, EDGE_FREE, INT_COUNTERS, INTACT, NB_PAIRS
+from ..engine.groups import DAMAGED, EDGE_FREE, INT_COUNTERS, INTACT, NB_PAIRS, REBALANCE
 from ..model import _ndarray, counter
 from ..state import install_neighbour_pairs, nb_on_size
 
@@ -341,9 +341,11 @@ def load(path):
         v = np.where(v >= 1, v | (7 * EDGE_FREE), np.where(frac & (v == 0), INTACT | (7 * EDGE_FREE) | DAMAGED, v))
         st.tri_intact.from_numpy(v.astype(np.int32))
     if st.step_int.shape[0] < INT_COUNTERS:
-        # a checkpoint from before the block assembly's couple ranges: they are computed anew
+        # a checkpoint from before the block assembly's couple ranges or node ranges: they are
+        # computed anew at the next step
         ints = np.zeros(INT_COUNTERS, np.int32)
         ints[: st.step_int.shape[0]] = st.step_int.to_numpy()
+        ints[REBALANCE] = 0
         st.step_int = _ndarray(ints, ti.i32)
     if st.tri_nb_on.shape[0] != nb_on_size(sim.model):
         # a checkpoint from before the fans' link masks: re-derived by the restore
