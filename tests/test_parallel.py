@@ -578,7 +578,7 @@ def test_block_couple_ranges_follow_the_estimated_cost():
     costing of every couple and joint in a plate breaking under a disc, 3 blocks, where ranges
     of equal counts would be far from equal cost.  Each block boundary is within one touching
     couple of its share of the total; the ranges cover the couples once, in order."""
-    from taichi_fdem.engine.groups import COST_TOUCHING, REBALANCE, SPLIT
+    from taichi_fdem.engine.groups import COST_TOUCHING, REBALANCE, REBALANCE_STEPS, SPLIT
     from taichi_fdem.model import counter, set_counter
     from taichi_fdem.verification import fragment_plate_scene
     sim, _ = fragment_plate_scene(h_plate=0.012, h_ball=0.02, friction=0.5)
@@ -590,7 +590,7 @@ def test_block_couple_ranges_follow_the_estimated_cost():
     fixed = _block_fixed_costs(sim, 3)
     set_counter(sim.state.step_int, REBALANCE, 0)
     sim.step(1)
-    assert counter(sim.state.step_int, REBALANCE) == 127
+    assert counter(sim.state.step_int, REBALANCE) == REBALANCE_STEPS - 1
     C = len(cost)
     split = sim.state.step_int.to_numpy()[SPLIT:SPLIT + 4]
     assert split[0] == 0 and split[3] == C and np.all(np.diff(split) >= 0)
