@@ -396,8 +396,8 @@ def team_worker(w, nwork, nsteps, detect_in, nodes: ti.template(), tris: ti.temp
         for k in range(nblk):
             b, tail = nth_block(k, w, nwork, nblk, tail)
             if claim(asm, b, nbar + 1):
-                vmax2, bad, work, local = integrate_span(b * N // nblk, (b + 1) * N // nblk, nodes, joints, asm, step, dt,
-                                                         g, bc, bc_work, alpha, 2, feat.local_damping)
+                vmax2, bad, work, local = integrate_span(b * N // nblk, (b + 1) * N // nblk, nodes, joints, asm, step,
+                                                         dt, g, bc, bc_work, alpha, 2, feat.local_damping)
                 asm.asm_part[3 * b] = vmax2
                 asm.asm_part[3 * b + 1] = work
                 asm.asm_part[3 * b + 2] = local
