@@ -324,9 +324,11 @@ class Simulation(SimulationResults):
         # (absent features are not compiled: a scene without them runs the code it always ran);
         # damping, contact damping, prescribed velocities and initial stress are runtime switches
         # in the step group (a branch each), which keeps compiled variants few
+        # (and whether the block assembly has more than two blocks, engine.blocks.block_forces)
         md = self.model
+        many = self.strategy == "parallel" and self._assembly == "blocks" and self._force_blocks > 2
         return (kernels.Features(bool(md.contact), bool(md.friction), bool(md.fracture), bool(md.loads),
-                                 bool(md.local_damping)),)
+                                 bool(md.local_damping), many),)
 
     def steps_per_launch(self) -> int:
         """Steps one launch runs: the chunk of :meth:`run` without frames.  Serial: ~50 ms of work

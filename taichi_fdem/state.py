@@ -13,7 +13,8 @@ import taichi as ti
 
 from . import backend
 from .engine.groups import (COUPLES, DACC, DACC_FORCE, DET_CAND, FORCE_BLOCKS, GROUPS, HANDOVER, INT_COUNTERS,
-                            NB_PAIRS, QS_ALPHA, REAL_COUNTERS, REBALANCE, SYNC_LINE, TEAM_MEMBERS, TeamGroup)
+                            NB_PAIRS, QS_ALPHA, REAL_COUNTERS, REBALANCE, SYNC_LINE, TEAM_CHUNK, TEAM_MEMBERS,
+                            TeamGroup)
 from .model import Model, Scratch, State, _ndarray, _next_pow2, counter, set_counter
 
 
@@ -149,9 +150,9 @@ def size_assembly(md: Model, st: State, sw: Scratch) -> None:
     """The parallel strategy's assembly arrays (1-element placeholders otherwise).
 
     Blocks (``sw.blocks``): a copy of the nodal forces for each block but the first (which adds
-    into node_f), block-major (asm_force[(b − 1) N + n]), then one entry per block for its
-    dissipated contact work; all zero
-    between steps (the gather resets them); the barrier counter and per-block partials of
+    into node_f), block-major (asm_force[(b − 1) N + n]), then two entries per block for its
+    dissipated contact work (even and odd steps); all zero between steps (the gather resets
+    them); the barrier counter, the flags and the per-chunk partials of
     :func:`taichi_fdem.engine.step.run_steps_blocks` (asm_sync, asm_part).  Slots:
     one force slot per triangle node (3) and couple node (6), and the node lists (3 per
     triangle, 4 per joint, 6 per couple) with their starts.
@@ -159,7 +160,7 @@ def size_assembly(md: Model, st: State, sw: Scratch) -> None:
     rti = backend.real_ti()
     N = md.node_count
     if sw.parallel and sw.blocks:
-        sw.asm_force = ti.Vector.ndarray(2, rti, shape=(sw.force_blocks - 1) * N + sw.force_blocks)
+        sw.asm_force = ti.Vector.ndarray(2, rti, shape=(sw.force_blocks - 1) * N + 2 * sw.force_blocks)
         sw.asm_node_slots = ti.ndarray(ti.i32, shape=1)
         sw.asm_node_start = ti.ndarray(ti.i32, shape=1)
     elif sw.parallel:
@@ -172,9 +173,14 @@ def size_assembly(md: Model, st: State, sw: Scratch) -> None:
         sw.asm_node_slots = ti.ndarray(ti.i32, shape=1)
         sw.asm_node_start = ti.ndarray(ti.i32, shape=1)
     team = sw.force_blocks if sw.parallel and sw.blocks else 0
-    # the barrier counter and the launch's result (line 0); engine.blocks.sync_bad, sync_own, sync_claim
-    sw.asm_sync = ti.ndarray(ti.i32, shape=SYNC_LINE * (1 + team))
-    sw.asm_part = ti.ndarray(rti, shape=max(1, 3 * team))
+    chunks = team * ((N // team + TEAM_CHUNK) // TEAM_CHUNK) if team else 0    # engine.blocks.chunk_count
+    # the barrier counter and the launch's result (line 0), a line per block and its worker
+    # (engine.blocks.sync_own, sync_claim, sync_inverted, sync_bad), a line per block's "done"
+    # flag (sync_done), then the node chunks' claims (sync_chunk); each worker's largest |v|² for
+    # even and odd steps (a line apart, engine.blocks.part_vmax), then each chunk's work terms
+    # for even and odd steps (part_chunk)
+    sw.asm_sync = ti.ndarray(ti.i32, shape=SYNC_LINE * (1 + 2 * team) + chunks)
+    sw.asm_part = ti.ndarray(rti, shape=max(1, 16 * team + 4 * chunks))
 
 
 def pack_groups(md: Model, st: State, sw: Scratch) -> dict:

@@ -282,6 +282,63 @@ def test_block_copies_are_gathered_over_the_nodes_they_can_write(team):
     assert 0 < span < 0.5 * (nblk - 1) * N, span
 
 
+def test_block_zero_range_holds_its_items_and_the_loads():
+    """The team integrates a chunk of nodes as soon as the blocks whose node ranges meet it are
+    done (``blocks.integrate_chunk``), so block 0's range must hold the nodes its runner writes:
+    those of its triangles and couples, and every node a load writes (``apply_load`` runs after
+    block 0's forces).  On the bar under every kind of load, brute force from the arrays: the
+    loads' nodes lie outside block 0's triangles, and the range reaches them."""
+    from taichi_fdem.engine.groups import COUPLES, RANGE, SPLIT
+    from taichi_fdem.engine.loads import LOAD_FORCE, LOAD_VELOCITY
+    sim = _loaded_pair()
+    sim.step(50)
+    ints = sim.state.step_int.to_numpy()
+    tri = sim.model.tri_nodes.to_numpy()
+    T, C, nblk = len(tri), int(ints[COUPLES]), sim.force_blocks
+    ca = sim.state.couple_a.to_numpy()[:C]
+    cb = sim.state.couple_b.to_numpy()[:C]
+    hi_c = min(max(int(ints[SPLIT + 1]), 0), C)
+    ld = sim.model.load_nodes.to_numpy()
+    seg = ~np.isin(ld[:, 0], (LOAD_FORCE, LOAD_VELOCITY))
+    own = np.concatenate([tri[: T // nblk].ravel(), tri[ca[:hi_c]].ravel(), tri[cb[:hi_c]].ravel()])
+    loads = np.concatenate([ld[:, 1], ld[seg, 2]])
+    assert loads.max() > own.max() or loads.min() < own.min()
+    every = np.concatenate([own, loads])
+    assert (int(ints[RANGE]), int(ints[RANGE + 1])) == (every.min(), every.max() + 1)
+
+
+def test_team_chunks_cut_the_nodes_into_segments():
+    """The team's node chunks (``blocks.chunk_count``, ``blocks.chunk_nodes``) depend on the
+    node count and the blocks only (so a chunk's sums, and the bits, do not depend on the
+    threads): they tile the nodes in order, each holds at most TEAM_CHUNK nodes, and the
+    blocks' segments (their first chunks) start at s N / nblk."""
+    import taichi as ti
+    from taichi_fdem.engine.blocks import chunk_count, chunk_nodes
+    from taichi_fdem.engine.groups import TEAM_CHUNK
+
+    def cut(N, nblk, out):
+        for c in range(chunk_count(nblk, N)):
+            lo, hi = chunk_nodes(c, nblk, chunk_count(nblk, N), N)
+            out[c, 0] = lo
+            out[c, 1] = hi
+        out[out.shape[0] - 1, 0] = chunk_count(nblk, N)
+
+    cut.__annotations__ = {"N": ti.i32, "nblk": ti.i32, "out": ti.types.ndarray()}
+    cut = ti.kernel(cut)
+
+    for N in (1, 2, 3, 255, 256, 257, 511, 1000, 4097, 78013):
+        for nblk in (1, 2, 3, 5):
+            out = np.zeros((2 * (N // TEAM_CHUNK) + 64, 2), np.int32)
+            cut(N, nblk, out)
+            nch = int(out[-1, 0])
+            lo, hi = out[:nch, 0], out[:nch, 1]
+            assert nch % nblk == 0 and lo[0] == 0 and hi[-1] == N, (N, nblk)
+            assert np.array_equal(lo[1:], hi[:-1]) and np.all(hi - lo <= TEAM_CHUNK), (N, nblk)
+            m = nch // nblk
+            assert [int(lo[s * m]) for s in range(nblk)] == [s * N // nblk for s in range(nblk)]
+            assert np.all(hi - lo >= (N // nblk) // m - 1), (N, nblk)
+
+
 def test_team_workers_take_every_block_once():
     """The order in which a worker of the team tries the blocks (``blocks.nth_block``): its own
     blocks w, w + workers, ... first, then the others' from the last down, never block 0 (worker

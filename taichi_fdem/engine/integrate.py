@@ -100,24 +100,26 @@ def _slot_force(s, joints: ti.template(), asm: ti.template()):
 def asm_blocks(N, asm: ti.template()):
     """Blocks of the block assembly (:func:`taichi_fdem.engine.step.phase_blocks`) in a scene of N
     nodes.  Block 0 adds its forces into node_f; asm_force holds a copy of the nodal forces for
-    each further block, block-major (two blocks share no cache line but at their ends), then one
-    entry per block for its dissipated contact work (friction, contact damping) [J/m]:
-    (blocks − 1) N + blocks entries."""
-    return (asm.asm_force.shape[0] + N) // (N + 1)
+    each further block, block-major (two blocks share no cache line but at their ends), then two
+    entries per block for its dissipated contact work (friction, contact damping) [J/m], one for
+    even and one for odd steps (a team books a step's work while the next step's forces write
+    the other): (blocks − 1) N + 2 blocks entries."""
+    return (asm.asm_force.shape[0] + N) // (N + 2)
 
 
 @ti.func
-def block_work_slot(N, nblk, b):
-    """The asm_force entry of block b's dissipated contact work (see :func:`asm_blocks`)."""
-    return (nblk - 1) * N + b
+def block_work_slot(N, nblk, b, p):
+    """The asm_force entry of block b's dissipated contact work in a step of parity p (see
+    :func:`asm_blocks`)."""
+    return (nblk - 1) * N + p * nblk + b
 
 
 @ti.func
-def book_block_work(N, nblk, asm: ti.template(), step: ti.template()):
-    """Add the blocks' dissipated contact work (friction, contact damping) [J/m] to the step
-    counters in block order, and reset each block's entry."""
+def book_block_work(N, nblk, asm: ti.template(), step: ti.template(), p):
+    """Add the blocks' dissipated contact work (friction, contact damping) [J/m] of a step of
+    parity p to the step counters in block order, and reset each block's entry."""
     for b in range(nblk):
-        k = block_work_slot(N, nblk, b)
+        k = block_work_slot(N, nblk, b, p)
         w = asm.asm_force[k]
         step.step_real[WORK_FRICTION] += w[0]
         step.step_real[WORK_CDAMPING] += w[1]
@@ -189,7 +191,7 @@ def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.templat
         if ti.static(gathered == 2):
             # the blocks' dissipated contact work, in block order (engine.step.phase_blocks)
             nblk = asm_blocks(N, asm)
-            book_block_work(N, nblk, asm, step)
+            book_block_work(N, nblk, asm, step, 0)
         # re-detection trigger D_acc += 2 Δt v_max (§4.1)
         step.step_real[DACC] += 2.0 * dt * step.step_real[VMAX]
         step.step_real[TIME] += dt

@@ -59,8 +59,10 @@ from .tiutil import vec2
 
 #: The compile-time feature switches of a step kernel, passed as one ``ti.template()`` (Taichi
 #: keys a tuple template by its values): a scene without contact, friction, fracture, loads or
-#: the quasi-static damping compiles none of their code.
-Features = namedtuple("Features", "contact friction fracture loads local_damping")
+#: the quasi-static damping compiles none of their code.  ``many_blocks``: the block assembly
+#: has more than two blocks (blocks 2, 3, ... add into their copies at a runtime offset, a third
+#: compiled variant of the block loop that two blocks do not need).
+Features = namedtuple("Features", "contact friction fracture loads local_damping many_blocks", defaults=(False,))
 
 __all__ = ["UNSTABLE_BIT", "DUE_BIT", "Features", "detect_count", "detect_fill", "build_node_slots", "step_parallel",
            "run_steps_blocks", "run_steps_serial", "eval_elastic", "eval_joints", "eval_contact", "eval_loads",
@@ -180,8 +182,7 @@ def phase_slots(nodes: ti.template(), tris: ti.template(), mats: ti.template(), 
 
 @ti.func
 def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
-                 joints: ti.template(), step: ti.template(), asm: ti.template(), contact: ti.template(),
-                 friction: ti.template(), fracture: ti.template()):
+                 joints: ti.template(), step: ti.template(), asm: ti.template(), feat: ti.template()):
     """Phases 2–4 of the parallel strategy on the CPU, as one parallel loop over the blocks
     (:func:`asm_blocks`).  Block b takes a contiguous range of the triangles, of the joints and
     of the couples (:func:`block_forces`) and adds their forces into its own copy of the nodal
@@ -189,13 +190,13 @@ def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(),
     asm_force[(b − 1) N + n]); its dissipated contact work goes to its own entry
     (:func:`integrate.block_work_slot`).  The gather adds the copies to node_f in block order, so
     the result does not depend on the thread count."""
-    T, J, C = item_counts(tris, joints, step, contact, fracture)
+    T, J, C = item_counts(tris, joints, step, feat.contact, feat.fracture)
     nblk = asm_blocks(nodes.node_x.shape[0], asm)
     dacc = step.step_real[DACC]
     ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
     for _ in range(1):
         if step.step_int[REBALANCE] <= 0:
-            rebalance_blocks(nblk, T, J, C, nodes, tris, con, joints, step, contact, fracture)
+            rebalance_blocks(nblk, T, J, C, nodes, tris, con, joints, step, feat.contact, feat.fracture, feat.loads)
             step.step_int[REBALANCE] = REBALANCE_STEPS
         step.step_int[REBALANCE] -= 1
     # Taichi 1.7's CPU range-for hands each thread tasks of at least 512 iterations (its adaptive
@@ -204,8 +205,8 @@ def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(),
     # does the block's work, which puts every block in its own task
     for t in range(nblk * BLOCK_STRIDE):
         if t % BLOCK_STRIDE == 0:
-            block_forces(t // BLOCK_STRIDE, nblk, T, J, C, dacc, nodes, tris, mats, con, joints, step, asm,
-                         contact, friction, fracture)
+            block_forces(t // BLOCK_STRIDE, nblk, T, J, C, dacc, 0, nodes, tris, mats, con, joints, step, asm,
+                         feat.contact, feat.friction, feat.fracture, feat.many_blocks)
 
 
 @ti.func
@@ -224,7 +225,7 @@ def phases_parallel(nodes: ti.template(), tris: ti.template(), mats: ti.template
     and couple forces; the few load entries are added to node_f in one serial loop).  ``blocks``:
     the block assembly (CPU) instead of the slots (GPU)."""
     if ti.static(blocks):
-        phase_blocks(nodes, tris, mats, con, joints, step, asm, feat.contact, feat.friction, feat.fracture)
+        phase_blocks(nodes, tris, mats, con, joints, step, asm, feat)
     else:
         phase_slots(nodes, tris, mats, con, joints, step, asm, feat.contact, feat.friction, feat.fracture)
     if ti.static(feat.loads):
