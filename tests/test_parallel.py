@@ -308,12 +308,12 @@ def test_block_zero_range_holds_its_items_and_the_loads():
 
 
 def test_team_chunks_cut_the_nodes_into_segments():
-    """The team's node chunks (``blocks.chunk_count``, ``blocks.chunk_nodes``) depend on the
+    """The team's node chunks (``team.chunk_count``, ``team.chunk_nodes``) depend on the
     node count and the blocks only (so a chunk's sums, and the bits, do not depend on the
     threads): they tile the nodes in order, each holds at most TEAM_CHUNK nodes, and the
     blocks' segments (their first chunks) start at s N / nblk."""
     import taichi as ti
-    from taichi_fdem.engine.blocks import chunk_count, chunk_nodes
+    from taichi_fdem.engine.team import chunk_count, chunk_nodes
     from taichi_fdem.engine.groups import TEAM_CHUNK
 
     def cut(N, nblk, out):
@@ -340,12 +340,12 @@ def test_team_chunks_cut_the_nodes_into_segments():
 
 
 def test_team_workers_take_every_block_once():
-    """The order in which a worker of the team tries the blocks (``blocks.nth_block``): its own
+    """The order in which a worker of the team tries the blocks (``team.nth_block``): its own
     blocks w, w + workers, ... first, then the others' from the last down, never block 0 (worker
     0's, whose runner adds the loads); each block in a worker's order once, and every block in
     some worker's order, for 1 to 4 workers and 1 to 9 blocks."""
     import taichi as ti
-    from taichi_fdem.engine.blocks import nth_block
+    from taichi_fdem.engine.team import nth_block
 
     def order(w, nwork, nblk, out):
         ti.loop_config(serialize=True)

@@ -7,7 +7,7 @@ import taichi_fdem as fdem  # noqa: F401  (installs the memos)
 from taichi.lang import kernel_impl
 from taichi.lang.ast.ast_transformer_utils import ASTTransformerContext
 
-from taichi_fdem.engine import blocks, contact
+from taichi_fdem.engine import contact, team
 
 
 def _nodes(tree):
@@ -23,7 +23,7 @@ def test_position_messages_are_the_ones_taichi_formats():
     assert getattr(memo, "_fdem_memo", False), "the memo is not installed"
     original = memo._fdem_original
     checked = 0
-    for func in (blocks.team_worker, contact.couple_forces, blocks.team_worker, contact.couple_forces):
+    for func in (team.team_worker, contact.couple_forces, team.team_worker, contact.couple_forces):
         tree, ctx = kernel_impl._get_tree_and_ctx(func.func, is_kernel=False)
         nodes = _nodes(tree)
         assert len(nodes) > 100

@@ -229,8 +229,74 @@ def fill_partners(k, det: ti.template(), con: ti.template(), tris: ti.template()
 
 
 # ---------------------------------------------------------------------------------------------
-# the broad phase as two phases of a step (engine.step, engine.blocks.team_worker)
+# the broad phase as two phases of a step (engine.step, engine.team.team_worker)
 # ---------------------------------------------------------------------------------------------
+@ti.func
+def bucket_starts(det: ti.template()):
+    """Each hashed bucket's first slot in det_sort: the exclusive prefix of its count (serial)."""
+    s = 0
+    for h in range(det.det_bucket.shape[0]):
+        det.det_bucket[h][0] = s
+        s += det.det_bucket[h][1]
+
+
+@ti.func
+def sort_bucket(h, det: ti.template()):
+    """Bucket h's triangles in increasing k (insertion sort: a bucket holds a few): the order of a
+    serial binning, whatever order a parallel one took its slots in, so that the couple list
+    (and every sum over it) is the same for any thread count."""
+    lo = det.det_bucket[h][0]
+    for a in range(lo + 1, lo + det.det_bucket[h][1]):
+        key = det.det_sort[a][2]
+        b = a - 1
+        while b >= lo:
+            if det.det_sort[b][2] > key:
+                det.det_sort[b + 1][2] = det.det_sort[b][2]
+                b -= 1
+            else:
+                break
+        det.det_sort[b + 1][2] = key
+
+
+@ti.func
+def count_prefix(det: ti.template(), step: ti.template()):
+    """The couple counts det_cnew[k] to their exclusive prefix, after the neighbour pairs; the
+    total to det_cnew[K] and step_int[FOUND] (serial)."""
+    K = det.contact_tri.shape[0]
+    s = step.step_int[NB_PAIRS]
+    for k in range(K):
+        n = det.det_cnew[k]
+        det.det_cnew[k] = s
+        s += n
+    det.det_cnew[K] = s
+    step.step_int[FOUND] = s
+
+
+@ti.func
+def keep_old_start(k, det: ti.template()):
+    """Contact triangle k's first couple at the previous detection (for friction's history), and
+    its first couple now."""
+    det.det_old_start[k] = det.couple_start[k]
+    det.couple_start[k] = det.det_cnew[k]
+
+
+@ti.func
+def keep_old_couple(c, det: ti.template(), con: ti.template()):
+    """Couple c's partner and slip history, kept for the fill to carry over (§4.1, §9.4)."""
+    det.det_old_b[c] = con.couple_b[c]
+    for q in ti.static(range(6)):
+        det.det_old_hist[6 * c + q] = con.couple_hist[6 * c + q]
+
+
+@ti.func
+def detected(step: ti.template()):
+    """The counters of a detection whose couples are written."""
+    step.step_int[COUPLES] = step.step_int[FOUND]
+    step.step_int[DETECTIONS] += 1
+    step.step_int[REBALANCE] = 0        # new couples: the block assembly splits them anew
+    step.step_real[DACC] = 0.0
+
+
 @ti.func
 def phase_detect_count(nodes: ti.template(), tris: ti.template(), det: ti.template(), con: ti.template(),
                        step: ti.template()):
@@ -248,39 +314,17 @@ def phase_detect_count(nodes: ti.template(), tris: ti.template(), det: ti.templa
         bin_circle(k, det, step)
     ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
     for _ in range(1):
-        s = 0
-        for h in range(H):
-            det.det_bucket[h][0] = s
-            s += det.det_bucket[h][1]
+        bucket_starts(det)
     for k in range(K):
         bn = det.det_sort[k]
         det.det_sort[det.det_bucket[bn[0]][0] + bn[1]][2] = k
     for h in range(H):
-        # each cell's triangles in increasing k: the order of a serial binning, whatever order the
-        # parallel one took its slots in, so that the couple list (and every sum over it) is the
-        # same for any thread count
-        lo = det.det_bucket[h][0]
-        for a in range(lo + 1, lo + det.det_bucket[h][1]):
-            key = det.det_sort[a][2]
-            b = a - 1
-            while b >= lo:
-                if det.det_sort[b][2] > key:
-                    det.det_sort[b + 1][2] = det.det_sort[b][2]
-                    b -= 1
-                else:
-                    break
-            det.det_sort[b + 1][2] = key
+        sort_bucket(h, det)
     for k in range(K):
         det.det_cnew[k] = scan_partners(k, True, det, con, tris, step, 0, False)
     ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
     for _ in range(1):
-        s = step.step_int[NB_PAIRS]     # after the neighbour pairs
-        for k in range(K):              # counts -> exclusive prefix, in place
-            n = det.det_cnew[k]
-            det.det_cnew[k] = s
-            s += n
-        det.det_cnew[K] = s
-        step.step_int[FOUND] = s
+        count_prefix(det, step)
 
 
 @ti.func
@@ -291,19 +335,13 @@ def phase_detect_fill(tris: ti.template(), det: ti.template(), con: ti.template(
     if ti.static(friction):
         # keep the previous couples and their slip history to carry it over (§4.1, §9.4)
         for k in range(K + 1):
-            det.det_old_start[k] = det.couple_start[k]
-            det.couple_start[k] = det.det_cnew[k]
+            keep_old_start(k, det)
         for c in range(step.step_int[COUPLES]):
-            det.det_old_b[c] = con.couple_b[c]
-            for q in ti.static(range(6)):
-                det.det_old_hist[6 * c + q] = con.couple_hist[6 * c + q]
+            keep_old_couple(c, det, con)
     for k in range(K):
         fill_partners(k, det, con, tris, step, friction)
     for c in range(det.det_cnew[K]):
         con.couple_skip[c] = 0.0          # no certificate of separation (dacc restarts at 0)
     ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
     for _ in range(1):
-        step.step_int[COUPLES] = step.step_int[FOUND]
-        step.step_int[DETECTIONS] += 1
-        step.step_int[REBALANCE] = 0        # new couples: the block assembly splits them anew
-        step.step_real[DACC] = 0.0
+        detected(step)

@@ -44,7 +44,7 @@ from collections import namedtuple
 
 import taichi as ti
 
-from .blocks import block_forces, item_counts, rebalance_blocks, team_worker
+from .blocks import block_forces, item_counts, rebalance_blocks
 from .contact import book_contact_work, couple_forces, eval_couple
 from .detection import phase_detect_count, phase_detect_fill
 from .elastic import eval_tri_elastic, tri_forces
@@ -54,6 +54,7 @@ from .groups import (BLOCK_STRIDE, COUPLES, DACC, DETECTIONS, DUE_BIT, FOUND, IN
 from .integrate import asm_blocks, integrate_nodes, integrate_nodes_gathered
 from .joints import add_joint_work, eval_joint
 from .loads import apply_loads, book_load_work
+from .team import team_worker
 from .tiutil import vec2
 
 
@@ -355,7 +356,7 @@ def run_steps_blocks(nsteps: ti.i32, nwork: ti.i32, detect_in: ti.i32, g: TeamGr
     the blocks (worker w: blocks w, w + nwork, ...), the phases separated by barriers; no launch
     and no parallel-loop start per step.  ``nwork`` must not exceed the CPU threads (a worker
     waiting at a barrier holds its thread).  ``detect_in`` != 0: contact detection, when due,
-    runs inside the launch on worker 0 (the serial broad phase, small scenes); 0: the launch
+    runs inside the launch, shared out between the workers (``team.team_detect``); 0: the launch
     stops after a step that makes detection due.  Stops after a step that is unstable, and
     before a detection whose couples do not fit the buffer.  Returns the steps done, plus
     ``UNSTABLE_BIT`` if unstable and ``DUE_BIT`` if the host must detect.  The same bits as
