@@ -233,7 +233,7 @@ class Simulation(SimulationResults):
         size_assembly(self.model, self.state, sw)
         self._repack()
         if self._strategy == "parallel":
-            self._build_node_slots()
+            self._build_node_slots(refresh=True)
 
     def _after_restore(self) -> None:
         """Re-derive scratch sizes, argpacks and node lists after the state was replaced
@@ -248,7 +248,7 @@ class Simulation(SimulationResults):
         if self.model.fracture:
             self._launch("refresh_joint_z", refresh.refresh_joint_z, self._packs["joints"])
         if self.strategy == "parallel":
-            self._build_node_slots()
+            self._build_node_slots(refresh=True)
 
     def _refresh_neighbours(self) -> None:
         """Which neighbour pairs are no longer bonded (``tri_nb_on``), from the joints and the
@@ -285,12 +285,16 @@ class Simulation(SimulationResults):
         if self.strategy == "parallel":
             self._build_node_slots()             # the slot arrays were reallocated
 
-    def _build_node_slots(self) -> None:
-        if self.scratch.blocks:
-            return                               # the block assembly needs no node lists
+    def _build_node_slots(self, refresh: bool = False) -> None:
+        """The slot assembly's node lists; with ``refresh`` (a restore, a new scratch), the block
+        assembly's node ranges and chunk masks (engine.step.refresh_blocks)."""
         p = self._packs
-        self._launch("build_node_slots", kernels.build_node_slots, p["tris"], p["contact"], p["joints"], p["step"],
-                     p["asm"], self.model.contact, self.model.fracture)
+        if not self.scratch.blocks:
+            self._launch("build_node_slots", kernels.build_node_slots, p["tris"], p["contact"], p["joints"], p["step"],
+                         p["asm"], self.model.contact, self.model.fracture)
+        elif refresh:
+            self._launch("refresh_blocks", kernels.refresh_blocks, p["nodes"], p["tris"], p["contact"], p["joints"],
+                         p["step"], p["asm"], *self._switches())
 
     _alloc_couples = _grow_couples
 
@@ -320,11 +324,10 @@ class Simulation(SimulationResults):
         return counter(self.state.step_int, DETECTIONS)
 
     def _switches(self):
-        # contact, friction, fracture, loads and the local damping are compile-time switches
-        # (absent features are not compiled: a scene without them runs the code it always ran);
-        # damping, contact damping, prescribed velocities and initial stress are runtime switches
-        # in the step group (a branch each), which keeps compiled variants few
-        # (and whether the block assembly has more than two blocks, engine.blocks.block_forces)
+        # contact, friction, fracture, loads, the local damping and more than two force blocks
+        # (engine.blocks.block_forces) are compile-time switches (absent features are not
+        # compiled); damping, contact damping, prescribed velocities and initial stress are
+        # runtime switches in the step group (a branch each), which keeps compiled variants few
         md = self.model
         many = self.strategy == "parallel" and self._assembly == "blocks" and self._force_blocks > 2
         return (kernels.Features(bool(md.contact), bool(md.friction), bool(md.fracture), bool(md.loads),

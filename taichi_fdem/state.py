@@ -173,13 +173,23 @@ def size_assembly(md: Model, st: State, sw: Scratch) -> None:
         sw.asm_node_slots = ti.ndarray(ti.i32, shape=1)
         sw.asm_node_start = ti.ndarray(ti.i32, shape=1)
     team = sw.force_blocks if sw.parallel and sw.blocks else 0
-    chunks = team * ((N // team + TEAM_CHUNK) // TEAM_CHUNK) if team else 0    # engine.team.chunk_count
+    chunks = team * ((N // team + TEAM_CHUNK) // TEAM_CHUNK) if team else 0    # engine.blocks.chunk_count
     # the barrier counter and the launch's result (line 0), a line per block and its worker
     # (engine.team.sync_own, sync_claim, sync_inverted, sync_bad), a line per block's "done"
-    # flag (sync_done), then the node chunks' claims (sync_chunk); each worker's largest |v|² for
-    # even and odd steps (a line apart, engine.team.part_vmax), then each chunk's work terms
-    # for even and odd steps (part_chunk)
-    sw.asm_sync = ti.ndarray(ti.i32, shape=SYNC_LINE * (1 + 2 * team) + chunks)
+    # flag (sync_done), then the node chunks' claims (engine.blocks.sync_chunk), their skip masks
+    # (chunk_skip: zero, wait for every block, until the blocks' ranges are set) and each node's
+    # chunk; each worker's largest |v|² for even and odd steps (a line apart,
+    # engine.team.part_vmax), then each chunk's work terms for even and odd steps (part_chunk)
+    base = SYNC_LINE * (1 + 2 * team)
+    sync = np.zeros(base + 2 * chunks + (N if team else 0), np.int32)
+    if team:
+        m = chunks // team
+        for s in range(team):
+            lo, length = s * N // team, (s + 1) * N // team - s * N // team
+            for i in range(m):
+                sync[base + 2 * chunks + lo + i * length // m: base + 2 * chunks + lo + (i + 1) * length // m] = s * m + i
+    sw.asm_sync = ti.ndarray(ti.i32, shape=sync.shape[0])
+    sw.asm_sync.from_numpy(sync)
     sw.asm_part = ti.ndarray(rti, shape=max(1, 16 * team + 4 * chunks))
 
 

@@ -270,16 +270,39 @@ def test_block_copies_are_gathered_over_the_nodes_they_can_write(team):
     ca = sim.state.couple_a.to_numpy()[:C]
     cb = sim.state.couple_b.to_numpy()[:C]
     span = 0
-    for b in range(1, nblk):
-        lo_c = min(max(int(ints[SPLIT + b]), 0), C)
+    written = []
+    for b in range(nblk):
+        lo_c = 0 if b == 0 else min(max(int(ints[SPLIT + b]), 0), C)
         hi_c = C if b == nblk - 1 else min(max(int(ints[SPLIT + b + 1]), 0), C)
         nodes = np.concatenate([tri[b * T // nblk:(b + 1) * T // nblk].ravel(),
                                 jn[b * J // nblk:(b + 1) * J // nblk].ravel(),
                                 tri[ca[lo_c:hi_c]].ravel(), tri[cb[lo_c:hi_c]].ravel()])
+        written.append(nodes)
         lo, hi = int(ints[RANGE + 2 * b]), int(ints[RANGE + 2 * b + 1])
         assert lo == nodes.min() and hi == nodes.max() + 1, (b, lo, hi, nodes.min(), nodes.max())
-        span += hi - lo
+        span += hi - lo if b > 0 else 0
     assert 0 < span < 0.5 * (nblk - 1) * N, span
+    assert np.any(_check_chunk_masks(sim, written))     # a chunk skips a block
+
+
+def _check_chunk_masks(sim, written):
+    """The team's node chunks and their skip masks (``blocks.chunk_skip``) against brute force:
+    chunk i of segment s holds nodes [s_lo + i L / m, s_lo + (i + 1) L / m) of the segment's L
+    nodes, and bit b of its mask is set exactly when none of block b's nodes (``written[b]``)
+    lies in it (a block that writes one and is skipped would be integrated over too early)."""
+    from taichi_fdem.engine.groups import SYNC_LINE, TEAM_CHUNK
+    N, nblk = sim.node_count, len(written)
+    m = (N // nblk + TEAM_CHUNK) // TEAM_CHUNK
+    starts = np.array([s * N // nblk + i * ((s + 1) * N // nblk - s * N // nblk) // m
+                       for s in range(nblk) for i in range(m)])
+    sync = sim.scratch.asm_sync.to_numpy()
+    base, nch = SYNC_LINE * (1 + 2 * nblk), nblk * m
+    assert np.array_equal(sync[base + 2 * nch:][:N], np.searchsorted(starts, np.arange(N), side="right") - 1)
+    want = np.full(nch, (1 << nblk) - 1)
+    for b, nodes in enumerate(written):
+        want[np.unique(np.searchsorted(starts, nodes, side="right") - 1)] &= ~(1 << b)
+    assert np.array_equal(sync[base + nch: base + 2 * nch], want)
+    return want
 
 
 def test_block_zero_range_holds_its_items_and_the_loads():
@@ -305,6 +328,8 @@ def test_block_zero_range_holds_its_items_and_the_loads():
     assert loads.max() > own.max() or loads.min() < own.min()
     every = np.concatenate([own, loads])
     assert (int(ints[RANGE]), int(ints[RANGE + 1])) == (every.min(), every.max() + 1)
+    other = np.concatenate([tri[T // nblk:].ravel(), tri[ca[hi_c:]].ravel(), tri[cb[hi_c:]].ravel()])
+    _check_chunk_masks(sim, [every, other])
 
 
 def test_team_chunks_cut_the_nodes_into_segments():

@@ -12,7 +12,8 @@ import taichi as ti
 from .contact import couple_certificate, couple_forces, neighbour_flag
 from .elastic import tri_forces
 from .groups import (COST_BONDED, COST_BROKEN, COST_CERTIFIED, COST_JOINT, COST_JOINT_DAMAGED, COST_SEPARATED,
-                     COST_TOUCHING, COST_TRI, COUPLES, MAX_FORCE_BLOCKS, RANGE, SPLIT, VMAX)
+                     COST_TOUCHING, COST_TRI, COUPLES, MASK_BLOCKS, MAX_FORCE_BLOCKS, RANGE, SPLIT, SYNC_LINE,
+                     TEAM_CHUNK, VMAX)
 from .integrate import block_work_slot
 from .joints import eval_joint
 from .loads import LOAD_FORCE, LOAD_VELOCITY
@@ -148,29 +149,85 @@ def couple_range(b, nblk, C, step: ti.template()):
 
 
 @ti.func
+def chunk_count(nblk, N):
+    """Node chunks of the team's integration (:func:`taichi_fdem.engine.team.team_chunks`): nblk
+    segments of the nodes by count (as the blocks' triangles), each cut into the same number of
+    chunks of at most TEAM_CHUNK nodes; a function of N and the blocks only."""
+    return nblk * ((N // nblk + TEAM_CHUNK) // TEAM_CHUNK)
+
+
+@ti.func
+def chunk_nodes(c, nblk, nch, N):
+    """The nodes [lo, hi) of chunk c of nch (:func:`chunk_count`): chunk i of segment s =
+    c // (nch / nblk), the segment's nodes cut evenly."""
+    m = nch // nblk
+    s = c // m
+    i = c % m
+    s_lo = s * N // nblk
+    s_len = (s + 1) * N // nblk - s_lo
+    return s_lo + i * s_len // m, s_lo + (i + 1) * s_len // m
+
+
+@ti.func
+def sync_chunk(nblk, c):
+    """asm_sync slot of node chunk c's claim in a team launch, after the team's lines
+    (state.size_assembly; then the chunks' skip masks, :func:`chunk_skip`, then each node's
+    chunk)."""
+    return SYNC_LINE * (1 + 2 * nblk) + c
+
+
+@ti.func
+def chunk_skip(c, nblk, nch, asm: ti.template()):
+    """Chunk c's skip mask: bit b (b < MASK_BLOCKS) set when block b writes none of its nodes, so
+    that the team integrates the chunk without waiting for block b.  Zero (wait for every block)
+    until :func:`block_node_ranges` sets it: a fresh scratch is safe."""
+    return asm.asm_sync[sync_chunk(nblk, c) + nch]
+
+
+@ti.func
+def _mark(n, bit, nblk, nch, asm: ti.template()):
+    """Block bit ``bit`` writes node n: into its chunk's mask (touched bits while the masks are
+    built, :func:`block_node_ranges`)."""
+    k = sync_chunk(nblk, asm.asm_sync[sync_chunk(nblk, n) + 2 * nch]) + nch
+    asm.asm_sync[k] = asm.asm_sync[k] | bit
+
+
+@ti.func
 def block_node_ranges(nblk, T, J, C, nodes: ti.template(), tris: ti.template(), con: ti.template(),
-                      joints: ti.template(), step: ti.template(), contact: ti.template(), fracture: ti.template(),
-                      loads: ti.template()):
+                      joints: ti.template(), step: ti.template(), asm: ti.template(), contact: ti.template(),
+                      fracture: ti.template(), loads: ti.template()):
     """step_int[RANGE + 2b], [RANGE + 2b + 1] = [lo, hi): the nodes that block b's items can
     write (block 0 into node_f, b > 0 into its copy of the nodal forces): the nodes of its
     triangles, of its joints and of every couple of its range (:func:`couple_range`; touching or
-    not), and for block 0 the nodes of the loads (its runner adds them).  The gather adds each
-    copy over its range (:func:`integrate.integrate_span`), and a chunk of the team's
-    integration waits for the blocks whose ranges meet it (:func:`integrate_chunk`).  Serial,
-    one pass over the items; run with the couple ranges (:func:`rebalance_blocks`, every
-    REBALANCE_STEPS steps and after each detection), a function of the state.  (Before the
-    twentieth session each block tracked the nodes it wrote in its force loop: a loop-carried
-    min and max per item, which made the block with a copy the slower one; benchmarks/README.md.)"""
+    not), and for block 0 the nodes of the loads (its runner adds them); the gather adds each
+    copy over its range (:func:`integrate.integrate_span`).  And each node chunk's skip mask
+    (:func:`chunk_skip`): the blocks none of whose items writes one of its nodes.  Serial, one
+    pass over the items; run with the couple ranges (:func:`rebalance_blocks`, every
+    REBALANCE_STEPS steps and after each detection) and after a restore (``refresh_blocks``): a
+    function of the couples and their split, which change only then.  (Before the twentieth
+    session each block tracked the nodes it wrote in its force loop: a loop-carried min and max
+    per item, which made the block with a copy the slower one; benchmarks/README.md.)"""
+    N = nodes.node_x.shape[0]
+    nch = chunk_count(nblk, N)
+    for c in range(nch):
+        asm.asm_sync[sync_chunk(nblk, c) + nch] = 0
     for b in range(nblk):
+        bit = 0
+        if b < MASK_BLOCKS:
+            bit = 1 << b
         lo = 2147483647
         hi = 0
         for e in range(b * T // nblk, (b + 1) * T // nblk):
             n = tris.tri_nodes[e]
+            for r in ti.static(range(3)):
+                _mark(n[r], bit, nblk, nch, asm)
             lo = ti.min(lo, ti.min(n[0], ti.min(n[1], n[2])))
             hi = ti.max(hi, ti.max(n[0], ti.max(n[1], n[2])) + 1)
         if ti.static(fracture):
             for j in range(b * J // nblk, (b + 1) * J // nblk):
                 nd = joints.joint_nodes[j]
+                for r in ti.static(range(4)):
+                    _mark(nd[r], bit, nblk, nch, asm)
                 lo = ti.min(lo, ti.min(ti.min(nd[0], nd[1]), ti.min(nd[2], nd[3])))
                 hi = ti.max(hi, ti.max(ti.max(nd[0], nd[1]), ti.max(nd[2], nd[3])) + 1)
         if ti.static(contact):
@@ -178,30 +235,39 @@ def block_node_ranges(nblk, T, J, C, nodes: ti.template(), tris: ti.template(), 
             for c in range(lo_c, hi_c):
                 na = tris.tri_nodes[con.couple_a[c]]
                 nb = tris.tri_nodes[con.couple_b[c]]
+                for r in ti.static(range(3)):
+                    _mark(na[r], bit, nblk, nch, asm)
+                    _mark(nb[r], bit, nblk, nch, asm)
                 lo = ti.min(lo, ti.min(ti.min(na[0], ti.min(na[1], na[2])), ti.min(nb[0], ti.min(nb[1], nb[2]))))
                 hi = ti.max(hi, ti.max(ti.max(na[0], ti.max(na[1], na[2])), ti.max(nb[0], ti.max(nb[1], nb[2]))) + 1)
         if ti.static(loads):
             if b == 0:
                 for k in range(nodes.load_nodes.shape[0]):
                     ld = nodes.load_nodes[k]
+                    _mark(ld[1], bit, nblk, nch, asm)
                     lo = ti.min(lo, ld[1])
                     hi = ti.max(hi, ld[1] + 1)
                     if ld[0] != LOAD_FORCE and ld[0] != LOAD_VELOCITY:     # a segment's second node
+                        _mark(ld[2], bit, nblk, nch, asm)
                         lo = ti.min(lo, ld[2])
                         hi = ti.max(hi, ld[2] + 1)
         step.step_int[RANGE + 2 * b] = ti.min(lo, hi)
         step.step_int[RANGE + 2 * b + 1] = hi
+    every = (1 << ti.min(nblk, MASK_BLOCKS)) - 1
+    for c in range(nch):
+        k = sync_chunk(nblk, c) + nch
+        asm.asm_sync[k] = every & ~asm.asm_sync[k]        # touched -> skipped
 
 
 @ti.func
 def rebalance_blocks(nblk, T, J, C, nodes: ti.template(), tris: ti.template(), con: ti.template(),
-                     joints: ti.template(), step: ti.template(), contact: ti.template(), fracture: ti.template(),
-                     loads: ti.template()):
+                     joints: ti.template(), step: ti.template(), asm: ti.template(), contact: ti.template(),
+                     fracture: ti.template(), loads: ti.template()):
     """The blocks' couple ranges (with contact, :func:`rebalance_couples`) and their node ranges
     (:func:`block_node_ranges`), anew."""
     if ti.static(contact):
         rebalance_couples(nblk, C, nodes, tris, con, joints, step, fracture)
-    block_node_ranges(nblk, T, J, C, nodes, tris, con, joints, step, contact, fracture, loads)
+    block_node_ranges(nblk, T, J, C, nodes, tris, con, joints, step, asm, contact, fracture, loads)
 
 
 @ti.func

@@ -152,6 +152,7 @@ BLOCK_STRIDE = 1024       # loop iterations per block (see engine.step.phase_blo
 UNSTABLE_BIT = 1 << 24   # added to engine.step.run_steps_serial's return value (steps per launch < 2^24)
 DUE_BIT = 1 << 25        # added to engine.step.run_steps_blocks' return value: contact detection is due
 SYNC_LINE = 16            # i32 slots per cache line: the team's flags in asm_sync are a line apart
+MASK_BLOCKS = 30          # blocks a chunk's skip mask can name (engine.blocks.chunk_skip); a chunk waits for the others
 TEAM_CHUNK = 256          # nodes per chunk of the team's gather and integration (engine.team.team_chunks):
                           # a chunk is integrated once the blocks that write its nodes are done, by
                           # whichever worker claims it; its partial sums are the chunk's, whoever ran it

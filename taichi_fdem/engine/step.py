@@ -44,7 +44,7 @@ from collections import namedtuple
 
 import taichi as ti
 
-from .blocks import block_forces, item_counts, rebalance_blocks
+from .blocks import block_forces, block_node_ranges, item_counts, rebalance_blocks
 from .contact import book_contact_work, couple_forces, eval_couple
 from .detection import phase_detect_count, phase_detect_fill
 from .elastic import eval_tri_elastic, tri_forces
@@ -67,7 +67,7 @@ Features = namedtuple("Features", "contact friction fracture loads local_damping
 
 __all__ = ["UNSTABLE_BIT", "DUE_BIT", "Features", "detect_count", "detect_fill", "build_node_slots", "step_parallel",
            "run_steps_blocks", "run_steps_serial", "eval_elastic", "eval_joints", "eval_contact", "eval_loads",
-           "integrate", "book_joint_work", "book_loads_work"]
+           "integrate", "book_joint_work", "book_loads_work", "refresh_blocks"]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -197,7 +197,8 @@ def phase_blocks(nodes: ti.template(), tris: ti.template(), mats: ti.template(),
     ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
     for _ in range(1):
         if step.step_int[REBALANCE] <= 0:
-            rebalance_blocks(nblk, T, J, C, nodes, tris, con, joints, step, feat.contact, feat.fracture, feat.loads)
+            rebalance_blocks(nblk, T, J, C, nodes, tris, con, joints, step, asm, feat.contact, feat.fracture,
+                             feat.loads)
             step.step_int[REBALANCE] = REBALANCE_STEPS
         step.step_int[REBALANCE] -= 1
     # Taichi 1.7's CPU range-for hands each thread tasks of at least 512 iterations (its adaptive
@@ -347,6 +348,20 @@ def step_parallel(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: Co
     rather than slots (GPU).  Returns :func:`status_code`."""
     phases_parallel(nodes, tris, mats, con, joints, step, asm, feat, blocks)
     return status_code(step)
+
+
+@ti.kernel
+def refresh_blocks(nodes: NodeGroup, tris: TriGroup, con: ContactGroup, joints: JointGroup, step: StepGroup,
+                   asm: AssemblyGroup, feat: ti.template()):
+    """The blocks' node ranges and the node chunks' skip masks (``blocks.block_node_ranges``)
+    from the couples and their split, after a restore or on a new scratch: what the last
+    recomputation of the couple ranges set (they change only with the couples and the split)."""
+    ti.loop_config(serialize=True)   # a serial task
+    for _ in range(1):
+        T, J, C = item_counts(tris, joints, step, feat.contact, feat.fracture)
+        nblk = asm_blocks(nodes.node_x.shape[0], asm)
+        block_node_ranges(nblk, T, J, C, nodes, tris, con, joints, step, asm, feat.contact, feat.fracture,
+                          feat.loads)
 
 
 @ti.kernel

@@ -10,10 +10,11 @@ bits for any number of workers.
 """
 import taichi as ti
 
-from .blocks import block_forces, item_counts, rebalance_blocks
+from .blocks import (block_forces, chunk_count, chunk_nodes, chunk_skip, item_counts, rebalance_blocks,  # noqa: F401
+                     sync_chunk)
 from .detection import (bin_circle, bucket_starts, count_prefix, detected, fill_partners, keep_old_couple,
                         keep_old_start, prepare_circle, scan_partners, sort_bucket)
-from .groups import (COUPLES, DACC, DUE_BIT, FOUND, INVERTED, NONFINITE, QS_ALPHA, RANGE, REBALANCE,
+from .groups import (COUPLES, DACC, DUE_BIT, FOUND, INVERTED, NONFINITE, QS_ALPHA, REBALANCE,
                      REBALANCE_STEPS, RMAX, SWITCH_BC, SWITCH_BC_WORK, SYNC_LINE, TEAM_CHUNK, TIME, UNSTABLE_BIT, VMAX,
                      WORK_BOUNDARY, WORK_LOCAL)
 from .integrate import asm_blocks, book_block_work, integrate_span
@@ -98,12 +99,6 @@ def sync_done(nblk, b):
 
 
 @ti.func
-def sync_chunk(nblk, c):
-    """asm_sync slot of node chunk c's claim (:func:`team_chunks`), after the flags' lines."""
-    return SYNC_LINE * (1 + 2 * nblk) + c
-
-
-@ti.func
 def part_vmax(w, p):
     """asm_part slot of worker w's largest |v|² over its chunks of a step of parity p (a line
     apart)."""
@@ -126,38 +121,17 @@ def wait_flag(asm: ti.template(), w, slot, ticket):
 
 
 @ti.func
-def chunk_count(nblk, N):
-    """Node chunks of the team's integration: nblk segments of the nodes by count (as the
-    blocks' triangles), each cut into the same number of chunks of at most TEAM_CHUNK nodes."""
-    return nblk * ((N // nblk + TEAM_CHUNK) // TEAM_CHUNK)
-
-
-@ti.func
-def chunk_nodes(c, nblk, nch, N):
-    """The nodes [lo, hi) of chunk c of nch (:func:`chunk_count`): chunk i of segment s =
-    c // (nch / nblk), the segment's nodes cut evenly."""
-    m = nch // nblk
-    s = c // m
-    i = c % m
-    s_lo = s * N // nblk
-    s_len = (s + 1) * N // nblk - s_lo
-    return s_lo + i * s_len // m, s_lo + (i + 1) * s_len // m
-
-
-@ti.func
 def integrate_chunk(c, p, w, ticket, nblk, nch, N, nodes: ti.template(), joints: ti.template(), asm: ti.template(),
                     step: ti.template(), dt, g, bc, bc_work, alpha, local_damping: ti.template()):
     """Gather and integrate node chunk c (:func:`chunk_nodes`) of a step of parity p, once the
-    blocks that can write its nodes have added their forces (every block whose node range
-    meets the chunk, :func:`block_node_ranges`); its work terms to its
+    blocks that can write its nodes have added their forces (every block but those that
+    :func:`blocks.chunk_skip` knows write none of its nodes); its work terms to its
     partials (when booked).  Returns its largest |v|² and non-finite flag
     (:func:`integrate.integrate_span`)."""
     lo, hi = chunk_nodes(c, nblk, nch, N)
+    skip = chunk_skip(c, nblk, nch, asm)
     for b in range(nblk):
-        b_lo = step.step_int[RANGE + 2 * b]
-        b_hi = step.step_int[RANGE + 2 * b + 1]
-        # (block 0's range empty: a checkpoint written before its range was kept; wait for it)
-        if (b_lo < hi and b_hi > lo) or (b == 0 and b_lo >= b_hi):
+        if ((skip >> b) & 1) == 0:
             wait_flag(asm, w, sync_done(nblk, b), ticket)
     vmax2, bad, work, local = integrate_span(lo, hi, nodes, joints, asm, step, dt, g, bc, bc_work, alpha, 2,
                                              local_damping)
@@ -170,19 +144,32 @@ def integrate_chunk(c, p, w, ticket, nblk, nch, N, nodes: ti.template(), joints:
 
 
 @ti.func
+def chunk_ready(c, nblk, nch, ticket, asm: ti.template()):
+    """Have the blocks that may write chunk c's nodes all added their forces (no wait)?"""
+    skip = chunk_skip(c, nblk, nch, asm)
+    ready = True
+    for b in range(nblk):
+        if ((skip >> b) & 1) == 0 and asm.asm_sync[sync_done(nblk, b)] < ticket:
+            ready = False
+    return ready
+
+
+@ti.func
 def team_chunks(w, nwork, p, ticket, nblk, N, nodes: ti.template(), joints: ti.template(), asm: ti.template(),
                 step: ti.template(), dt, g, bc, bc_work, alpha, local_damping: ti.template()):
     """Phase 2 of :func:`team_worker`: gather and integrate the nodes in chunks of at most
-    TEAM_CHUNK (:func:`chunk_nodes`, :func:`integrate_chunk`), each as soon as the blocks that
-    write its nodes are done, by whichever worker claims it (an atomic max of the ticket on its claim slot).  The chunks
-    make nblk contiguous segments: worker w takes the chunks of its own segments w, w + nwork,
-    ... from the end away from its neighbours (the nodes no other block writes come first, so a
-    worker whose blocks finish early integrates them while the others still add forces), then
-    the other segments' chunks from the other end, until it meets a claimed chunk (their owner
-    has claimed every chunk from its end to that one).  No barrier between the forces and the
-    integration.  A chunk's sums are the same whoever runs it; the worker's largest |v|² and
-    non-finite flag (maxima: exact in any order) go to its slots of parity p."""
+    TEAM_CHUNK (:func:`blocks.chunk_nodes`, :func:`integrate_chunk`), each once the blocks that
+    write its nodes are done, by whichever worker claims it (an atomic max of the ticket on its
+    claim slot).  The chunks make nblk contiguous segments.  Worker w takes the chunks of its own
+    segments w, w + nwork, ... from the end away from its neighbours, skipping those whose
+    blocks are not done yet (it integrates the nodes the other blocks do not write while they
+    still add forces), then the skipped ones, waiting for their blocks (it stops at a chunk
+    another worker claimed: that one came from the other end, past every chunk beyond); then
+    every chunk of the other segments not claimed yet, from the other end.  No barrier between the forces and the integration.  A chunk's sums are the same
+    whoever runs it; the worker's largest |v|² and non-finite flag (maxima: exact in any order)
+    go to its slots of parity p."""
     nch = chunk_count(nblk, N)
+    m = nch // nblk
     vm2 = 0.0
     bad = 0
     for k in range(2):
@@ -192,19 +179,40 @@ def team_chunks(w, nwork, p, ticket, nblk, N, nodes: ti.template(), joints: ti.t
             s = nblk - 1
         while s >= 0 and s < nblk:
             if (k == 0) or (s % nwork != w):
-                c0 = s * (nch // nblk)
-                c1 = c0 + nch // nblk
                 up = (s % 2 == 0) == (k == 0)
-                for i in range(c1 - c0):
-                    c = c0 + i
+                first = m                        # the own chunks skipped (in walking order)
+                last = -1
+                for i in range(m):
+                    c = s * m + i
                     if not up:
-                        c = c1 - 1 - i
-                    if ti.atomic_max(asm.asm_sync[sync_chunk(nblk, c)], ticket) >= ticket:
-                        break
-                    v2, bd = integrate_chunk(c, p, w, ticket, nblk, nch, N, nodes, joints, asm, step, dt, g, bc,
-                                             bc_work, alpha, local_damping)
-                    vm2 = ti.max(vm2, v2)
-                    bad = ti.max(bad, bd)
+                        c = s * m + m - 1 - i
+                    go = True
+                    if k == 0:
+                        if not chunk_ready(c, nblk, nch, ticket, asm):
+                            first = ti.min(first, i)
+                            last = i
+                            go = False
+                    elif asm.asm_sync[sync_chunk(nblk, c)] >= ticket:       # claimed (a plain read)
+                        go = False
+                    if go:
+                        if ti.atomic_max(asm.asm_sync[sync_chunk(nblk, c)], ticket) >= ticket:
+                            if k == 0:
+                                break
+                        else:
+                            v2, bd = integrate_chunk(c, p, w, ticket, nblk, nch, N, nodes, joints, asm, step, dt,
+                                                     g, bc, bc_work, alpha, local_damping)
+                            vm2 = ti.max(vm2, v2)
+                            bad = ti.max(bad, bd)
+                for i in range(first, last + 1):
+                    c = s * m + i
+                    if not up:
+                        c = s * m + m - 1 - i
+                    if asm.asm_sync[sync_chunk(nblk, c)] < ticket:          # (a plain read first)
+                        if ti.atomic_max(asm.asm_sync[sync_chunk(nblk, c)], ticket) < ticket:
+                            v2, bd = integrate_chunk(c, p, w, ticket, nblk, nch, N, nodes, joints, asm, step, dt,
+                                                     g, bc, bc_work, alpha, local_damping)
+                            vm2 = ti.max(vm2, v2)
+                            bad = ti.max(bad, bd)
             if k == 0:
                 s += nwork
             else:
@@ -343,7 +351,7 @@ def team_worker(w, nwork, nsteps, detect_in, nodes: ti.template(), tris: ti.temp
         # engine.step.phase_blocks does)
         if rebal <= 0:
             if w == 0:
-                rebalance_blocks(nblk, T, J, C, nodes, tris, con, joints, step, feat.contact, feat.fracture,
+                rebalance_blocks(nblk, T, J, C, nodes, tris, con, joints, step, asm, feat.contact, feat.fracture,
                                  feat.loads)
             nbar += 1
             team_barrier(asm, w, nbar * nwork)
@@ -431,7 +439,7 @@ def team_worker(w, nwork, nsteps, detect_in, nodes: ti.template(), tris: ti.temp
         asm.asm_sync[1] = done + ti.select(code >= 2, UNSTABLE_BIT, 0) + ti.select(code & 1, DUE_BIT, 0)
         # every worker read the partials before the last barrier: clear them, so that the scratch
         # does not depend on how the steps were launched (a restart compares it)
-        for k in range(SYNC_LINE, asm.asm_sync.shape[0]):
+        for k in range(SYNC_LINE, sync_chunk(nblk, chunk_count(nblk, N))):     # (not the chunks' masks)
             asm.asm_sync[k] = 0
         for k in range(asm.asm_part.shape[0]):
             asm.asm_part[k] = 0.0
