@@ -328,8 +328,7 @@ class Simulation(SimulationResults):
         # (engine.blocks.block_forces) are compile-time switches (absent features are not
         # compiled); damping, contact damping, prescribed velocities and initial stress are
         # runtime switches in the step group (a branch each), which keeps compiled variants few
-        md = self.model
-        many = self.strategy == "parallel" and self._assembly == "blocks" and self._force_blocks > 2
+        md, many = self.model, self.strategy == "parallel" and self._assembly == "blocks" and self._force_blocks > 2
         return (kernels.Features(bool(md.contact), bool(md.friction), bool(md.fracture), bool(md.loads),
                                  bool(md.local_damping), many),)
 

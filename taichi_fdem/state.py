@@ -180,14 +180,12 @@ def size_assembly(md: Model, st: State, sw: Scratch) -> None:
     # (chunk_skip: zero, wait for every block, until the blocks' ranges are set) and each node's
     # chunk; each worker's largest |v|² for even and odd steps (a line apart,
     # engine.team.part_vmax), then each chunk's work terms for even and odd steps (part_chunk)
-    base = SYNC_LINE * (1 + 2 * team)
-    sync = np.zeros(base + 2 * chunks + (N if team else 0), np.int32)
-    if team:
-        m = chunks // team
-        for s in range(team):
-            lo, length = s * N // team, (s + 1) * N // team - s * N // team
-            for i in range(m):
-                sync[base + 2 * chunks + lo + i * length // m: base + 2 * chunks + lo + (i + 1) * length // m] = s * m + i
+    table = SYNC_LINE * (1 + 2 * team) + 2 * chunks
+    sync = np.zeros(table + (N if team else 0), np.int32)
+    for c in range(chunks):                      # chunk i of segment s: engine.blocks.chunk_nodes
+        s, i = divmod(c, chunks // team)
+        lo, length, m = s * N // team, (s + 1) * N // team - s * N // team, chunks // team
+        sync[table + lo + i * length // m: table + lo + (i + 1) * length // m] = c
     sw.asm_sync = ti.ndarray(ti.i32, shape=sync.shape[0])
     sw.asm_sync.from_numpy(sync)
     sw.asm_part = ti.ndarray(rti, shape=max(1, 16 * team + 4 * chunks))

@@ -165,9 +165,9 @@ def team_chunks(w, nwork, p, ticket, nblk, N, nodes: ti.template(), joints: ti.t
     blocks are not done yet (it integrates the nodes the other blocks do not write while they
     still add forces), then the skipped ones, waiting for their blocks (it stops at a chunk
     another worker claimed: that one came from the other end, past every chunk beyond); then
-    every chunk of the other segments not claimed yet, from the other end.  No barrier between the forces and the integration.  A chunk's sums are the same
-    whoever runs it; the worker's largest |v|² and non-finite flag (maxima: exact in any order)
-    go to its slots of parity p."""
+    every chunk of the other segments not claimed yet, from the other end.  No barrier between
+    the forces and the integration.  A chunk's sums are the same whoever runs it; the worker's
+    largest |v|² and non-finite flag (maxima: exact in any order) go to its slots of parity p."""
     nch = chunk_count(nblk, N)
     m = nch // nblk
     vm2 = 0.0
