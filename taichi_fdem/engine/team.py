@@ -10,12 +10,12 @@ bits for any number of workers.
 """
 import taichi as ti
 
-from .blocks import (block_forces, chunk_count, chunk_nodes, chunk_skip, item_counts, rebalance_blocks,  # noqa: F401
-                     sync_chunk)
+from .blocks import (block_forces, chunk_count, chunk_nodes, chunk_skip, item_counts,  # noqa: F401 (re-exported)
+                     rebalance_blocks, sync_chunk)
 from .detection import (bin_circle, bucket_starts, count_prefix, detected, fill_partners, keep_old_couple,
                         keep_old_start, prepare_circle, scan_partners, sort_bucket)
 from .groups import (COUPLES, DACC, DUE_BIT, FOUND, INVERTED, NONFINITE, QS_ALPHA, REBALANCE,
-                     REBALANCE_STEPS, RMAX, SWITCH_BC, SWITCH_BC_WORK, SYNC_LINE, TEAM_CHUNK, TIME, UNSTABLE_BIT, VMAX,
+                     REBALANCE_STEPS, RMAX, SWITCH_BC, SWITCH_BC_WORK, SYNC_LINE, TIME, UNSTABLE_BIT, VMAX,
                      WORK_BOUNDARY, WORK_LOCAL)
 from .integrate import asm_blocks, book_block_work, integrate_span
 from .joints import add_joint_work
