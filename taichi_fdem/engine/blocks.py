@@ -185,11 +185,12 @@ def chunk_skip(c, nblk, nch, asm: ti.template()):
 
 
 @ti.func
-def _mark(n, bit, nblk, nch, asm: ti.template()):
+def _mark(n, bit, lo, hi, nblk, nch, asm: ti.template()):
     """Block bit ``bit`` writes node n: into its chunk's mask (touched bits while the masks are
-    built, :func:`block_node_ranges`)."""
+    built, :func:`block_node_ranges`); returns the block's node range [lo, hi) grown by n."""
     k = sync_chunk(nblk, asm.asm_sync[sync_chunk(nblk, n) + 2 * nch]) + nch
     asm.asm_sync[k] = asm.asm_sync[k] | bit
+    return ti.min(lo, n), ti.max(hi, n + 1)
 
 
 @ti.func
@@ -220,37 +221,27 @@ def block_node_ranges(nblk, T, J, C, nodes: ti.template(), tris: ti.template(), 
         for e in range(b * T // nblk, (b + 1) * T // nblk):
             n = tris.tri_nodes[e]
             for r in ti.static(range(3)):
-                _mark(n[r], bit, nblk, nch, asm)
-            lo = ti.min(lo, ti.min(n[0], ti.min(n[1], n[2])))
-            hi = ti.max(hi, ti.max(n[0], ti.max(n[1], n[2])) + 1)
+                lo, hi = _mark(n[r], bit, lo, hi, nblk, nch, asm)
         if ti.static(fracture):
             for j in range(b * J // nblk, (b + 1) * J // nblk):
                 nd = joints.joint_nodes[j]
                 for r in ti.static(range(4)):
-                    _mark(nd[r], bit, nblk, nch, asm)
-                lo = ti.min(lo, ti.min(ti.min(nd[0], nd[1]), ti.min(nd[2], nd[3])))
-                hi = ti.max(hi, ti.max(ti.max(nd[0], nd[1]), ti.max(nd[2], nd[3])) + 1)
+                    lo, hi = _mark(nd[r], bit, lo, hi, nblk, nch, asm)
         if ti.static(contact):
             lo_c, hi_c = couple_range(b, nblk, C, step)
             for c in range(lo_c, hi_c):
                 na = tris.tri_nodes[con.couple_a[c]]
                 nb = tris.tri_nodes[con.couple_b[c]]
                 for r in ti.static(range(3)):
-                    _mark(na[r], bit, nblk, nch, asm)
-                    _mark(nb[r], bit, nblk, nch, asm)
-                lo = ti.min(lo, ti.min(ti.min(na[0], ti.min(na[1], na[2])), ti.min(nb[0], ti.min(nb[1], nb[2]))))
-                hi = ti.max(hi, ti.max(ti.max(na[0], ti.max(na[1], na[2])), ti.max(nb[0], ti.max(nb[1], nb[2]))) + 1)
+                    lo, hi = _mark(na[r], bit, lo, hi, nblk, nch, asm)
+                    lo, hi = _mark(nb[r], bit, lo, hi, nblk, nch, asm)
         if ti.static(loads):
             if b == 0:
                 for k in range(nodes.load_nodes.shape[0]):
                     ld = nodes.load_nodes[k]
-                    _mark(ld[1], bit, nblk, nch, asm)
-                    lo = ti.min(lo, ld[1])
-                    hi = ti.max(hi, ld[1] + 1)
+                    lo, hi = _mark(ld[1], bit, lo, hi, nblk, nch, asm)
                     if ld[0] != LOAD_FORCE and ld[0] != LOAD_VELOCITY:     # a segment's second node
-                        _mark(ld[2], bit, nblk, nch, asm)
-                        lo = ti.min(lo, ld[2])
-                        hi = ti.max(hi, ld[2] + 1)
+                        lo, hi = _mark(ld[2], bit, lo, hi, nblk, nch, asm)
         step.step_int[RANGE + 2 * b] = ti.min(lo, hi)
         step.step_int[RANGE + 2 * b + 1] = hi
     every = (1 << ti.min(nblk, MASK_BLOCKS)) - 1

@@ -121,26 +121,26 @@ def wait_flag(asm: ti.template(), w, slot, ticket):
 
 
 @ti.func
-def integrate_chunk(c, p, w, ticket, nblk, nch, N, nodes: ti.template(), joints: ti.template(), asm: ti.template(),
-                    step: ti.template(), dt, g, bc, bc_work, alpha, local_damping: ti.template()):
+def integrate_chunk(c, p, w, ticket, nblk, nch, N, vm2, bad, nodes: ti.template(), joints: ti.template(),
+                    asm: ti.template(), step: ti.template(), dt, g, bc, bc_work, alpha, local_damping: ti.template()):
     """Gather and integrate node chunk c (:func:`chunk_nodes`) of a step of parity p, once the
     blocks that can write its nodes have added their forces (every block but those that
     :func:`blocks.chunk_skip` knows write none of its nodes); its work terms to its
-    partials (when booked).  Returns its largest |v|² and non-finite flag
-    (:func:`integrate.integrate_span`)."""
+    partials (when booked).  Returns the worker's largest |v|² and non-finite flag so far,
+    ``vm2`` and ``bad`` with the chunk's (:func:`integrate.integrate_span`)."""
     lo, hi = chunk_nodes(c, nblk, nch, N)
     skip = chunk_skip(c, nblk, nch, asm)
     for b in range(nblk):
         if ((skip >> b) & 1) == 0:
             wait_flag(asm, w, sync_done(nblk, b), ticket)
-    vmax2, bad, work, local = integrate_span(lo, hi, nodes, joints, asm, step, dt, g, bc, bc_work, alpha, 2,
-                                             local_damping)
+    vmax2, chunk_bad, work, local = integrate_span(lo, hi, nodes, joints, asm, step, dt, g, bc, bc_work, alpha,
+                                                   2, local_damping)
     k = part_chunk(nblk, nch, c, p)
     if bc_work != 0:
         asm.asm_part[k] = work
     if ti.static(local_damping):
         asm.asm_part[k + 1] = local
-    return vmax2, bad
+    return ti.max(vm2, vmax2), ti.max(bad, chunk_bad)
 
 
 @ti.func
@@ -199,20 +199,16 @@ def team_chunks(w, nwork, p, ticket, nblk, N, nodes: ti.template(), joints: ti.t
                             if k == 0:
                                 break
                         else:
-                            v2, bd = integrate_chunk(c, p, w, ticket, nblk, nch, N, nodes, joints, asm, step, dt,
-                                                     g, bc, bc_work, alpha, local_damping)
-                            vm2 = ti.max(vm2, v2)
-                            bad = ti.max(bad, bd)
+                            vm2, bad = integrate_chunk(c, p, w, ticket, nblk, nch, N, vm2, bad, nodes, joints, asm,
+                                                       step, dt, g, bc, bc_work, alpha, local_damping)
                 for i in range(first, last + 1):
                     c = s * m + i
                     if not up:
                         c = s * m + m - 1 - i
                     if asm.asm_sync[sync_chunk(nblk, c)] < ticket:          # (a plain read first)
                         if ti.atomic_max(asm.asm_sync[sync_chunk(nblk, c)], ticket) < ticket:
-                            v2, bd = integrate_chunk(c, p, w, ticket, nblk, nch, N, nodes, joints, asm, step, dt,
-                                                     g, bc, bc_work, alpha, local_damping)
-                            vm2 = ti.max(vm2, v2)
-                            bad = ti.max(bad, bd)
+                            vm2, bad = integrate_chunk(c, p, w, ticket, nblk, nch, N, vm2, bad, nodes, joints, asm,
+                                                       step, dt, g, bc, bc_work, alpha, local_damping)
             if k == 0:
                 s += nwork
             else:
