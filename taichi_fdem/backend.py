@@ -34,6 +34,7 @@ def _memoise_front_end() -> None:
     Does nothing if Taichi's internals differ from 1.7's.
     """
     import functools
+    import sys
     import textwrap as _textwrap
     import types
     try:
@@ -80,6 +81,38 @@ def _memoise_front_end() -> None:
     # kernel_impl uses textwrap.fill on each source line and textwrap.dedent on the source
     kernel_impl.textwrap = types.SimpleNamespace(fill=functools.lru_cache(maxsize=None)(_textwrap.fill),
                                                  dedent=functools.lru_cache(maxsize=None)(_textwrap.dedent))
+    # the position messages wrap each source line and its hint at 80 columns with a new
+    # TextWrapper: the same lines and hints come back for every node on them (a pure function
+    # of the text at that width)
+    from taichi.lang.ast import ast_transformer_utils as _atu
+    if getattr(_atu, "TextWrapper", None) is _textwrap.TextWrapper:
+        wrapped = {}
+
+        class _Wrapper(_textwrap.TextWrapper):
+            def wrap(self, text):
+                key = (self.width, text)
+                lines = wrapped.get(key)
+                if lines is None:
+                    lines = wrapped[key] = tuple(super().wrap(text))
+                return list(lines)
+
+        _atu.TextWrapper = _Wrapper
+    # Taichi asks at each @ti.func / @ti.kernel whether it decorates a method by reading the
+    # source of the statement that runs the frame applying the decorator (a "class" line: that
+    # frame is a class body), one frame further out, ~0.5 ms each.  A frame that is a module's
+    # top level (where this package applies every decorator) is not a class body
+    inside = getattr(kernel_impl, "_inside_class", None)
+    if callable(inside) and not getattr(inside, "_fdem_memo", False):
+        def _inside_class(level_of_class_stackframe):
+            try:
+                if sys._getframe(level_of_class_stackframe - 1).f_code.co_name == "<module>":
+                    return False
+            except ValueError:
+                pass
+            return inside(level_of_class_stackframe + 1)      # (one frame more: this one)
+
+        _inside_class._fdem_memo = True
+        kernel_impl._inside_class = _inside_class
 
 
 _memoise_front_end()

@@ -47,3 +47,39 @@ def test_source_lines_and_text_are_the_ones_inspect_gives():
         assert kernel_impl.textwrap.fill(line, tabsize=4, width=9999) == textwrap.fill(line, tabsize=4, width=9999)
     text = "\n".join(ref)
     assert kernel_impl.textwrap.dedent(text) == textwrap.dedent(text)
+
+
+def test_wrapped_lines_are_the_ones_textwrap_gives():
+    """The position messages' memoised line wrapper returns what a fresh TextWrapper returns,
+    every time, as lists the caller may change."""
+    from taichi.lang.ast import ast_transformer_utils as atu
+    assert atu.TextWrapper is not textwrap.TextWrapper, "the memoised wrapper is not installed"
+    ref = textwrap.TextWrapper(width=80)
+    lines = inspect.getsourcelines(contact.couple_forces.func.func)[0] + ["x" * 200, "  a b  " * 30, "", "\t y"]
+    for line in lines:
+        for text in (line, " " * 8 + "^" * 90, " " * 3):
+            got = atu.TextWrapper(width=80).wrap(text)
+            got.append("changed by the caller")
+            assert atu.TextWrapper(width=80).wrap(text) == ref.wrap(text)
+    assert atu.TextWrapper(width=20).wrap("a " * 40) == textwrap.TextWrapper(width=20).wrap("a " * 40)
+
+
+def test_module_functions_and_methods_are_told_apart():
+    """The shortcut of ``_inside_class`` (a decorator applied at a module's top level is not in
+    a class body) leaves Taichi's answer as it was: this package's functions are plain
+    functions, and a data-oriented class's kernel and function are still methods."""
+    import taichi as ti
+    assert getattr(kernel_impl._inside_class, "_fdem_memo", False), "the shortcut is not installed"
+    assert not contact.couple_forces.func.classfunc and not team.team_worker.func.classfunc
+
+    @ti.data_oriented
+    class Counter:
+        @ti.kernel
+        def total(self) -> ti.i32:
+            return self.two() + 1
+
+        @ti.func
+        def two(self):
+            return 2
+
+    assert Counter().total() == 3
