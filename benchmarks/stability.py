@@ -1,6 +1,6 @@
 """Stress tests of numerical stability: where the solver holds and where it breaks.
 
-Runs the scenarios of ``taichi_fdem.stability`` (time steps 0.25×–4× the estimated limit,
+Runs the scenarios of ``taichi_fdem.verification.stability`` (time steps 0.25×–4× the estimated limit,
 penalty 1–1000·E, impacts up to half the wave speed, sliver triangles, a node touched by many
 contacts, dense piles of hundreds to thousands of disks, a fast spin), each through
 ``Simulation.run`` with its default checks, and records: stable or stopped (and why, at which
@@ -63,7 +63,7 @@ def main(argv=None):
     ap.add_argument("--out", default=os.path.join(ROOT, "docs", "stability.md"))
     args = ap.parse_args(argv)
     import taichi_fdem as fdem
-    from taichi_fdem import stability as S
+    from taichi_fdem.verification import stability as S
     fdem.init()
     t0 = time.perf_counter()
     rows = S.run_suite(quick=args.quick)
@@ -97,7 +97,7 @@ boundary work, so it is conserved up to the time-discretisation error); *max pen
 largest couple overlap depth over the element size (overlap area / mean edge length²);
 *inverted* = an element with J ≤ 0.
 
-Scenes (`taichi_fdem.stability`): two disks (R = 5 cm, E = 10 MPa, ρ = 1000 kg/m³,
+Scenes (`taichi_fdem.verification.stability`): two disks (R = 5 cm, E = 10 MPa, ρ = 1000 kg/m³,
 c_p ≈ 110 m/s) in an oblique impact at ±2 m/s unless the row says otherwise; a 10 cm block
 meshed with sliver triangles (cells `aspect` times wider than tall) dropped spinning on a
 floor; a wedge of n thin triangles sharing its tip node, dropped tip first (one node in

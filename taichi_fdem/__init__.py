@@ -23,10 +23,10 @@ import importlib
 from . import mesh
 from .backend import init
 from .discontinuity import NormalStrength, Weibull
-from .guards import SimulationError
+from .sim.guards import SimulationError
 from .material import Material
 from .scene import Body, Curve, Scene
-from .simulation import Simulation
+from .sim.simulation import Simulation
 
 __version__ = "0.1.0"
 __all__ = ["init", "mesh", "render", "export", "checkpoint", "scenefile", "sweep", "Material", "Scene", "Body", "Curve",
@@ -35,8 +35,8 @@ __all__ = ["init", "mesh", "render", "export", "checkpoint", "scenefile", "sweep
 # driver modules, loaded on first attribute access (PEP 562)
 _LAZY = {"render": "taichi_fdem.render", "export": "taichi_fdem.io.vtu", "checkpoint": "taichi_fdem.io.checkpoint",
          "scenefile": "taichi_fdem.io.scenefile", "sweep": "taichi_fdem.sweep", "io": "taichi_fdem.io",
-         "verification": "taichi_fdem.verification", "stability": "taichi_fdem.stability",
-         "viewer": "taichi_fdem.viewer", "cli": "taichi_fdem.cli"}
+         "verification": "taichi_fdem.verification", "stability": "taichi_fdem.verification.stability",
+         "viewer": "taichi_fdem.render.viewer", "cli": "taichi_fdem.cli"}
 
 
 def __getattr__(name):

@@ -68,7 +68,7 @@ def cmd_run(args) -> int:
     sim, settings = spec.build()
     if args.resume_from:
         from .io.checkpoint import CheckpointError
-        from .simulation import Simulation
+        from .sim.simulation import Simulation
         try:
             sim = Simulation.load(args.resume_from)
         except FileNotFoundError:
@@ -261,7 +261,7 @@ def main(argv=None) -> int:
         ap.print_help()
         return EXIT_BAD_INPUT
     from .io.scenefile import SceneFileError
-    from .simulation import SimulationError
+    from .sim.simulation import SimulationError
     from .sweep import SweepError
     try:
         return args.func(args)

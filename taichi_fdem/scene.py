@@ -1,8 +1,8 @@
 """Scene description: bodies (mesh + material + placement), boundary conditions, settings.
 
 The builder layer, on top of the simulation: a scene is pure Python and NumPy data, and
-:meth:`Scene.build` turns it into a :class:`~taichi_fdem.simulation.Simulation` (which computes
-the model, :mod:`taichi_fdem.model`, the one place where arrays are allocated).
+:meth:`Scene.build` turns it into a :class:`~taichi_fdem.sim.simulation.Simulation` (which computes
+the model, :mod:`taichi_fdem.sim.model`, the one place where arrays are allocated).
 """
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ from .discontinuity import JointSet, check_strength, resolve, split_body
 from .mesh import TriMesh
 from .mesh.split import explode, interior_edge_table
 from .engine.joints import HANDOVER_DAMAGE
-from .simulation import Simulation
+from .sim.simulation import Simulation
 
 
 def _vec2(value, name: str, where: str) -> np.ndarray:
@@ -565,7 +565,7 @@ class Scene:
               buffer: float | None = None, strategy: str = "auto", check_overlap: bool = True,
               speed_limit: float | None = None, quasi_static=False, joined_pairs: str = "joint",
               handover_damage: float = HANDOVER_DAMAGE):
-        """Allocate everything and return a ready :class:`~taichi_fdem.simulation.Simulation`.
+        """Allocate everything and return a ready :class:`~taichi_fdem.sim.simulation.Simulation`.
 
         Parameters
         ----------
@@ -582,7 +582,7 @@ class Scene:
             "parallel" (forces summed without atomics by several threads: larger scenes, GPUs).
             "auto" (default) is parallel on GPUs, and on the CPU when it has at least 2 threads
             and the scene at least ``AUTO_PARALLEL_ITEMS`` (600) triangles + joints +
-            contact couples; serial otherwise (:mod:`taichi_fdem.simulation`).
+            contact couples; serial otherwise (:mod:`taichi_fdem.sim.simulation`).
         check_overlap : warn when bodies overlap at the start.
         speed_limit : a node speed [m/s] above which the run stops as unstable (default: 2× the
             largest P-wave speed of the materials, or 10× the fastest initial speed if larger).

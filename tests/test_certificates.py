@@ -12,7 +12,7 @@ import pytest
 
 import taichi_fdem as fdem
 from taichi_fdem.engine.groups import DACC
-from taichi_fdem.model import counter
+from taichi_fdem.sim.model import counter
 
 
 def _pile(strategy: str, seed: int = 0, speed: float = 0.3):

@@ -16,7 +16,7 @@ import pytest
 
 import taichi_fdem as fdem
 from taichi_fdem import verification as V
-from taichi_fdem.cracks import CSV_COLUMNS, read_crack_events
+from taichi_fdem.sim.cracks import CSV_COLUMNS, read_crack_events
 from taichi_fdem.mesh import TriMesh
 from conftest import shared_node_pairs, union_find_roots
 

@@ -49,7 +49,7 @@ def test_slope_short(tmp_path):
     mass), the rock below it stays within a few cm, the broken joints are on J1 and J2 (none of
     the strong joints of the intact rock), the streamed crack-event CSV lists every broken joint,
     and the energy balance closes to a small fraction of the gravity energy released."""
-    from taichi_fdem.cracks import read_crack_events
+    from taichi_fdem.sim.cracks import read_crack_events
     r = _run("slope", tmp_path)
     assert r["moved_triangles"] >= 5
     assert r["moved_above_daylight"] > 0.95

@@ -179,7 +179,7 @@ print("OK")
 def test_auto_strategy_follows_the_work_and_the_threads(monkeypatch):
     """'auto' runs parallel on the CPU with >= 2 threads once triangles + joints + couples reach
     AUTO_PARALLEL_ITEMS, serial below it (and always serial on one thread)."""
-    import taichi_fdem.simulation as simmod
+    import taichi_fdem.sim.simulation as simmod
     from taichi_fdem import backend
     from taichi_fdem.verification import fragment_plate_scene
     sim, _ = fragment_plate_scene(h_plate=0.025, h_ball=0.02)
@@ -419,7 +419,7 @@ def test_team_steps_give_the_same_bits_as_one_launch_per_step(monkeypatch):
     once per step.  Loads, constraints, local damping, contact and friction: the same positions
     and velocities bit for bit, the same energy terms (the constraint and local-damping work
     are summed in another order: round-off)."""
-    import taichi_fdem.simulation as simmod
+    import taichi_fdem.sim.simulation as simmod
     monkeypatch.setattr(simmod, "TEAM_CPU_SHARE", 0.0)     # a busy machine must not pause the team here
     out = {}
     for team in (True, False):
@@ -447,7 +447,7 @@ def test_team_detects_inside_its_launch_with_the_same_bits(monkeypatch):
     due and the host runs the parallel broad phase.  The same couples, so the same bits.  (A
     couple buffer too small for the new couples ends the launch and the host grows it:
     tests/test_detection.py::test_redetection_while_moving_and_buffer_growth.)"""
-    import taichi_fdem.simulation as simmod
+    import taichi_fdem.sim.simulation as simmod
     monkeypatch.setattr(simmod, "TEAM_CPU_SHARE", 0.0)
     runs = {}
     for inside in (True, False):
@@ -469,7 +469,7 @@ def test_team_detects_inside_its_launch_with_the_same_bits(monkeypatch):
 def test_team_steps_stop_at_the_unstable_step(monkeypatch):
     """A time step 4× the stable limit: the team launch stops after the first unstable step,
     as the per-step launches do, and the run ends with a diagnosis."""
-    import taichi_fdem.simulation as simmod
+    import taichi_fdem.sim.simulation as simmod
     monkeypatch.setattr(simmod, "TEAM_CPU_SHARE", 0.0)
     steps = {}
     for team in (True, False):
@@ -492,9 +492,9 @@ def test_parallel_detection_lists_the_couples_in_the_serial_order(monkeypatch):
     assembly deals couples by list position: a different order would change the sums).  The
     one-launch serial detection of the parallel strategy's smaller scenes
     (``DETECT_SERIAL_TRIS``) lists them in that order too."""
-    import taichi_fdem.simulation as simmod
+    import taichi_fdem.sim.simulation as simmod
     from taichi_fdem.engine.groups import DACC, DACC_FORCE
-    from taichi_fdem.model import set_counter
+    from taichi_fdem.sim.model import set_counter
     monkeypatch.setattr(simmod, "DETECT_SERIAL_TRIS", 0)
     mat = fdem.Material(density=1000.0, young=1e7, poisson=0.25)
     scene = fdem.Scene(gravity=(0.0, 0.0))
@@ -528,7 +528,7 @@ def test_team_gives_way_on_a_shared_cpu(monkeypatch):
     process on the cores: spinning workers would wait for descheduled ones) makes the team give
     way for a while: a team of one below PAUSE_SOLO_ITEMS items (nothing to wait for), one
     launch per step above; a launch with its cores does not."""
-    import taichi_fdem.simulation as simmod
+    import taichi_fdem.sim.simulation as simmod
     sim = _loaded_pair()
     sim.step(5)                                     # the first launch compiles: never judged
     nwork = sim._team()
@@ -567,7 +567,7 @@ def test_a_team_that_gave_way_gives_the_same_bits(monkeypatch):
     """Loads, contact and friction over several detections: the team, the team of one it gives
     way to on a shared CPU, and one launch per step reach the same positions and velocities,
     bit for bit, whenever they take over."""
-    import taichi_fdem.simulation as simmod
+    import taichi_fdem.sim.simulation as simmod
     monkeypatch.setattr(simmod, "TEAM_CPU_SHARE", 0.0)    # no pause but the forced ones below
     runs = {}
     for mode in ("team", "solo", "per-step"):
@@ -610,7 +610,7 @@ def _couple_costs(sim) -> np.ndarray:
     less than the rounding margin; or apart by more (then its certificate of separation skips
     it, plus the share of steps it is tested again: the growth of D_acc per step over the gap)."""
     from taichi_fdem.engine.groups import COST_BONDED, COST_CERTIFIED, COST_SEPARATED, COST_TOUCHING, VMAX
-    from taichi_fdem.model import counter
+    from taichi_fdem.sim.model import counter
     rel = 1e-8                                  # engine.contact.couple_certificate, f64
     x = sim.node_positions()
     tn = sim.model.tri_nodes.to_numpy()
@@ -661,7 +661,7 @@ def test_block_couple_ranges_follow_the_estimated_cost():
     of equal counts would be far from equal cost.  Each block boundary is within one touching
     couple of its share of the total; the ranges cover the couples once, in order."""
     from taichi_fdem.engine.groups import COST_TOUCHING, REBALANCE, REBALANCE_STEPS, SPLIT
-    from taichi_fdem.model import counter, set_counter
+    from taichi_fdem.sim.model import counter, set_counter
     from taichi_fdem.verification import fragment_plate_scene
     sim, _ = fragment_plate_scene(h_plate=0.012, h_ball=0.02, friction=0.5)
     sim = sim.scene.build(strategy="parallel")
@@ -691,7 +691,7 @@ def test_team_workers_cap_the_team_and_keep_the_bits(monkeypatch):
     """``Simulation.team_workers`` caps the workers of a team launch (benchmarks/threads.py
     compares a team of one with a team of two in one process): the same bits either way, and a
     bad value is refused by name."""
-    import taichi_fdem.simulation as simmod
+    import taichi_fdem.sim.simulation as simmod
     monkeypatch.setattr(simmod, "TEAM_CPU_SHARE", 0.0)
     out = {}
     for workers in (1, None):

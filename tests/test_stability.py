@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import taichi_fdem as fdem
-from taichi_fdem import stability as S
+from taichi_fdem.verification import stability as S
 
 SUITE = S.suite(quick=True)
 

@@ -1,4 +1,4 @@
-"""Live viewer (taichi_fdem.viewer): a real window under Xvfb, and the no-display fallback.
+"""Live viewer (taichi_fdem.render.viewer): a real window under Xvfb, and the no-display fallback.
 
 The window test runs the viewer in a subprocess (a crashing window system cannot take pytest
 down) against a private Xvfb server; it is skipped, with the reason, when Xvfb is missing
@@ -19,7 +19,7 @@ import pytest
 
 import taichi_fdem as fdem
 from taichi_fdem.render import RendererImage
-from taichi_fdem.viewer import Viewer, _from_gui, _to_gui
+from taichi_fdem.render.viewer import Viewer, _from_gui, _to_gui
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -82,7 +82,7 @@ VIEWER_SCRIPT = textwrap.dedent("""
     import taichi_fdem as fdem
     from PIL import ImageGrab
     from taichi_fdem.render import RendererImage, save_png
-    from taichi_fdem.viewer import Viewer
+    from taichi_fdem.render.viewer import Viewer
 
     out = sys.argv[1]
     fdem.init(arch="cpu", precision="f64")

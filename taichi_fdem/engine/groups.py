@@ -54,7 +54,7 @@ step       parameters set by the host: dt [s], gravity (vec2 [m/s²]), buffer [m
 =========  ====================================================================================
 
 Adding an array: declare it in the group below and allocate it in
-:func:`taichi_fdem.model.build_model` (model arrays) or :func:`taichi_fdem.state.allocate_state`
+:func:`taichi_fdem.sim.model.build_model` (model arrays) or :func:`taichi_fdem.sim.state.allocate_state`
 (state arrays).  Nothing else lists it: the kernels receive the group, checkpoints and
 last-good-state snapshots walk the state.
 

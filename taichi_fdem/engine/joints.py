@@ -300,7 +300,7 @@ def carried_share(j, L, joints: ti.template()):
     [m] when its two triangles overlap by a thin strip, and the pair's contact friction μ.  The
     potential φ = 3β of each triangle gives a traction 3 p o / h on each side, so
     k_x = 3 p (1/h_A + 1/h_B) = 3 p L (1/(2A_A) + 1/(2A_B)) with the rest areas; k_x / L and μ
-    are per-joint constants, joint_prop[j][6] and [7] (taichi_fdem.model); measured against the
+    are per-joint constants, joint_prop[j][6] and [7] (taichi_fdem.sim.model); measured against the
     contact kernel: within 0.3 % in force and energy (tests/test_joined_pairs.py).  The carried
     joint also adds μ|σ_x| to its shear strength, as contact friction did on the pair's faces."""
     prop = joints.joint_prop[j]

@@ -1,4 +1,4 @@
-"""Checkpoints: the whole state of a :class:`~taichi_fdem.simulation.Simulation` in one file.
+"""Checkpoints: the whole state of a :class:`~taichi_fdem.sim.simulation.Simulation` in one file.
 
     sim.save("run.ckpt")                          # or checkpoint.save(sim, path)
     sim = fdem.Simulation.load("run.ckpt")        # or checkpoint.load(path)
@@ -7,7 +7,7 @@ A restarted run continues exactly as the uninterrupted run would (bit for bit wi
 strategy).  The model (topology, rest shapes, masses, tables: what ``build()`` computes) is not
 stored but rebuilt from the scene; the file holds
 
-* the state — every Taichi ndarray of ``sim.state`` (:class:`taichi_fdem.model.State`), by
+* the state — every Taichi ndarray of ``sim.state`` (:class:`taichi_fdem.sim.model.State`), by
   name, with its kind (scalar / vector / matrix), element dtype and shape: nodes, couples and
   their friction history, joint state, dissipation, counters, and any array a future feature
   adds to the state (found generically, nothing is listed here), plus its plain attributes
@@ -43,8 +43,8 @@ import taichi as ti
 
 from .. import backend
 from ..engine.groups import DAMAGED, EDGE_FREE, INT_COUNTERS, INTACT, NB_PAIRS, REBALANCE
-from ..model import _ndarray, counter
-from ..state import install_neighbour_pairs, nb_on_size
+from ..sim.model import _ndarray, counter
+from ..sim.state import install_neighbour_pairs, nb_on_size
 
 __all__ = ["save", "load", "CheckpointError", "FORMAT", "FORMAT_VERSION"]
 
@@ -277,7 +277,7 @@ def _read(path: str) -> dict:
 
 
 def load(path):
-    """Rebuild the :class:`~taichi_fdem.simulation.Simulation` saved in ``path`` by :func:`save`.
+    """Rebuild the :class:`~taichi_fdem.sim.simulation.Simulation` saved in ``path`` by :func:`save`.
 
     Raises
     ------

@@ -436,7 +436,7 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
         if importlib.util.find_spec("taichi_fdem.io.vtu") is None:
             raise ck.error(("output", "vtu"), "VTU output needs taichi_fdem.io.vtu, which this version does not have")
     if output["checkpoint"] is not None:
-        from ..simulation import Simulation
+        from ..sim.simulation import Simulation
         if not hasattr(Simulation, "save"):
             raise ck.error(("output", "checkpoint"), "checkpoints need Simulation.save, which this version does not have")
     if "cracks" in output_t and output["cracks"] and output["video"] is None:

@@ -1,7 +1,7 @@
 """A checked scene file (:class:`SceneSpec`) and how to build and run it (:class:`RunSettings`).
 
 :func:`taichi_fdem.io.scenefile.load` makes a :class:`SceneSpec`: plain data, cheap to pickle.
-:meth:`SceneSpec.build` turns it into a :class:`~taichi_fdem.simulation.Simulation` (meshes
+:meth:`SceneSpec.build` turns it into a :class:`~taichi_fdem.sim.simulation.Simulation` (meshes
 generated or read, bodies and box constraints added) and :meth:`RunSettings.run` runs it with
 the video, VTU series and checkpoint that the file's ``[output]`` asks for.
 """
@@ -165,7 +165,7 @@ class SceneSpec:
         return scene, bodies
 
     def build(self):
-        """(:class:`~taichi_fdem.simulation.Simulation`, :class:`RunSettings`)."""
+        """(:class:`~taichi_fdem.sim.simulation.Simulation`, :class:`RunSettings`)."""
         scene, _ = self.build_scene()
         s = self.solver
         try:

@@ -4,7 +4,7 @@
   kernels (no window, no OpenGL): one thread per triangle fills the pixels of its bounding box
   whose centres pass the (inclusive) edge-function test, optionally drawing the triangle
   edges, with optional supersampling (box-filtered down on the device).
-  :meth:`RendererImage.render_sim` draws a :class:`~taichi_fdem.simulation.Simulation`
+  :meth:`RendererImage.render_sim` draws a :class:`~taichi_fdem.sim.simulation.Simulation`
   coloured by body, material, stress (von Mises, principal), speed or displacement, with a
   colour bar, a time/step stamp and a fitted, fixed or body-following camera.
 * :func:`colormap` / :func:`body_colors` turn scalar fields and body ids into per-triangle
@@ -15,7 +15,7 @@
 All kernels take ``ti.types.ndarray()`` arguments, so a new scene or image size never causes
 a recompilation (kernels are compiled once per dtype / dimensionality).
 
-Modules (imports run downwards only; none imports :mod:`taichi_fdem.simulation`, a simulation
+Modules (imports run downwards only; none imports :mod:`taichi_fdem.sim.simulation`, a simulation
 is only read through the object handed in):
 
 * :mod:`._util` -- argument checks and Taichi / NumPy array conversions;

@@ -4,7 +4,7 @@ image with the Taichi kernels of :mod:`~taichi_fdem.render.kernels` (no window, 
 
 The simulation is only read, duck-typed (``node_x``, ``node_v``, ``tri_nodes``, ``tri_rest_inv``,
 ``tri_mat``, ``mat_mu``, ``mat_lam``, ``bodies``, ``time``, ``step_count``, ...): this module does
-not import :mod:`taichi_fdem.simulation`.
+not import :mod:`taichi_fdem.sim.simulation`.
 """
 import math
 import numbers
@@ -461,7 +461,7 @@ class RendererImage(_Overlays):
                           ti.Vector(self.crack_color, dt=ti.f32), float(0.5 * self.crack_width))
 
     def render_sim(self, sim, color_by=None) -> np.ndarray:
-        """Draw a :class:`~taichi_fdem.simulation.Simulation`; returns ``(height, width, 3)`` uint8.
+        """Draw a :class:`~taichi_fdem.sim.simulation.Simulation`; returns ``(height, width, 3)`` uint8.
 
         ``color_by`` overrides the renderer's mode for this frame (see the class docstring
         for the modes, the colour range, colour bar, stamp and camera options).

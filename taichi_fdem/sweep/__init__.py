@@ -26,7 +26,7 @@ convention keys are ``"material.<Material field>"`` (``material.friction``,
 
 * a :class:`~taichi_fdem.scene.Scene`: the sweep builds it with the ``solver.*`` values of the
   point (other than ``solver.duration``) as :meth:`Scene.build` arguments;
-* a :class:`~taichi_fdem.simulation.Simulation` (``base`` applied the solver values itself);
+* a :class:`~taichi_fdem.sim.simulation.Simulation` (``base`` applied the solver values itself);
 * or ``(Simulation, duration [s])``.
 
 The simulated time of a point is ``solver.duration`` of the point, else the duration that
@@ -44,7 +44,7 @@ Every point runs in a worker process started with the ``spawn`` method (Taichi m
 be forked after it is initialised); each worker calls :func:`taichi_fdem.init` itself and
 runs its points one after the other, so the compiled kernels are reused (sweep values are
 kernel arguments, never compile-time constants).  A point that raises, becomes unstable
-(:class:`~taichi_fdem.simulation.SimulationError`), exceeds ``timeout`` or kills its worker
+(:class:`~taichi_fdem.sim.simulation.SimulationError`), exceeds ``timeout`` or kills its worker
 is recorded with its status and error text; a dead worker is replaced and the sweep goes on.
 ``base`` and ``metrics`` are sent to the workers by pickling, so for local runs they must be
 module-level functions (Dask's cloudpickle also accepts lambdas).

@@ -30,7 +30,7 @@ def _ensure_init(init: dict | None) -> None:
 
 def _build_point(base, params: dict, duration):
     from ..scene import Scene
-    from ..simulation import Simulation
+    from ..sim.simulation import Simulation
     params = dict(params)
     dur = params.get("solver.duration")
     if isinstance(base, (str, os.PathLike)):
@@ -64,7 +64,7 @@ def run_point(base, params: dict, metrics, duration=None, init: dict | None = No
     (SimulationError) or "failed" (any other exception, in ``base``, the run or ``metrics``).
     This is the function that the local workers and the Dask workers call.
     """
-    from ..simulation import SimulationError
+    from ..sim.simulation import SimulationError
     t0 = time.perf_counter()
     res = {"status": "ok", "error": "", "metrics": {}, "worker": f"{socket.gethostname()}:{os.getpid()}"}
     with _LOCK:

@@ -14,9 +14,9 @@ import warnings
 import numpy as np
 import taichi as ti
 
-from . import backend
-from .engine.diagnostics import couple_penetrations, overlap_areas
-from .engine.groups import INVERTED, NONFINITE, VMAX
+from .. import backend
+from ..engine.diagnostics import couple_penetrations, overlap_areas
+from ..engine.groups import INVERTED, NONFINITE, VMAX
 
 
 class SimulationError(RuntimeError):

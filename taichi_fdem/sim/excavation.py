@@ -1,5 +1,5 @@
 """Excavation: removing triangles from a running simulation (:meth:`Simulation.remove
-<taichi_fdem.simulation.Simulation.remove>`): their forces stop, their mass leaves their nodes,
+<taichi_fdem.sim.simulation.Simulation.remove>`): their forces stop, their mass leaves their nodes,
 nodes left without a triangle are held, and the energy they held is booked (FDEM_SPEC §12.4).
 """
 from __future__ import annotations
@@ -7,15 +7,15 @@ from __future__ import annotations
 import numpy as np
 import taichi as ti
 
-from . import backend
-from .engine.groups import DACC, DACC_FORCE, SWITCH_BC
+from .. import backend
+from ..engine.groups import DACC, DACC_FORCE, SWITCH_BC
 from .model import set_counter
 
 __all__ = ["remove", "apply_removal"]
 
 
 def remove(sim, body=None, where=None) -> int:
-    """:meth:`Simulation.remove <taichi_fdem.simulation.Simulation.remove>`."""
+    """:meth:`Simulation.remove <taichi_fdem.sim.simulation.Simulation.remove>`."""
     md, st = sim.model, sim.state
     if body is None and where is None:
         raise ValueError("remove: give body= and/or where= (a predicate on initial coordinates)")

@@ -1,5 +1,5 @@
 """Crack and fragment results of a simulation (FDEM_SPEC §7.8–7.10, §13.4): a mixin of
-:class:`~taichi_fdem.simulation.Simulation` (through :class:`~taichi_fdem.results.SimulationResults`).
+:class:`~taichi_fdem.sim.simulation.Simulation` (through :class:`~taichi_fdem.sim.results.SimulationResults`).
 
 * **Crack events** (:meth:`CrackResults.crack_events`): every broken joint is one event with its
   time, position, failure mode, released energy (the work done on the joint up to breakage,
@@ -20,8 +20,8 @@ import os
 
 import numpy as np
 
-from .engine.groups import BROKEN
-from .engine.joints import MODE_NAMES
+from ..engine.groups import BROKEN
+from ..engine.joints import MODE_NAMES
 from .model import counter
 
 __all__ = ["CrackResults", "CrackEventLog", "read_crack_events", "CSV_COLUMNS"]

@@ -1,10 +1,10 @@
 """Simulation: the driver over a built model and its state (step, run, forces, profile, results).
 
-``Scene.build()`` computes the :class:`~taichi_fdem.model.Model` once, allocates the
-:class:`~taichi_fdem.model.State` and hands both to a :class:`Simulation`, which launches the
+``Scene.build()`` computes the :class:`~taichi_fdem.sim.model.Model` once, allocates the
+:class:`~taichi_fdem.sim.model.State` and hands both to a :class:`Simulation`, which launches the
 kernels of :mod:`taichi_fdem.engine.step` with the array groups as argpacks (time steps:
-:mod:`taichi_fdem.timestep`; guards: :mod:`taichi_fdem.guards`; energies:
-:mod:`taichi_fdem.energies`; results: :mod:`taichi_fdem.results`).
+:mod:`taichi_fdem.sim.timestep`; guards: :mod:`taichi_fdem.sim.guards`; energies:
+:mod:`taichi_fdem.sim.energies`; results: :mod:`taichi_fdem.sim.results`).
 
 Execution strategy (:mod:`taichi_fdem.engine.step`): the serial one runs thousands of steps per
 launch on one core; the parallel one sums the forces without atomics and, on the CPU, runs
@@ -23,11 +23,12 @@ from contextlib import closing as _closing, nullcontext
 
 import numpy as np
 
-from . import backend, excavation, guards
-from .engine import refresh, step as kernels
-from .engine.tiutil import launch_cached
+from . import excavation, guards
+from .. import backend
+from ..engine import refresh, step as kernels
+from ..engine.tiutil import launch_cached
 from .guards import SimulationError
-from .engine.groups import COUPLES, DACC, DETECTIONS, FORCE_BLOCKS, FOUND, MAX_FORCE_BLOCKS, REBALANCE
+from ..engine.groups import COUPLES, DACC, DETECTIONS, FORCE_BLOCKS, FOUND, MAX_FORCE_BLOCKS, REBALANCE
 from .model import build_model, counter, set_counter
 from .state import allocate_scratch, allocate_state, grow_couples, pack_groups, size_assembly, size_couple_scratch
 from .cracks import CrackEventLog
@@ -514,7 +515,7 @@ class Simulation(SimulationResults):
 
     def profile(self, steps: int = 100) -> dict:
         """Run ``steps`` steps with one launch per phase and time each phase [s]
-        (:func:`taichi_fdem.profiling.profile`)."""
+        (:func:`taichi_fdem.sim.profiling.profile`)."""
         from .profiling import profile
         return profile(self, steps)
 
@@ -561,7 +562,7 @@ class Simulation(SimulationResults):
           kinetic + strain + contact + dissipated + |boundary work| seen so far);
         * ``max_penetration``: no contact couple may overlap by more than this fraction of its
           element size (overlap area / mean edge length, divided by the mean edge length;
-          :func:`taichi_fdem.guards.max_couple_penetration`); None switches the check off.
+          :func:`taichi_fdem.sim.guards.max_couple_penetration`); None switches the check off.
 
         A failed check raises :class:`SimulationError` (cause, step, time, suggested dt), like
         the per-step checks.  The state of the last check that passed (or of the start of the
@@ -579,14 +580,14 @@ class Simulation(SimulationResults):
         history : path of a CSV file that receives a row at the start, every ``history_every``
             steps (default: about 200 rows over the run) and at the end: time, reactions of the
             prescribed bodies and ``fix_nodes`` groups, curve amplitudes, mean displacement of
-            each body, energies (:class:`taichi_fdem.results.History`).  Each row is flushed;
+            each body, energies (:class:`taichi_fdem.sim.results.History`).  Each row is flushed;
             an existing file is appended to.
         crack_events : path of a CSV file of crack events (:meth:`crack_events`, columns
             ``joint, time_s, x_m, y_m, mode, energy_J, length_m, set``): the joints broken so
             far are written at the start, new ones after every chunk of steps (at least as
             often as the history rows and checks) and at the end, also when the run stops
             with an error; each write is flushed.  An existing file is appended to, without
-            repeating the joints it lists (:class:`taichi_fdem.cracks.CrackEventLog`).  After
+            repeating the joints it lists (:class:`taichi_fdem.sim.cracks.CrackEventLog`).  After
             :meth:`restore_last_good` the file may list joints that broke after the restored state.
         video_cracks : draw the broken joints (both crack faces) on the video frames of
             the default renderer; with ``renderer=``, set its ``cracks`` option instead.

@@ -8,7 +8,7 @@ import time as _time
 import numpy as np
 
 from . import guards
-from .engine import step as kernels
+from ..engine import step as kernels
 
 
 def profile(sim, steps: int = 100) -> dict:

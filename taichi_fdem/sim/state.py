@@ -1,7 +1,7 @@
 """The state and the scratch of a simulation, and the argpacks the kernels take.
 
-:func:`allocate_state` gives the initial :class:`~taichi_fdem.model.State` of a
-:class:`~taichi_fdem.model.Model` (positions, velocities, the joints' and triangles' evolving
+:func:`allocate_state` gives the initial :class:`~taichi_fdem.sim.model.State` of a
+:class:`~taichi_fdem.sim.model.Model` (positions, velocities, the joints' and triangles' evolving
 arrays, the couple buffer with the neighbour pairs first); :func:`allocate_scratch` the work
 arrays of detection and of the parallel assembly; :func:`pack_groups` the argpacks of
 :mod:`taichi_fdem.engine.groups` drawn from all three.
@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 import taichi as ti
 
-from . import backend
-from .engine.groups import (COUPLES, DACC, DACC_FORCE, DET_CAND, FORCE_BLOCKS, GROUPS, HANDOVER, INT_COUNTERS,
+from .. import backend
+from ..engine.groups import (COUPLES, DACC, DACC_FORCE, DET_CAND, FORCE_BLOCKS, GROUPS, HANDOVER, INT_COUNTERS,
                             NB_PAIRS, QS_ALPHA, REAL_COUNTERS, REBALANCE, SYNC_LINE, TEAM_CHUNK, TEAM_MEMBERS,
                             TeamGroup)
 from .model import Model, Scratch, State, _ndarray, _next_pow2, counter, set_counter

@@ -10,7 +10,7 @@ In the spirit of Warp/Newton's builder → model → state:
   snapshots save the state generically (every ndarray in it), and rebuild the model.
 * :class:`Scratch` — work arrays of contact detection, rewritten at every detection.
 
-:mod:`taichi_fdem.state` allocates the state and the scratch of a model, and bundles model,
+:mod:`taichi_fdem.sim.state` allocates the state and the scratch of a model, and bundles model,
 state and scratch into the argpacks of :mod:`taichi_fdem.engine.groups` that the kernels take.
 
 The scene is read duck-typed (bodies, constraints, interactions, gravity, plane, thickness):
@@ -24,10 +24,11 @@ import warnings
 import numpy as np
 import taichi as ti
 
-from . import backend, timestep
-from .engine.groups import SWITCH_BC, SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING, SWITCH_PRESTRESS
-from .engine.joints import FAN_HEAD, HANDOVER_DAMAGE, fan_links, initial_intact, neighbour_pairs
-from .engine.loads import LOAD_ABSORB, LOAD_FORCE, LOAD_PRESSURE, LOAD_TRACTION, LOAD_VELOCITY
+from . import timestep
+from .. import backend
+from ..engine.groups import SWITCH_BC, SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING, SWITCH_PRESTRESS
+from ..engine.joints import FAN_HEAD, HANDOVER_DAMAGE, fan_links, initial_intact, neighbour_pairs
+from ..engine.loads import LOAD_ABSORB, LOAD_FORCE, LOAD_PRESSURE, LOAD_TRACTION, LOAD_VELOCITY
 
 
 def _ndarray(data: np.ndarray, dtype, vec: int | None = None, mat: tuple | None = None):

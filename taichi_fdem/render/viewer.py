@@ -20,8 +20,8 @@ import warnings
 
 import numpy as np
 
-from . import render
-from .render import COLOR_MODES, RendererImage, VideoWriter
+from .. import render
+from . import COLOR_MODES, RendererImage, VideoWriter
 
 __all__ = ["Viewer"]
 
@@ -42,7 +42,7 @@ def _from_gui(canvas: np.ndarray) -> np.ndarray:
 
 
 class Viewer:
-    """Show a :class:`~taichi_fdem.simulation.Simulation` live while it runs.
+    """Show a :class:`~taichi_fdem.sim.simulation.Simulation` live while it runs.
 
     Parameters
     ----------

@@ -21,8 +21,8 @@ import warnings
 import numpy as np
 import taichi as ti
 
-from .engine.diagnostics import couple_penetrations  # noqa: F401  (re-exported)
-from .guards import max_couple_penetration  # noqa: F401  (re-exported)
+from ..engine.diagnostics import couple_penetrations  # noqa: F401  (re-exported)
+from ..sim.guards import max_couple_penetration  # noqa: F401  (re-exported)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -46,7 +46,7 @@ def stress_run(sim, duration: float, samples: int = 100, **run_kw) -> dict:
     penetration fraction seen), "inverted" (an element with J ≤ 0 at the end or as the cause),
     "wall" [s]}.  ``run_kw`` go to ``run`` (``check_energy``, ``max_penetration``, ...).
     """
-    from .simulation import SimulationError
+    from ..sim.simulation import SimulationError
     e0 = sim.energies()
     rec = {"drift": 0.0, "scale": sim._energy_scale(e0), "pen": 0.0}
 
@@ -85,7 +85,7 @@ E_S, RHO_S, NU_S = 1.0e7, 1000.0, 0.25           # c_p ≈ 110 m/s (plane strain
 
 
 def _material(**kw):
-    from .material import Material
+    from ..material import Material
     return Material(density=RHO_S, young=E_S, poisson=NU_S, **kw)
 
 
@@ -99,7 +99,7 @@ def scenario_disks(speed: float = 2.0, penalty_factor: float = 10.0, dt_factor: 
                    offset: float = 0.02, friction: float = 0.0, resolution: int = 3, gap: float = 0.002):
     """Two elastic disks (R = 5 cm, 2·``gap`` apart) in an oblique impact at ±``speed`` [m/s];
     ``dt_factor`` × the estimated limit (None: the automatic step, safety 0.2; > 1 is forced)."""
-    from .verification import two_disks_scene
+    from . import two_disks_scene
     R = 0.05
     mat = dict(density=RHO_S, young=E_S, poisson=NU_S, penalty=penalty_factor * E_S, friction=friction)
     make = lambda **kw: two_disks_scene(R, R / resolution, (speed, 0.0), (-speed, 0.0), offset=offset, gap=2 * gap,
@@ -115,8 +115,8 @@ def scenario_bars(dt_factor: float | None = None, penalty_factor: float = 10.0, 
     """Two bars (0.5 × 0.025 m, structured mesh, ``cells`` along) meeting face on face at ±v,
     v = 10⁻³ c_p: corner nodes of small lumped mass in contact on both sides.  ``dt_factor`` ×
     the estimated limit (None: automatic)."""
-    from . import mesh
-    from .scene import Scene
+    from .. import mesh
+    from ..scene import Scene
     mat = _material(penalty=penalty_factor * E_S)
     L = 0.5
     h = L / cells
@@ -134,8 +134,8 @@ def scenario_bars(dt_factor: float | None = None, penalty_factor: float = 10.0, 
 def scenario_sliver(aspect: float = 20.0, speed: float = 1.0):
     """A block meshed with sliver triangles (cells ``aspect`` times wider than tall) dropped at
     ``speed`` on a fixed floor under gravity."""
-    from . import mesh
-    from .scene import Scene
+    from .. import mesh
+    from ..scene import Scene
     mat = _material(friction=0.3)
     n = 4
     # n cells across, n·aspect rows of thin cells: a 0.1 m square whose cells are ``aspect``
@@ -152,9 +152,9 @@ def scenario_sliver(aspect: float = 20.0, speed: float = 1.0):
 def scenario_fan(count: int = 32, speed: float = 1.0):
     """A wedge made of ``count`` thin triangles sharing its tip node, dropped tip first at
     ``speed`` on a fixed floor: one node in contact through many couples."""
-    from . import mesh
-    from .mesh import TriMesh
-    from .scene import Scene
+    from .. import mesh
+    from ..mesh import TriMesh
+    from ..scene import Scene
     mat = _material()
     r = 0.08
     ang = np.radians(np.linspace(60.0, 120.0, count + 1))
@@ -172,8 +172,8 @@ def scenario_pile(count: int = 200, seed: int = 0, friction: float = 0.3, v_rand
                   damping: float = 0.0):
     """``count`` disks (r = 2 cm, 32 triangles each) in a loose hexagonal packing inside a fixed
     box, falling under gravity with random velocities: a dense, settling pile."""
-    from . import mesh
-    from .scene import Scene
+    from .. import mesh
+    from ..scene import Scene
     mat = _material(friction=friction, damping=damping)
     r = 0.02
     disk = mesh.disk(r, 0.4 * r)
@@ -204,8 +204,8 @@ def scenario_pile(count: int = 200, seed: int = 0, friction: float = 0.3, v_rand
 def scenario_damped_block(dt_factor: float | None = None, damping: float = 0.5):
     """A 0.2 m block meshed with the "crossed" pattern (4 triangles per cell), viscous damping
     β = ``damping``, spinning freely: the element limit (h/c_p)(√(1+β²) − β) governs."""
-    from . import mesh
-    from .scene import Scene
+    from .. import mesh
+    from ..scene import Scene
     mat = _material(damping=damping)
     scene = Scene(gravity=(0.0, 0.0))
     omega = 0.1 * mat.p_wave_speed("strain") / 0.1
@@ -218,8 +218,8 @@ def scenario_damped_block(dt_factor: float | None = None, damping: float = 0.5):
 
 def scenario_spin(rim_fraction: float = 0.2):
     """A disk (R = 5 cm) spinning freely with rim speed ``rim_fraction`` × c_p, no gravity."""
-    from . import mesh
-    from .scene import Scene
+    from .. import mesh
+    from ..scene import Scene
     mat = _material()
     R = 0.05
     omega = rim_fraction * mat.p_wave_speed("strain") / R

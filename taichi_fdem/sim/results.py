@@ -1,6 +1,6 @@
 """Results accessors of a simulation: node data, stresses, couples and fracture results.
 
-:class:`SimulationResults` is mixed into :class:`~taichi_fdem.simulation.Simulation`; every
+:class:`SimulationResults` is mixed into :class:`~taichi_fdem.sim.simulation.Simulation`; every
 method reads the model and the state and returns NumPy arrays in SI units (reported masses and
 forces are multiplied by the scene's thickness).
 """
@@ -13,14 +13,14 @@ import os
 
 from .cracks import CrackResults
 from .energies import compute_energies
-from .engine.groups import BROKEN
-from .engine.loads import LOAD_ABSORB, LOAD_FORCE, LOAD_VELOCITY
+from ..engine.groups import BROKEN
+from ..engine.loads import LOAD_ABSORB, LOAD_FORCE, LOAD_VELOCITY
 from .model import counter
 
 
 class SimulationResults(CrackResults):
     """Read-only views of a simulation's state as NumPy arrays (crack and fragment results from
-    :class:`~taichi_fdem.cracks.CrackResults`)."""
+    :class:`~taichi_fdem.sim.cracks.CrackResults`)."""
 
     def _body_obj(self, body):
         """The Body of this simulation that ``body`` (a Body, or its index) names.
@@ -152,7 +152,7 @@ class SimulationResults(CrackResults):
         return self.state.tri_intact.to_numpy() >= 0
 
     def energies(self) -> dict:
-        """Energy account [J] (per the scene thickness); see :mod:`taichi_fdem.energies`.
+        """Energy account [J] (per the scene thickness); see :mod:`taichi_fdem.sim.energies`.
 
         kinetic, strain, contact (penalty potential p∫(φ_c + φ_t)dA plus friction springs),
         gravity (−Σ m g·x), damping / friction / contact_damping (work dissipated so far),

@@ -17,9 +17,9 @@ from __future__ import annotations
 import numpy as np
 import taichi as ti
 
-from . import backend
-from .engine.diagnostics import energy_terms
-from .engine.groups import WORK_ABSORB, WORK_BOUNDARY, WORK_CDAMPING, WORK_FRICTION, WORK_LOAD, WORK_LOCAL
+from .. import backend
+from ..engine.diagnostics import energy_terms
+from ..engine.groups import WORK_ABSORB, WORK_BOUNDARY, WORK_CDAMPING, WORK_FRICTION, WORK_LOAD, WORK_LOCAL
 
 
 def compute_energies(sim) -> dict:
