@@ -131,7 +131,8 @@ def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, 
     debug : Taichi debug mode (bounds checks on every array access; slow).  None (default): on
         when the environment variable TAICHI_FDEM_DEBUG is "1" (for example
         ``TAICHI_FDEM_DEBUG=1 make test``).
-    cpu_max_num_threads : threads of the CPU back end (default: all cores).
+    cpu_max_num_threads : threads of the CPU back end (default: the cores this process may use,
+        :func:`usable_cores`: its affinity set and CPU quota).
     fast_compile : skip Taichi's advanced IR optimisations.  The default build already leaves
         out the CFG optimisation, the part whose compile time grew fastest (same bits, same
         speed): on the 1k-triangle pile (benchmarks/pile.py) fast_compile starts cold in 2.9 s
@@ -160,8 +161,11 @@ def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, 
                   # (parallel, detection inside the team launch), and the steps ran as fast (within
                   # 3 %, the noise) to the same bits (LLVM's own passes do the same work)
                   cfg_optimization=False)
-    if cpu_max_num_threads is not None:
-        kwargs["cpu_max_num_threads"] = cpu_max_num_threads
+    if cpu_max_num_threads is None:
+        cpu_max_num_threads = usable_cores()
+    if int(cpu_max_num_threads) < 1:
+        raise ValueError(f"fdem.init: cpu_max_num_threads must be >= 1, got {cpu_max_num_threads!r}")
+    kwargs["cpu_max_num_threads"] = int(cpu_max_num_threads)
     if fast_compile is None:
         fast_compile = os.environ.get("TAICHI_FDEM_FAST_COMPILE", "") == "1"
     if fast_compile:
@@ -211,8 +215,33 @@ def arch() -> str:
 
 
 def usable_cores() -> int:
-    """CPU cores this process may run on (its affinity set where the OS tells it)."""
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    """CPU cores this process may use: its affinity set (``taskset``, a cpuset: containers,
+    Slurm jobs, CI runners) and its cgroup CPU quota (v2 ``cpu.max``, v1 ``cpu.cfs_quota_us``),
+    whichever is smaller; at least 1."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    quota = cgroup_cpu_quota()
+    if quota is not None:
+        cores = min(cores, max(1, int(quota)))
+    return max(1, cores)
+
+
+def cgroup_cpu_quota(root: str = "/sys/fs/cgroup") -> float | None:
+    """The CPU quota of this process's cgroup in cores (quota / period), None without one.
+    Reads cgroup v2 (``<root>/cpu.max``: "max 100000" or "150000 100000") or v1
+    (``<root>/cpu/cpu.cfs_quota_us`` and ``cpu.cfs_period_us``, −1: none)."""
+    def read(path):
+        try:
+            with open(path) as f:
+                return f.read().split()
+        except OSError:
+            return None
+    v2 = read(os.path.join(root, "cpu.max"))
+    if v2 and len(v2) == 2:
+        return None if v2[0] == "max" else float(v2[0]) / float(v2[1])
+    quota, period = read(os.path.join(root, "cpu", "cpu.cfs_quota_us")), read(os.path.join(root, "cpu", "cpu.cfs_period_us"))
+    if quota and period and float(quota[0]) > 0:
+        return float(quota[0]) / float(period[0])
+    return None
 
 
 def cpu_threads() -> int:

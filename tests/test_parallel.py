@@ -282,34 +282,13 @@ def test_block_copies_are_gathered_over_the_nodes_they_can_write(team):
         assert lo == nodes.min() and hi == nodes.max() + 1, (b, lo, hi, nodes.min(), nodes.max())
         span += hi - lo if b > 0 else 0
     assert 0 < span < 0.5 * (nblk - 1) * N, span
-    assert np.any(_check_chunk_masks(sim, written))     # a chunk skips a block
-
-
-def _check_chunk_masks(sim, written):
-    """The team's node chunks and their skip masks (``blocks.chunk_skip``) against brute force:
-    chunk i of segment s holds nodes [s_lo + i L / m, s_lo + (i + 1) L / m) of the segment's L
-    nodes, and bit b of its mask is set exactly when none of block b's nodes (``written[b]``)
-    lies in it (a block that writes one and is skipped would be integrated over too early)."""
-    from taichi_fdem.engine.groups import SYNC_LINE, TEAM_CHUNK
-    N, nblk = sim.node_count, len(written)
-    m = (N // nblk + TEAM_CHUNK) // TEAM_CHUNK
-    starts = np.array([s * N // nblk + i * ((s + 1) * N // nblk - s * N // nblk) // m
-                       for s in range(nblk) for i in range(m)])
-    sync = sim.scratch.asm_sync.to_numpy()
-    base, nch = SYNC_LINE * (1 + 2 * nblk), nblk * m
-    assert np.array_equal(sync[base + 2 * nch:][:N], np.searchsorted(starts, np.arange(N), side="right") - 1)
-    want = np.full(nch, (1 << nblk) - 1)
-    for b, nodes in enumerate(written):
-        want[np.unique(np.searchsorted(starts, nodes, side="right") - 1)] &= ~(1 << b)
-    assert np.array_equal(sync[base + nch: base + 2 * nch], want)
-    return want
 
 
 def test_block_zero_range_holds_its_items_and_the_loads():
-    """The team integrates a chunk of nodes as soon as the blocks whose node ranges meet it are
-    done (``blocks.integrate_chunk``), so block 0's range must hold the nodes its runner writes:
-    those of its triangles and couples, and every node a load writes (``apply_load`` runs after
-    block 0's forces).  On the bar under every kind of load, brute force from the arrays: the
+    """The gather adds block 0's forces and the loads from node_f, and every other block's copy
+    over that block's node range only, so the ranges must hold every node each block's runner
+    writes: block 0's triangles and couples, and every node a load writes (``apply_load`` runs
+    after block 0's forces).  On the bar under every kind of load, brute force from the arrays: the
     loads' nodes lie outside block 0's triangles, and the range reaches them."""
     from taichi_fdem.engine.groups import COUPLES, RANGE, SPLIT
     from taichi_fdem.engine.loads import LOAD_FORCE, LOAD_VELOCITY
@@ -329,72 +308,59 @@ def test_block_zero_range_holds_its_items_and_the_loads():
     every = np.concatenate([own, loads])
     assert (int(ints[RANGE]), int(ints[RANGE + 1])) == (every.min(), every.max() + 1)
     other = np.concatenate([tri[T // nblk:].ravel(), tri[ca[hi_c:]].ravel(), tri[cb[hi_c:]].ravel()])
-    _check_chunk_masks(sim, [every, other])
+    assert (int(ints[RANGE + 2]), int(ints[RANGE + 3])) == (other.min(), other.max() + 1)
 
 
-def test_team_chunks_cut_the_nodes_into_segments():
-    """The team's node chunks (``team.chunk_count``, ``team.chunk_nodes``) depend on the
-    node count and the blocks only (so a chunk's sums, and the bits, do not depend on the
-    threads): they tile the nodes in order, each holds at most TEAM_CHUNK nodes, and the
-    blocks' segments (their first chunks) start at s N / nblk."""
+def test_team_chunks_tile_the_nodes():
+    """The team integrates the nodes in chunks (``blocks.chunk_count``, ``blocks.chunk_nodes``)
+    that depend on the node count alone (so a chunk's sums, and the bits, do not depend on the
+    workers): they tile the nodes in order, each holds at most TEAM_CHUNK nodes and none is
+    empty."""
     import taichi as ti
-    from taichi_fdem.engine.team import chunk_count, chunk_nodes
+    from taichi_fdem.engine.blocks import chunk_count, chunk_nodes
     from taichi_fdem.engine.groups import TEAM_CHUNK
 
-    def cut(N, nblk, out):
-        for c in range(chunk_count(nblk, N)):
-            lo, hi = chunk_nodes(c, nblk, chunk_count(nblk, N), N)
+    def cut(N, out):
+        for c in range(chunk_count(N)):
+            lo, hi = chunk_nodes(c, chunk_count(N), N)
             out[c, 0] = lo
             out[c, 1] = hi
-        out[out.shape[0] - 1, 0] = chunk_count(nblk, N)
+        out[out.shape[0] - 1, 0] = chunk_count(N)
 
-    cut.__annotations__ = {"N": ti.i32, "nblk": ti.i32, "out": ti.types.ndarray()}
+    cut.__annotations__ = {"N": ti.i32, "out": ti.types.ndarray()}
     cut = ti.kernel(cut)
 
     for N in (1, 2, 3, 255, 256, 257, 511, 1000, 4097, 78013):
-        for nblk in (1, 2, 3, 5):
-            out = np.zeros((2 * (N // TEAM_CHUNK) + 64, 2), np.int32)
-            cut(N, nblk, out)
-            nch = int(out[-1, 0])
-            lo, hi = out[:nch, 0], out[:nch, 1]
-            assert nch % nblk == 0 and lo[0] == 0 and hi[-1] == N, (N, nblk)
-            assert np.array_equal(lo[1:], hi[:-1]) and np.all(hi - lo <= TEAM_CHUNK), (N, nblk)
-            m = nch // nblk
-            assert [int(lo[s * m]) for s in range(nblk)] == [s * N // nblk for s in range(nblk)]
-            assert np.all(hi - lo >= (N // nblk) // m - 1), (N, nblk)
+        out = np.zeros((N // TEAM_CHUNK + 8, 2), np.int32)
+        cut(N, out)
+        nch = int(out[-1, 0])
+        lo, hi = out[:nch, 0], out[:nch, 1]
+        assert nch == -(-N // TEAM_CHUNK) and lo[0] == 0 and hi[-1] == N, N
+        assert np.array_equal(lo[1:], hi[:-1]) and np.all(hi - lo <= TEAM_CHUNK) and np.all(hi > lo), N
 
 
-def test_team_workers_take_every_block_once():
-    """The order in which a worker of the team tries the blocks (``team.nth_block``): its own
-    blocks w, w + workers, ... first, then the others' from the last down, never block 0 (worker
-    0's, whose runner adds the loads); each block in a worker's order once, and every block in
-    some worker's order, for 1 to 4 workers and 1 to 9 blocks."""
+def test_team_workers_try_every_unit_once():
+    """The order in which a worker of the team tries a stage's units (``team.unit_of``): its own
+    share first (block w; chunks from w n / workers), then the rest in turn: every unit once, for
+    1 to 4 workers and 1 to 9 units, in each kind of stage."""
     import taichi as ti
-    from taichi_fdem.engine.team import nth_block
+    from taichi_fdem.engine.team import FORCE, INTEG, JWORK, PRE, unit_of
 
-    def order(w, nwork, nblk, out):
-        ti.loop_config(serialize=True)
-        for _ in range(1):
-            tail = nblk - 1
-            for k in range(nblk):
-                b, tail = nth_block(k, w, nwork, nblk, tail)
-                out[k] = b
+    def order(kind, w, nwork, n, out):
+        for k in range(n):
+            out[k] = unit_of(kind, k, w, nwork, n)
 
-    order.__annotations__ = dict(w=ti.i32, nwork=ti.i32, nblk=ti.i32, out=ti.types.ndarray())
+    order.__annotations__ = dict(kind=ti.i32, w=ti.i32, nwork=ti.i32, n=ti.i32, out=ti.types.ndarray())
     order = ti.kernel(order)
-
-    for nwork in range(1, 5):
-        for nblk in range(nwork, 10):
-            seen = set()
-            for w in range(nwork):
-                out = np.zeros(nblk, np.int32)
-                order(w, nwork, nblk, out)
-                tried = [int(b) for b in out if b >= 0]
-                own = list(range(w, nblk, nwork))
-                others = [b for b in range(nblk - 1, -1, -1) if b % nwork != w and b != 0]
-                assert tried == own + others, (nwork, nblk, w, tried)
-                seen |= set(tried)
-            assert seen == set(range(nblk))
+    for kind in (PRE, FORCE, INTEG, JWORK):
+        for nwork in range(1, 5):
+            for n in range(1, 10):
+                for w in range(nwork):
+                    out = np.zeros(n, np.int32)
+                    order(kind, w, nwork, n, out)
+                    assert sorted(out) == list(range(n)), (kind, nwork, n, w, out)
+                    first = w * n // nwork if kind == INTEG else w % n
+                    assert out[0] == first
 
 
 def _loaded_pair(strategy="parallel"):
@@ -420,7 +386,6 @@ def test_team_steps_give_the_same_bits_as_one_launch_per_step(monkeypatch):
     and velocities bit for bit, the same energy terms (the constraint and local-damping work
     are summed in another order: round-off)."""
     import taichi_fdem.sim.simulation as simmod
-    monkeypatch.setattr(simmod, "TEAM_CPU_SHARE", 0.0)     # a busy machine must not pause the team here
     out = {}
     for team in (True, False):
         sim = _loaded_pair()
@@ -448,7 +413,7 @@ def test_team_detects_inside_its_launch_with_the_same_bits(monkeypatch):
     couple buffer too small for the new couples ends the launch and the host grows it:
     tests/test_detection.py::test_redetection_while_moving_and_buffer_growth.)"""
     import taichi_fdem.sim.simulation as simmod
-    monkeypatch.setattr(simmod, "TEAM_CPU_SHARE", 0.0)
+    monkeypatch.setattr(simmod, "TEAM_PROBE_FIRST", 1e9)     # launch counts compared below
     runs = {}
     for inside in (True, False):
         monkeypatch.setattr(simmod, "DETECT_SERIAL_TRIS", 10**9 if inside else 0)
@@ -463,14 +428,14 @@ def test_team_detects_inside_its_launch_with_the_same_bits(monkeypatch):
     # the host detected at build, the team every other time
     assert a.launches["detect_serial"] == 1
     assert b.launches.get("detect_serial", 0) == 0 and b.launches["detect_fill"] >= b.detection_count - 1
-    assert a.launches["run_steps_blocks"] < b.launches["run_steps_blocks"]
+    assert "detect_fill" not in a.launches
 
 
 def test_team_steps_stop_at_the_unstable_step(monkeypatch):
     """A time step 4× the stable limit: the team launch stops after the first unstable step,
     as the per-step launches do, and the run ends with a diagnosis."""
     import taichi_fdem.sim.simulation as simmod
-    monkeypatch.setattr(simmod, "TEAM_CPU_SHARE", 0.0)
+    monkeypatch.setattr(simmod, "TEAM_PROBE_FIRST", 1e9)     # launch counts compared below
     steps = {}
     for team in (True, False):
         mat = fdem.Material(density=1000.0, young=1e7, poisson=0.25)
@@ -523,85 +488,89 @@ def test_parallel_detection_lists_the_couples_in_the_serial_order(monkeypatch):
     assert len(par) > 2_000 and np.array_equal(par, ser)
 
 
-def test_team_gives_way_on_a_shared_cpu(monkeypatch):
-    """A team launch whose process got much less CPU time than its workers' share (another busy
-    process on the cores: spinning workers would wait for descheduled ones) makes the team give
-    way for a while: a team of one below PAUSE_SOLO_ITEMS items (nothing to wait for), one
-    launch per step above; a launch with its cores does not."""
-    import taichi_fdem.sim.simulation as simmod
+def _per_step_reference():
+    """The bar under every load, run with one launch per step (no team): the reference bits."""
     sim = _loaded_pair()
-    sim.step(5)                                     # the first launch compiles: never judged
-    nwork = sim._team()
-    assert nwork >= 1
-    sim._check_team(2, wall=0.5, cpu=1.0)           # 2 workers, both busy: no pause
-    assert sim._team() == nwork
-    sim._check_team(2, wall=0.01, cpu=0.0)          # too short to judge: no pause
-    assert sim._team() == nwork
-
-    def pause_after(wall, cpu):                     # the pause [s] a launch starts, 0 for none
-        sim._team_pause = 0.0
-        t0 = time.perf_counter()
-        sim._check_team(2, wall=wall, cpu=cpu)
-        return max(0.0, sim._team_pause - t0)
-    first = pause_after(0.5, 0.5)                   # one core's worth for two workers
-    assert sim._items() < simmod.PAUSE_SOLO_ITEMS and sim._team() == 1
-    # each further pause twice as long, up to TEAM_PAUSE, until a launch has its cores
-    pauses = [first] + [pause_after(0.5, 0.5) for _ in range(6)]
-    expect = [min(simmod.TEAM_PAUSE, simmod.TEAM_PAUSE_FIRST * 2 ** k) for k in range(7)]
-    assert np.allclose(pauses, expect, atol=0.05) and pauses[-1] == pytest.approx(simmod.TEAM_PAUSE, abs=0.05)
-    pause_after(0.003, 0.006)                       # a short launch with its cores: back to the first
-    assert pause_after(0.5, 0.4) == pytest.approx(simmod.TEAM_PAUSE_FIRST, abs=0.05)
-    sim._team_pause = time.perf_counter() + 3600.0
-    sim._check_team(1, wall=0.5, cpu=0.1)           # a team of one never judges itself
-    before = dict(sim.launches)
-    sim.step(3)
-    assert sim.launches.get("run_steps_blocks") == before.get("run_steps_blocks", 0) + 1
-    assert sim.launches.get("step_parallel", 0) == before.get("step_parallel", 0)
-    monkeypatch.setattr(simmod, "PAUSE_SOLO_ITEMS", sim._items())
-    assert sim._team() == 0
-    sim.step(3)
-    assert sim.launches.get("step_parallel", 0) == before.get("step_parallel", 0) + 3
+    sim.team_steps = False
+    sim.run(0.01, progress=False)
+    return sim
 
 
-def test_a_team_that_gave_way_gives_the_same_bits(monkeypatch):
-    """Loads, contact and friction over several detections: the team, the team of one it gives
-    way to on a shared CPU, and one launch per step reach the same positions and velocities,
-    bit for bit, whenever they take over."""
+def _same_bits(a, b):
+    assert a.step_count == b.step_count and a.detection_count == b.detection_count > 1
+    assert np.array_equal(a.node_positions(), b.node_positions())
+    assert np.array_equal(a.node_velocities(), b.node_velocities())
+
+
+def test_a_team_with_more_workers_than_threads_finishes_with_the_same_bits(monkeypatch):
+    """A team launch of 8 workers on Taichi's threads (2 here, or 1): no worker waits for a
+    worker that has no thread, so the launch ends whatever the runtime does with the surplus
+    workers (they run later, or alongside), and with the same bits as one launch per step."""
     import taichi_fdem.sim.simulation as simmod
-    monkeypatch.setattr(simmod, "TEAM_CPU_SHARE", 0.0)    # no pause but the forced ones below
-    runs = {}
-    for mode in ("team", "solo", "per-step"):
-        if mode == "per-step":
-            monkeypatch.setattr(simmod, "PAUSE_SOLO_ITEMS", 0)
-        sim = _loaded_pair()
-        teams = []
-        launch = sim._launch_cached
+    monkeypatch.setattr(simmod.Simulation, "_team_size", lambda self: 8)
+    ref = _loaded_pair()
+    ref.force_blocks = 8
+    ref.team_steps = False
+    ref.run(0.01, progress=False)
+    sim = _loaded_pair()
+    sim.force_blocks = 8
+    seen = []
+    launch = sim._launch_cached
 
-        def spy(name, kernel, *args, _launch=launch, _teams=teams):
-            if name == "run_steps_blocks":
-                _teams.append(args[1])                       # nwork
-            return _launch(name, kernel, *args)
-        sim._launch_cached = spy
-        given = 0                                            # steps run while giving way
-        for k in range(6):
-            s0 = sim.step_count
-            if mode != "team" and k % 2:
-                sim._team_pause = time.perf_counter() + 3600.0   # give way for this call
-            sim.run(0.0025, progress=False)
-            if sim._team_pause:
-                given += sim.step_count - s0
-            sim._team_pause = 0.0
-        assert sim.detection_count > 1
-        # the diagnostic counts exactly the steps run while the team gave way
-        assert sim.paused_steps == given and (given > 0) == (mode != "team")
-        runs[mode] = sim, set(teams)
-    nwork = runs["team"][1]
-    assert runs["solo"][1] == nwork | {1} and runs["per-step"][1] == nwork
-    assert runs["per-step"][0].launches["step_parallel"] > 0 and "step_parallel" not in runs["solo"][0].launches
-    runs = {mode: sim for mode, (sim, _) in runs.items()}
-    for mode in ("solo", "per-step"):
-        assert np.array_equal(runs[mode].node_positions(), runs["team"].node_positions()), mode
-        assert np.array_equal(runs[mode].node_velocities(), runs["team"].node_velocities()), mode
+    def spy(name, kernel, *args):
+        if name == "run_steps_blocks":
+            seen.append(args[1])
+        return launch(name, kernel, *args)
+    sim._launch_cached = spy
+    sim.run(0.01, progress=False)
+    assert 8 in seen and 8 > backend_threads()
+    _same_bits(sim, ref)
+
+
+def test_a_team_stopped_between_stages_resumes_with_the_same_bits(monkeypatch):
+    """A launch that stops between two stages (as when a wait runs past its bound) is resumed by
+    one worker, which claims what is left: here every launch stops after each stage (flag bit
+    2 of ``run_steps_blocks``), and the trajectory is the same bits as one launch per step; the
+    resumptions are counted in ``sim.info()``."""
+    import taichi_fdem.sim.simulation as simmod
+    ref = _per_step_reference()
+    sim = _loaded_pair()
+    launch = sim._launch_cached
+
+    def stop_after_each_stage(name, kernel, *args):
+        if name == "run_steps_blocks":
+            args = args[:2] + (args[2] | 4,) + args[3:]
+        return launch(name, kernel, *args)
+    sim._launch_cached = stop_after_each_stage
+    sim.run(0.01, progress=False)
+    _same_bits(sim, ref)
+    stats = sim.info()["team"]
+    assert stats["resumed"] > 3 * sim.step_count       # three stages or more per step
+    # waits bounded at one try: whatever the timing, the same bits
+    monkeypatch.setattr(simmod, "TEAM_SPINS_PER_S", 0.0)
+    monkeypatch.setattr(simmod, "TEAM_WAIT_MIN", 0.0)
+    sim = _loaded_pair()
+    sim.run(0.01, progress=False)
+    _same_bits(sim, ref)
+
+
+def test_the_team_and_one_worker_alone_are_timed_and_give_the_same_bits(monkeypatch):
+    """Probes time a short launch of one worker against one of the team and the faster runs on
+    (``Simulation._choose_team``); probing at every launch, or running alone, the same bits."""
+    import taichi_fdem.sim.simulation as simmod
+    ref = _per_step_reference()
+    monkeypatch.setattr(simmod, "TEAM_PROBE_FIRST", 0.0)
+    monkeypatch.setattr(simmod, "TEAM_PROBE_MAX", 0.0)
+    sim = _loaded_pair()
+    sim.run(0.01, progress=False)
+    assert sim.info()["team"]["probes"] > 0
+    _same_bits(sim, ref)
+    sim = _loaded_pair()
+    sim._team_solo = True
+    monkeypatch.setattr(simmod, "TEAM_PROBE_FIRST", 1e9)
+    sim.run(0.01, progress=False)
+    assert sim.info()["team"]["solo_steps"] == sim.step_count
+    _same_bits(sim, ref)
 
 
 def _couple_costs(sim) -> np.ndarray:
@@ -692,7 +661,7 @@ def test_team_workers_cap_the_team_and_keep_the_bits(monkeypatch):
     compares a team of one with a team of two in one process): the same bits either way, and a
     bad value is refused by name."""
     import taichi_fdem.sim.simulation as simmod
-    monkeypatch.setattr(simmod, "TEAM_CPU_SHARE", 0.0)
+    monkeypatch.setattr(simmod, "TEAM_PROBE_FIRST", 1e9)     # launch counts compared below
     out = {}
     for workers in (1, None):
         sim = _loaded_pair()

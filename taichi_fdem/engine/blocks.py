@@ -12,8 +12,7 @@ import taichi as ti
 from .contact import couple_certificate, couple_forces, neighbour_flag
 from .elastic import tri_forces
 from .groups import (COST_BONDED, COST_BROKEN, COST_CERTIFIED, COST_JOINT, COST_JOINT_DAMAGED, COST_SEPARATED,
-                     COST_TOUCHING, COST_TRI, COUPLES, MASK_BLOCKS, MAX_FORCE_BLOCKS, RANGE, SPLIT, SYNC_LINE,
-                     TEAM_CHUNK, VMAX)
+                     COST_TOUCHING, COST_TRI, MAX_FORCE_BLOCKS, RANGE, SPLIT, TEAM_CHUNK, VMAX, COUPLES)
 from .integrate import block_work_slot
 from .joints import eval_joint
 from .loads import LOAD_FORCE, LOAD_VELOCITY
@@ -149,105 +148,66 @@ def couple_range(b, nblk, C, step: ti.template()):
 
 
 @ti.func
-def chunk_count(nblk, N):
-    """Node chunks of the team's integration (:func:`taichi_fdem.engine.team.team_chunks`): nblk
-    segments of the nodes by count (as the blocks' triangles), each cut into the same number of
-    chunks of at most TEAM_CHUNK nodes; a function of N and the blocks only."""
-    return nblk * ((N // nblk + TEAM_CHUNK) // TEAM_CHUNK)
+def chunk_count(N):
+    """Node chunks of the team's integration (:mod:`taichi_fdem.engine.team`, stage INTEG): the
+    nodes cut evenly into chunks of at most TEAM_CHUNK; a function of N alone."""
+    return (N + TEAM_CHUNK - 1) // TEAM_CHUNK
 
 
 @ti.func
-def chunk_nodes(c, nblk, nch, N):
-    """The nodes [lo, hi) of chunk c of nch (:func:`chunk_count`): chunk i of segment s =
-    c // (nch / nblk), the segment's nodes cut evenly."""
-    m = nch // nblk
-    s = c // m
-    i = c % m
-    s_lo = s * N // nblk
-    s_len = (s + 1) * N // nblk - s_lo
-    return s_lo + i * s_len // m, s_lo + (i + 1) * s_len // m
+def chunk_nodes(c, nch, N):
+    """The nodes [lo, hi) of chunk c of nch (:func:`chunk_count`)."""
+    return c * N // nch, (c + 1) * N // nch
 
 
 @ti.func
-def sync_chunk(nblk, c):
-    """asm_sync slot of node chunk c's claim in a team launch, after the team's lines
-    (state.size_assembly; then the chunks' skip masks, :func:`chunk_skip`, then each node's
-    chunk)."""
-    return SYNC_LINE * (1 + 2 * nblk) + c
-
-
-@ti.func
-def chunk_skip(c, nblk, nch, asm: ti.template()):
-    """Chunk c's skip mask: bit b (b < MASK_BLOCKS) set when block b writes none of its nodes, so
-    that the team integrates the chunk without waiting for block b.  Zero (wait for every block)
-    until :func:`block_node_ranges` sets it: a fresh scratch is safe."""
-    return asm.asm_sync[sync_chunk(nblk, c) + nch]
-
-
-@ti.func
-def _mark(n, bit, lo, hi, nblk, nch, asm: ti.template()):
-    """Block bit ``bit`` writes node n: into its chunk's mask (touched bits while the masks are
-    built, :func:`block_node_ranges`); returns the block's node range [lo, hi) grown by n."""
-    k = sync_chunk(nblk, asm.asm_sync[sync_chunk(nblk, n) + 2 * nch]) + nch
-    asm.asm_sync[k] = asm.asm_sync[k] | bit
+def _grow(n, lo, hi):
+    """A block's node range [lo, hi) grown by node n."""
     return ti.min(lo, n), ti.max(hi, n + 1)
 
 
 @ti.func
 def block_node_ranges(nblk, T, J, C, nodes: ti.template(), tris: ti.template(), con: ti.template(),
-                      joints: ti.template(), step: ti.template(), asm: ti.template(), contact: ti.template(),
-                      fracture: ti.template(), loads: ti.template()):
+                      joints: ti.template(), step: ti.template(), contact: ti.template(), fracture: ti.template(),
+                      loads: ti.template()):
     """step_int[RANGE + 2b], [RANGE + 2b + 1] = [lo, hi): the nodes that block b's items can
     write (block 0 into node_f, b > 0 into its copy of the nodal forces): the nodes of its
     triangles, of its joints and of every couple of its range (:func:`couple_range`; touching or
     not), and for block 0 the nodes of the loads (its runner adds them); the gather adds each
-    copy over its range (:func:`integrate.integrate_span`).  And each node chunk's skip mask
-    (:func:`chunk_skip`): the blocks none of whose items writes one of its nodes.  Serial, one
-    pass over the items; run with the couple ranges (:func:`rebalance_blocks`, every
-    REBALANCE_STEPS steps and after each detection) and after a restore (``refresh_blocks``): a
-    function of the couples and their split, which change only then.  (Before the twentieth
-    session each block tracked the nodes it wrote in its force loop: a loop-carried min and max
-    per item, which made the block with a copy the slower one; benchmarks/README.md.)"""
-    N = nodes.node_x.shape[0]
-    nch = chunk_count(nblk, N)
-    for c in range(nch):
-        asm.asm_sync[sync_chunk(nblk, c) + nch] = 0
+    copy over its range only (:func:`integrate.integrate_span`).  Serial, one pass over the
+    items; run with the couple ranges (:func:`rebalance_blocks`) and after a restore
+    (``refresh_blocks``): a function of the couples and their split, which change only then.
+    Tracking the nodes inside the force loop instead (a loop-carried min and max per item) made
+    the blocks with a copy 5-9 % slower."""
     for b in range(nblk):
-        bit = 0
-        if b < MASK_BLOCKS:
-            bit = 1 << b
         lo = 2147483647
         hi = 0
         for e in range(b * T // nblk, (b + 1) * T // nblk):
             n = tris.tri_nodes[e]
             for r in ti.static(range(3)):
-                lo, hi = _mark(n[r], bit, lo, hi, nblk, nch, asm)
+                lo, hi = _grow(n[r], lo, hi)
         if ti.static(fracture):
             for j in range(b * J // nblk, (b + 1) * J // nblk):
                 nd = joints.joint_nodes[j]
                 for r in ti.static(range(4)):
-                    lo, hi = _mark(nd[r], bit, lo, hi, nblk, nch, asm)
+                    lo, hi = _grow(nd[r], lo, hi)
         if ti.static(contact):
             lo_c, hi_c = couple_range(b, nblk, C, step)
             for c in range(lo_c, hi_c):
                 na = tris.tri_nodes[con.couple_a[c]]
                 nb = tris.tri_nodes[con.couple_b[c]]
                 for r in ti.static(range(3)):
-                    lo, hi = _mark(na[r], bit, lo, hi, nblk, nch, asm)
-                    lo, hi = _mark(nb[r], bit, lo, hi, nblk, nch, asm)
+                    lo, hi = _grow(na[r], lo, hi)
+                    lo, hi = _grow(nb[r], lo, hi)
         if ti.static(loads):
             if b == 0:
                 for k in range(nodes.load_nodes.shape[0]):
                     ld = nodes.load_nodes[k]
-                    lo, hi = _mark(ld[1], bit, lo, hi, nblk, nch, asm)
+                    lo, hi = _grow(ld[1], lo, hi)
                     if ld[0] != LOAD_FORCE and ld[0] != LOAD_VELOCITY:     # a segment's second node
-                        lo, hi = _mark(ld[2], bit, lo, hi, nblk, nch, asm)
+                        lo, hi = _grow(ld[2], lo, hi)
         step.step_int[RANGE + 2 * b] = ti.min(lo, hi)
         step.step_int[RANGE + 2 * b + 1] = hi
-    every = (1 << ti.min(nblk, MASK_BLOCKS)) - 1
-    for c in range(nch):
-        k = sync_chunk(nblk, c) + nch
-        asm.asm_sync[k] = every & ~asm.asm_sync[k]        # touched -> skipped
 
 
 @ti.func
@@ -258,7 +218,7 @@ def rebalance_blocks(nblk, T, J, C, nodes: ti.template(), tris: ti.template(), c
     (:func:`block_node_ranges`), anew."""
     if ti.static(contact):
         rebalance_couples(nblk, C, nodes, tris, con, joints, step, fracture)
-    block_node_ranges(nblk, T, J, C, nodes, tris, con, joints, step, asm, contact, fracture, loads)
+    block_node_ranges(nblk, T, J, C, nodes, tris, con, joints, step, contact, fracture, loads)
 
 
 @ti.func
@@ -273,9 +233,8 @@ def block_forces(b, nblk, T, J, C, dacc, p, nodes: ti.template(), tris: ti.templ
     ``dacc``: step_real[DACC] at the start of the step (:func:`contact.couple_forces`).
     Compiled for block 0 (into node_f), block 1 (into the first copy, at offset 0) and, with
     more than two blocks (``many``), the others (into a copy at a runtime offset): a branch on
-    the block in every addition made the pile 5-7 % slower (benchmarks/README.md, nineteenth
-    session), and the runtime offset of block 1's copy made the 100k pile 1.12x slower on two
-    workers (twenty-first session)."""
+    the block in every addition made the pile 5-7 % slower, and a runtime offset for block 1's
+    copy the 100k pile 1.12x slower on two workers."""
     if b == 0:
         _block_items(b, nblk, T, J, C, dacc, p, nodes, tris, mats, con, joints, step, asm, contact, friction,
                      fracture, False)

@@ -151,11 +151,11 @@ COST_BROKEN = 2
 BLOCK_STRIDE = 1024       # loop iterations per block (see engine.step.phase_blocks)
 UNSTABLE_BIT = 1 << 24   # added to engine.step.run_steps_serial's return value (steps per launch < 2^24)
 DUE_BIT = 1 << 25        # added to engine.step.run_steps_blocks' return value: contact detection is due
-SYNC_LINE = 16            # i32 slots per cache line: the team's flags in asm_sync are a line apart
-MASK_BLOCKS = 30          # blocks a chunk's skip mask can name (engine.blocks.chunk_skip); a chunk waits for the others
-TEAM_CHUNK = 256          # nodes per chunk of the team's gather and integration (engine.team.team_chunks):
-                          # a chunk is integrated once the blocks that write its nodes are done, by
-                          # whichever worker claims it; its partial sums are the chunk's, whoever ran it
+ABORT_BIT = 1 << 26      # ... the launch stopped between two units (a wait ran past its bound): resume it
+TIMEOUT_BIT = 1 << 27    # ... a wait of the launch ran past its bound
+SYNC_LINE = 16            # i32 slots per cache line: the team's counters in asm_sync are a line apart
+TEAM_CHUNK = 256          # nodes per chunk of the team's gather and integration (engine.team, stage INTEG);
+                          # a chunk's partial sums are the chunk's, whoever ran it
 
 # tris.tri_intact of a triangle of a fracturing body (FDEM_SPEC §7.10; engine.joints.pair_carried):
 # INTACT | (EDGE_FREE << e for every edge e without a joint that carries its pair) | (DAMAGED once

@@ -48,13 +48,13 @@ from .blocks import block_forces, block_node_ranges, item_counts, rebalance_bloc
 from .contact import book_contact_work, couple_forces, eval_couple
 from .detection import phase_detect_count, phase_detect_fill
 from .elastic import eval_tri_elastic, tri_forces
-from .groups import (BLOCK_STRIDE, COUPLES, DACC, DETECTIONS, DUE_BIT, FOUND, INVERTED, NB_PAIRS, NONFINITE,  # noqa: F401
+from .groups import (ABORT_BIT, BLOCK_STRIDE, COUPLES, DACC, DETECTIONS, DUE_BIT, TIMEOUT_BIT, FOUND, INVERTED, NB_PAIRS, NONFINITE,  # noqa: F401
                      REBALANCE, REBALANCE_STEPS, RMAX, UNSTABLE_BIT, VMAX, AssemblyGroup, ContactGroup, DetectGroup,
                      JointGroup, MaterialGroup, NodeGroup, StepGroup, TeamGroup, TriGroup)
 from .integrate import asm_blocks, integrate_nodes, integrate_nodes_gathered
 from .joints import add_joint_work, eval_joint
 from .loads import apply_loads, book_load_work
-from .team import team_worker
+from .team import team_begin, team_end, team_worker
 from .tiutil import vec2
 
 
@@ -65,7 +65,7 @@ from .tiutil import vec2
 #: compiled variant of the block loop that two blocks do not need).
 Features = namedtuple("Features", "contact friction fracture loads local_damping many_blocks", defaults=(False,))
 
-__all__ = ["UNSTABLE_BIT", "DUE_BIT", "Features", "detect_count", "detect_fill", "build_node_slots", "step_parallel",
+__all__ = ["UNSTABLE_BIT", "DUE_BIT", "ABORT_BIT", "TIMEOUT_BIT", "Features", "detect_count", "detect_fill", "build_node_slots", "step_parallel",
            "run_steps_blocks", "run_steps_serial", "eval_elastic", "eval_joints", "eval_contact", "eval_loads",
            "integrate", "book_joint_work", "book_loads_work", "refresh_blocks"]
 
@@ -360,33 +360,37 @@ def refresh_blocks(nodes: NodeGroup, tris: TriGroup, con: ContactGroup, joints: 
     for _ in range(1):
         T, J, C = item_counts(tris, joints, step, feat.contact, feat.fracture)
         nblk = asm_blocks(nodes.node_x.shape[0], asm)
-        block_node_ranges(nblk, T, J, C, nodes, tris, con, joints, step, asm, feat.contact, feat.fracture,
-                          feat.loads)
+        block_node_ranges(nblk, T, J, C, nodes, tris, con, joints, step, feat.contact, feat.fracture, feat.loads)
 
 
 @ti.kernel
-def run_steps_blocks(nsteps: ti.i32, nwork: ti.i32, detect_in: ti.i32, g: TeamGroup, feat: ti.template()) -> ti.i32:
-    """Up to ``nsteps`` steps of the parallel strategy with the block assembly in one launch: a
-    team of ``nwork`` workers, each a thread for the whole launch (:func:`team_worker`), runs
-    the blocks (worker w: blocks w, w + nwork, ...), the phases separated by barriers; no launch
-    and no parallel-loop start per step.  ``nwork`` must not exceed the CPU threads (a worker
-    waiting at a barrier holds its thread).  ``detect_in`` != 0: contact detection, when due,
-    runs inside the launch, shared out between the workers (``team.team_detect``); 0: the launch
-    stops after a step that makes detection due.  Stops after a step that is unstable, and
-    before a detection whose couples do not fit the buffer.  Returns the steps done, plus
-    ``UNSTABLE_BIT`` if unstable and ``DUE_BIT`` if the host must detect.  The same bits as
-    :func:`step_parallel` for positions, velocities, joints and contact work, for any ``nwork``."""
+def run_steps_blocks(nsteps: ti.i32, nwork: ti.i32, flags: ti.i32, spin_max: ti.i32, g: TeamGroup,
+                     feat: ti.template()) -> ti.i32:
+    """Up to ``nsteps`` steps of the parallel strategy with the block assembly in one launch, run
+    by a team of ``nwork`` workers (:mod:`taichi_fdem.engine.team`); no launch and no
+    parallel-loop start per step.  ``flags`` bit 0 (detect inside): contact detection, when
+    due, runs inside the launch (the serial broad phase, as :func:`detect_serial`); else the
+    launch stops after a step that makes detection due.  Bit 1 (resume): carry on a launch that
+    returned with ``ABORT_BIT``.  Bit 2: stop after each stage, as if a wait had timed out (a
+    test of the resumption).  A wait longer than ``spin_max`` tries aborts the launch.
+    Stops after a step that is unstable, and before a detection whose couples do not fit the
+    buffer.  Returns the steps done, plus ``UNSTABLE_BIT`` if unstable, ``DUE_BIT`` if the host
+    must detect, ``ABORT_BIT`` if the host must resume and ``TIMEOUT_BIT`` if a wait ran past
+    its bound.  The same bits as :func:`step_parallel` for any ``nwork``."""
+    detect_in = flags & 1
     ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
     for _ in range(1):
-        g.asm_sync[0] = 0
-    # BLOCK_STRIDE iterations per worker put each worker in its own task (see phase_blocks); the
-    # one argpack g (engine.groups.TeamGroup) serves as every group
+        team_begin(flags & 2, detect_in, g, g, feat.contact)
+    # BLOCK_STRIDE iterations per worker put each worker in a task of its own (see phase_blocks);
+    # whether the tasks run at once does not matter (engine.team). The one argpack g
+    # (engine.groups.TeamGroup) serves as every group
     for t in range(nwork * BLOCK_STRIDE):
         if t % BLOCK_STRIDE == 0:
-            team_worker(t // BLOCK_STRIDE, nwork, nsteps, detect_in, g, g, g, g, g, g, g, g, feat)
-    ret = g.asm_sync[1]
-    g.asm_sync[0] = 0              # the scratch left as it was found: a restart reproduces it
-    g.asm_sync[1] = 0
+            team_worker(t // BLOCK_STRIDE, nwork, nsteps, flags, spin_max, g, g, g, g, g, g, g, g, feat)
+    ret = 0
+    ti.loop_config(serialize=True)
+    for _ in range(1):
+        ret = team_end(g, UNSTABLE_BIT, DUE_BIT, ABORT_BIT, TIMEOUT_BIT)
     return ret
 
 

@@ -1,441 +1,286 @@
-"""The team of worker threads that runs the block assembly of the parallel strategy many steps
-per launch (:func:`taichi_fdem.engine.step.run_steps_blocks`, FDEM_SPEC §6.1).
+"""The team launch of the block assembly on the CPU (:func:`taichi_fdem.engine.step.run_steps_blocks`,
+FDEM_SPEC §6.1): many steps per launch, run by a team of worker threads.
 
-Each worker runs its own blocks' forces (:mod:`taichi_fdem.engine.blocks`), then the gather and
-integration of chunks of the nodes, each as soon as the blocks that write it are done
-(:func:`team_chunks`); one barrier per step (two with fracture) on an atomic counter, contact
-detection inside the launch split between the workers (:func:`team_detect`).  Every block's
-and chunk's work and partial sums are the same whoever runs them, so the results are the same
-bits for any number of workers.
+A step is a sequence of **stages**, each a set of independent **units**:
+
+========  ===================================================  ============
+stage     unit                                                 units
+========  ===================================================  ============
+PRE       contact detection (when due) and the couple split    1
+FORCE     block b's forces (:func:`blocks.block_forces`)       blocks
+INTEG     gather and integrate node chunk c                    chunks
+JWORK     the joints' work of block b's joints (fracture)      blocks
+========  ===================================================  ============
+
+Any worker may run any unit: it claims it with an atomic max of the stage's ticket on the unit's
+claim slot, so each unit runs exactly once, and a unit's work and partial sums are the same
+whoever runs it.  The worker that completes a stage's last unit ends the stage (the step's
+counters, from the chunks' partials in chunk order) and publishes the next one.  So the results
+are the same bits for any number of workers, and **no worker ever waits for work that nobody has
+started**: a worker that finds nothing left to claim waits only for units other workers are
+running.  If the runtime runs the workers one after the other, or a worker never gets a thread,
+the first worker does every unit and the launch ends.
+
+Every wait is bounded (``spin_max`` tries): a worker that waits longer (another worker was
+descheduled: the CPU is shared with another busy process) raises the abort flag and leaves; the
+others finish the stage they are in (they never wait inside a stage's claims) and leave at its
+end.  The launch then returns with ``ABORT_BIT``, the state at a stage boundary, and the host
+resumes it with one worker (``resume``): the same bits.
+
+Memory order: every synchronising access (claims, the completion count, the stage counter, the
+abort flag) is an i32 atomic read-modify-write, which Taichi's LLVM back end emits sequentially
+consistent; what a worker wrote before completing a unit is therefore visible to every worker
+that reads the stage counter after it, on any architecture.
 """
 import taichi as ti
 
-from .blocks import (block_forces, chunk_count, chunk_nodes, chunk_skip, item_counts,  # noqa: F401 (re-exported)
-                     rebalance_blocks, sync_chunk)
-from .detection import (bin_circle, bucket_starts, count_prefix, detected, fill_partners, keep_old_couple,
-                        keep_old_start, prepare_circle, scan_partners, sort_bucket)
-from .groups import (COUPLES, DACC, DUE_BIT, FOUND, INVERTED, NONFINITE, QS_ALPHA, REBALANCE,
-                     REBALANCE_STEPS, RMAX, SWITCH_BC, SWITCH_BC_WORK, SYNC_LINE, TIME, UNSTABLE_BIT, VMAX,
-                     WORK_BOUNDARY, WORK_LOCAL)
+from .blocks import block_forces, chunk_count, chunk_nodes, item_counts, rebalance_blocks
+from .detection import phase_detect_count, phase_detect_fill
+from .groups import (COUPLES, DACC, FOUND, INVERTED, NONFINITE, QS_ALPHA, REBALANCE, REBALANCE_STEPS, SWITCH_BC,
+                     SWITCH_BC_WORK, SYNC_LINE, TIME, VMAX, WORK_BOUNDARY, WORK_LOCAL)
 from .integrate import asm_blocks, book_block_work, integrate_span
 from .joints import add_joint_work
 from .loads import apply_load, book_load
 
+# the stages of a step
+PRE, FORCE, INTEG, JWORK, END = 0, 1, 2, 3, 4
 
-@ti.func
-def claim(asm: ti.template(), b, ticket):
-    """Take block b (none if b < 0) for the phase of a team launch numbered ``ticket`` (increasing
-    within the launch): True for exactly one worker (an atomic max on the block's claim slot,
-    whose old value is below the ticket only for the first)."""
-    ok = False
-    if b >= 0:          # (a nested test: Taichi's ``and`` evaluates both operands)
-        ok = ti.atomic_max(asm.asm_sync[sync_claim(b)], ticket) < ticket
-    return ok
-
-
-@ti.func
-def nth_block(k, w, nwork, nblk, tail):
-    """The k-th block that worker w tries in a phase (k = 0 .. nblk − 1; −1: none), and the new
-    ``tail``: first its own blocks w, w + nwork, ... (the same every step, so that their data stay
-    in its core's caches), then the others' from the last down (``tail`` starts at nblk − 1),
-    which a worker that finished early takes over from a slower one (:func:`claim`).  Block 0 is
-    worker 0's alone: its runner adds the loads after its forces, and worker 0 books the loads'
-    work of the step before (phase 3 of :func:`team_worker`; no barrier in between)."""
-    m = (nblk - 1 - w) // nwork + 1              # worker w's own blocks
-    b = w + k * nwork
-    if k >= m:
-        while tail >= 0 and tail % nwork == w:
-            tail -= 1
-        b = tail
-        tail -= 1
-        if b == 0:
-            b = -1
-    return b, tail
+# asm_sync slots: line 0 the stage word and what it publishes, line 1 the completion count,
+# then one claim slot per unit, then each chunk's non-finite flag
+SYNC_STAGE = 0          # KINDS · (stages begun) + the current stage's kind: one atomic read gives both;
+                        # it only grows (resumed launches continue it), so it is the claims' ticket
+KINDS = 8
+SYNC_ABORT = 2          # a worker waited past the bound
+SYNC_STEPS = 3          # steps completed since the first launch of this batch
+SYNC_START = 4          # SYNC_STEPS when this launch began
+SYNC_CODE = 5           # bit 0: detection due (or a couple buffer too small); bit 1: unstable
+SYNC_DONE = SYNC_LINE   # units of the current stage completed
+SYNC_CLAIM = 2 * SYNC_LINE
 
 
 @ti.func
-def team_barrier(asm: ti.template(), w, target):
-    """Wait until every worker has passed this barrier: asm_sync[0] counts arrivals over the
-    launch, and the n-th barrier of ``nwork`` workers is passed at n · nwork.  Arrival is an
-    atomic add (x86 atomics are full fences, so what a worker wrote before arriving is seen by
-    every worker after it); the wait reads the counter with plain loads, which leave its cache
-    line shared while the workers wait (atomic reads took it from core to core at every try),
-    and an atomic on the worker's own line of asm_sync (:func:`sync_own`) keeps the load inside
-    the loop."""
-    ti.atomic_add(asm.asm_sync[0], 1)
-    while asm.asm_sync[0] < target:
-        ti.atomic_or(asm.asm_sync[sync_own(w)], 0)
+def sync_get(asm: ti.template(), k):
+    """An atomic read of asm_sync[k] (a read-modify-write: sequentially consistent)."""
+    return ti.atomic_add(asm.asm_sync[k], 0)
 
 
 @ti.func
-def sync_claim(b):
-    """asm_sync slot of block b's claim (:func:`claim`): on block b's line."""
-    return SYNC_LINE * (1 + b) + 2
+def stage_units(kind, nblk, nch):
+    """Units of a stage."""
+    n = 1
+    if kind == FORCE or kind == JWORK:
+        n = nblk
+    elif kind == INTEG:
+        n = nch
+    return n
 
 
 @ti.func
-def sync_own(w):
-    """asm_sync slot that worker w spins on while it waits (on block w's line)."""
-    return SYNC_LINE * (1 + w) + 1
+def unit_of(kind, k, w, nwork, n):
+    """The k-th unit worker w tries in a stage of n units: first its own share (blocks w, w + 1,
+    ...; chunks from w · n / nwork), so that a block's or chunk's data tend to stay in one core's
+    cache, then the rest in order."""
+    first = w
+    if kind == INTEG:
+        first = w * n // nwork
+    return (first + k) % n
 
 
 @ti.func
-def sync_inverted(b, p):
-    """asm_sync slot of block b's copy of step_int[INVERTED] after its forces of a step of parity p."""
-    return SYNC_LINE * (1 + b) + 4 + p
+def step_start(detect_in, step: ti.template(), contact: ti.template()):
+    """The first stage of a step: PRE when contact detection is due inside the launch or the
+    couples are to be split anew, FORCE otherwise."""
+    kind = FORCE
+    if step.step_int[REBALANCE] <= 0:
+        kind = PRE
+    if ti.static(contact):
+        if detect_in != 0 and step.step_real[DACC] >= step.step_buffer[None]:
+            kind = PRE
+    return kind
 
 
 @ti.func
-def sync_bad(w, p):
-    """asm_sync slot of worker w's largest non-finite flag over its chunks of a step of parity p."""
-    return SYNC_LINE * (1 + w) + 6 + p
+def run_unit(kind, u, nblk, nch, detect_in, nodes: ti.template(), tris: ti.template(), mats: ti.template(),
+             con: ti.template(), det: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
+             feat: ti.template()):
+    """Unit u of a stage (module docstring).  PRE: contact detection when due (the serial broad
+    phase of :func:`taichi_fdem.engine.step.detect_serial`: the same couples in the same order;
+    a buffer too small sets code bit 0 and writes nothing), then the couple split when due.
+    FORCE: block u's forces, and the loads after block 0's.  INTEG: chunk u's gather and
+    integration, its maxima and work terms to its partials.  JWORK: the work of block u's
+    joints and the end of their intact bonds."""
+    N = nodes.node_x.shape[0]
+    T, J, C = item_counts(tris, joints, step, feat.contact, feat.fracture)
+    if kind == PRE:
+        fits = True
+        if ti.static(feat.contact):
+            if detect_in != 0 and step.step_real[DACC] >= step.step_buffer[None]:
+                phase_detect_count(nodes, tris, det, con, step)
+                if step.step_int[FOUND] <= con.couple_a.shape[0]:
+                    phase_detect_fill(tris, det, con, step, feat.friction)
+                    C = step.step_int[COUPLES]
+                else:
+                    fits = False
+                    asm.asm_sync[SYNC_CODE] |= 1
+        if fits and step.step_int[REBALANCE] <= 0:
+            rebalance_blocks(nblk, T, J, C, nodes, tris, con, joints, step, asm, feat.contact, feat.fracture,
+                             feat.loads)
+            step.step_int[REBALANCE] = REBALANCE_STEPS
+    elif kind == FORCE:
+        block_forces(u, nblk, T, J, C, step.step_real[DACC], 0, nodes, tris, mats, con, joints, step, asm,
+                     feat.contact, feat.friction, feat.fracture, feat.many_blocks)
+        if ti.static(feat.loads):
+            if u == 0:
+                for q in range(nodes.load_nodes.shape[0]):
+                    apply_load(q, step.step_real[TIME], step.step_dt[None], nodes, step)
+    elif kind == INTEG:
+        alpha = 0.0
+        if ti.static(feat.local_damping):
+            alpha = step.step_real[QS_ALPHA]
+        lo, hi = chunk_nodes(u, nch, N)
+        vmax2, bad, work, local = integrate_span(lo, hi, nodes, joints, asm, step, step.step_dt[None],
+                                                 step.step_gravity[None], step.step_switches[None] & SWITCH_BC,
+                                                 step.step_switches[None] & SWITCH_BC_WORK, alpha, 2,
+                                                 feat.local_damping)
+        asm.asm_part[3 * u] = vmax2
+        asm.asm_part[3 * u + 1] = work
+        asm.asm_part[3 * u + 2] = local
+        asm.asm_sync[SYNC_CLAIM + ti.max(nblk, nch) + u] = bad
+    else:
+        for j in range(u * J // nblk, (u + 1) * J // nblk):
+            add_joint_work(j, joints, tris, mats, nodes, step)
 
 
 @ti.func
-def sync_done(nblk, b):
-    """asm_sync slot of block b's "done" flag: the ticket of the last force phase in which block
-    b has added all its forces (:func:`integrate_chunk`); a cache line of its own."""
-    return SYNC_LINE * (1 + nblk + b)
+def end_step(nsteps, detect_in, step: ti.template(), asm: ti.template(), contact: ti.template()):
+    """The stage after a completed step: END when the launch's steps are done or its code is
+    set, else the next step's first stage."""
+    kind = END
+    if asm.asm_sync[SYNC_CODE] == 0 and asm.asm_sync[SYNC_STEPS] - asm.asm_sync[SYNC_START] < nsteps:
+        kind = step_start(detect_in, step, contact)
+    return kind
 
 
 @ti.func
-def part_vmax(w, p):
-    """asm_part slot of worker w's largest |v|² over its chunks of a step of parity p (a line
-    apart)."""
-    return 8 * (2 * w + p)
+def end_stage(kind, nblk, nch, nsteps, flags, nodes: ti.template(), step: ti.template(), asm: ti.template(),
+              feat: ti.template()):
+    """Run by the worker that completed the stage's last unit: what ends the stage, then the next
+    stage published (the completion count reset, then the stage word advanced to the next kind).
+    ``flags`` bit 2: raise the abort flag too (the launch stops after this stage: a test of
+    the resumption)."""
+    detect_in = flags & 1
+    nxt = END
+    if kind == PRE:
+        if asm.asm_sync[SYNC_CODE] == 0:
+            nxt = FORCE
+    elif kind == FORCE:
+        nxt = INTEG
+    elif kind == INTEG:
+        # the step's counters from the chunks' partials, in chunk order (the same for any team)
+        N = nodes.node_x.shape[0]
+        dt = step.step_dt[None]
+        bc_work = step.step_switches[None] & SWITCH_BC_WORK
+        vm2 = 0.0
+        bad = step.step_int[NONFINITE]
+        for c in range(nch):
+            vm2 = ti.max(vm2, asm.asm_part[3 * c])
+            bad = ti.max(bad, asm.asm_sync[SYNC_CLAIM + ti.max(nblk, nch) + c])
+            if bc_work != 0:
+                step.step_real[WORK_BOUNDARY] += asm.asm_part[3 * c + 1]
+            if ti.static(feat.local_damping):
+                step.step_real[WORK_LOCAL] += asm.asm_part[3 * c + 2]
+        vmax = ti.sqrt(vm2)
+        book_block_work(N, nblk, asm, step, 0)
+        if ti.static(feat.loads):
+            for k in range(nodes.load_nodes.shape[0]):
+                book_load(k, dt, nodes, step)
+        step.step_real[VMAX] = vmax
+        step.step_int[NONFINITE] = bad
+        step.step_real[DACC] += 2.0 * dt * vmax
+        step.step_real[TIME] += dt
+        step.step_int[REBALANCE] -= 1
+        asm.asm_sync[SYNC_STEPS] += 1
+        if ti.static(feat.contact):
+            if detect_in == 0 and step.step_real[DACC] >= step.step_buffer[None]:
+                asm.asm_sync[SYNC_CODE] |= 1
+        if bad != 0 or step.step_int[INVERTED] != 0 or vmax > step.step_vlimit[None]:
+            asm.asm_sync[SYNC_CODE] |= 2
+        nxt = JWORK
+        if ti.static(not feat.fracture):
+            nxt = end_step(nsteps, detect_in, step, asm, feat.contact)
+    else:
+        nxt = end_step(nsteps, detect_in, step, asm, feat.contact)
+    if flags & 4:
+        ti.atomic_max(asm.asm_sync[SYNC_ABORT], 1)
+    asm.asm_sync[SYNC_DONE] = 0
+    ti.atomic_add(asm.asm_sync[SYNC_STAGE], KINDS + nxt - kind)
 
 
 @ti.func
-def part_chunk(nblk, nch, c, p):
-    """asm_part slots (2) of chunk c's constraint and local-damping work in a step of parity p."""
-    return 16 * nblk + 2 * (p * nch + c)
-
-
-@ti.func
-def wait_flag(asm: ti.template(), w, slot, ticket):
-    """Wait until asm_sync[slot] >= ticket (plain loads, as in :func:`team_barrier`), then fence:
-    what its writer stored before raising it is read after."""
-    while asm.asm_sync[slot] < ticket:
-        ti.atomic_or(asm.asm_sync[sync_own(w)], 0)
-    ti.atomic_or(asm.asm_sync[sync_own(w)], 0)
-
-
-@ti.func
-def integrate_chunk(c, p, w, ticket, nblk, nch, N, vm2, bad, nodes: ti.template(), joints: ti.template(),
-                    asm: ti.template(), step: ti.template(), dt, g, bc, bc_work, alpha, local_damping: ti.template()):
-    """Gather and integrate node chunk c (:func:`chunk_nodes`) of a step of parity p, once the
-    blocks that can write its nodes have added their forces (every block but those that
-    :func:`blocks.chunk_skip` knows write none of its nodes); its work terms to its
-    partials (when booked).  Returns the worker's largest |v|² and non-finite flag so far,
-    ``vm2`` and ``bad`` with the chunk's (:func:`integrate.integrate_span`)."""
-    lo, hi = chunk_nodes(c, nblk, nch, N)
-    skip = chunk_skip(c, nblk, nch, asm)
-    for b in range(nblk):
-        if ((skip >> b) & 1) == 0:
-            wait_flag(asm, w, sync_done(nblk, b), ticket)
-    vmax2, chunk_bad, work, local = integrate_span(lo, hi, nodes, joints, asm, step, dt, g, bc, bc_work, alpha,
-                                                   2, local_damping)
-    k = part_chunk(nblk, nch, c, p)
-    if bc_work != 0:
-        asm.asm_part[k] = work
-    if ti.static(local_damping):
-        asm.asm_part[k + 1] = local
-    return ti.max(vm2, vmax2), ti.max(bad, chunk_bad)
-
-
-@ti.func
-def chunk_ready(c, nblk, nch, ticket, asm: ti.template()):
-    """Have the blocks that may write chunk c's nodes all added their forces (no wait)?"""
-    skip = chunk_skip(c, nblk, nch, asm)
-    ready = True
-    for b in range(nblk):
-        if ((skip >> b) & 1) == 0 and asm.asm_sync[sync_done(nblk, b)] < ticket:
-            ready = False
-    return ready
-
-
-@ti.func
-def team_chunks(w, nwork, p, ticket, nblk, N, nodes: ti.template(), joints: ti.template(), asm: ti.template(),
-                step: ti.template(), dt, g, bc, bc_work, alpha, local_damping: ti.template()):
-    """Phase 2 of :func:`team_worker`: gather and integrate the nodes in chunks of at most
-    TEAM_CHUNK (:func:`blocks.chunk_nodes`, :func:`integrate_chunk`), each once the blocks that
-    write its nodes are done, by whichever worker claims it (an atomic max of the ticket on its
-    claim slot).  The chunks make nblk contiguous segments.  Worker w takes the chunks of its own
-    segments w, w + nwork, ... from the end away from its neighbours, skipping those whose
-    blocks are not done yet (it integrates the nodes the other blocks do not write while they
-    still add forces), then the skipped ones, waiting for their blocks (it stops at a chunk
-    another worker claimed: that one came from the other end, past every chunk beyond); then
-    every chunk of the other segments not claimed yet, from the other end.  No barrier between
-    the forces and the integration.  A chunk's sums are the same whoever runs it; the worker's
-    largest |v|² and non-finite flag (maxima: exact in any order) go to its slots of parity p."""
-    nch = chunk_count(nblk, N)
-    m = nch // nblk
-    vm2 = 0.0
-    bad = 0
-    for k in range(2):
-        # k = 0: worker w's own segments; k = 1: the others', from the last down
-        s = w
-        if k == 1:
-            s = nblk - 1
-        while s >= 0 and s < nblk:
-            if (k == 0) or (s % nwork != w):
-                up = (s % 2 == 0) == (k == 0)
-                first = m                        # the own chunks skipped (in walking order)
-                last = -1
-                for i in range(m):
-                    c = s * m + i
-                    if not up:
-                        c = s * m + m - 1 - i
-                    go = True
-                    if k == 0:
-                        if not chunk_ready(c, nblk, nch, ticket, asm):
-                            first = ti.min(first, i)
-                            last = i
-                            go = False
-                    elif asm.asm_sync[sync_chunk(nblk, c)] >= ticket:       # claimed (a plain read)
-                        go = False
-                    if go:
-                        if ti.atomic_max(asm.asm_sync[sync_chunk(nblk, c)], ticket) >= ticket:
-                            if k == 0:
-                                break
-                        else:
-                            vm2, bad = integrate_chunk(c, p, w, ticket, nblk, nch, N, vm2, bad, nodes, joints, asm,
-                                                       step, dt, g, bc, bc_work, alpha, local_damping)
-                for i in range(first, last + 1):
-                    c = s * m + i
-                    if not up:
-                        c = s * m + m - 1 - i
-                    if asm.asm_sync[sync_chunk(nblk, c)] < ticket:          # (a plain read first)
-                        if ti.atomic_max(asm.asm_sync[sync_chunk(nblk, c)], ticket) < ticket:
-                            vm2, bad = integrate_chunk(c, p, w, ticket, nblk, nch, N, vm2, bad, nodes, joints, asm,
-                                                       step, dt, g, bc, bc_work, alpha, local_damping)
-            if k == 0:
-                s += nwork
-            else:
-                s -= 1
-    asm.asm_part[part_vmax(w, p)] = vm2
-    asm.asm_sync[sync_bad(w, p)] = bad
-
-
-@ti.func
-def _share(w, nwork, n):
-    """Worker w's share [lo, hi) of n items."""
-    return w * n // nwork, (w + 1) * n // nwork
-
-
-@ti.func
-def team_detect(w, nwork, nbar, nodes: ti.template(), tris: ti.template(), det: ti.template(), con: ti.template(),
-                step: ti.template(), asm: ti.template(), friction: ti.template()):
-    """Contact detection inside a team launch (the broad phase of :mod:`taichi_fdem.engine.detection`),
-    each loop over the contact triangles, the hashed buckets and the old couples shared out
-    between the workers, separated by barriers; the two prefix sums (bucket starts, couple
-    counts) by worker 0.  The same couples in the same order as the serial broad phase (each
-    bucket is sorted by triangle after the binning), so the same bits.  Returns the barriers'
-    count and whether the couples fit the buffer (if not, nothing is written: the launch ends
-    and the host grows the buffer and detects again).  (Before the twenty-first session worker 0
-    ran the whole detection while the others waited.)"""
-    K = det.contact_tri.shape[0]
-    H = det.det_bucket.shape[0]
-    k0, k1 = _share(w, nwork, K)
-    h0, h1 = _share(w, nwork, H)
-    if w == 0:
-        step.step_real[RMAX] = 0.0
-    nbar += 1
-    team_barrier(asm, w, nbar * nwork)
-    for k in range(k0, k1):                  # bounding circles; r_max (an atomic max: exact)
-        prepare_circle(k, det, tris, nodes, step)
-    for h in range(h0, h1):
-        det.det_bucket[h] = ti.Vector([0, 0])
-    nbar += 1
-    team_barrier(asm, w, nbar * nwork)
-    for k in range(k0, k1):                  # counting sort: counts and slots
-        bin_circle(k, det, step)
-    nbar += 1
-    team_barrier(asm, w, nbar * nwork)
-    if w == 0:
-        bucket_starts(det)
-    nbar += 1
-    team_barrier(asm, w, nbar * nwork)
-    for k in range(k0, k1):
-        bn = det.det_sort[k]
-        det.det_sort[det.det_bucket[bn[0]][0] + bn[1]][2] = k
-    nbar += 1
-    team_barrier(asm, w, nbar * nwork)
-    for h in range(h0, h1):
-        sort_bucket(h, det)
-    nbar += 1
-    team_barrier(asm, w, nbar * nwork)
-    for k in range(k0, k1):
-        det.det_cnew[k] = scan_partners(k, True, det, con, tris, step, 0, False)
-    nbar += 1
-    team_barrier(asm, w, nbar * nwork)
-    if w == 0:
-        count_prefix(det, step)
-    nbar += 1
-    team_barrier(asm, w, nbar * nwork)
-    fits = step.step_int[FOUND] <= con.couple_a.shape[0]
-    if fits:
-        if ti.static(friction):
-            # the previous couples and their slip history, kept before the fill overwrites them
-            j0, j1 = _share(w, nwork, K + 1)
-            for k in range(j0, j1):
-                keep_old_start(k, det)
-            c0, c1 = _share(w, nwork, step.step_int[COUPLES])
-            for c in range(c0, c1):
-                keep_old_couple(c, det, con)
-            nbar += 1
-            team_barrier(asm, w, nbar * nwork)
-        for k in range(k0, k1):
-            fill_partners(k, det, con, tris, step, friction)
-        c0, c1 = _share(w, nwork, det.det_cnew[K])
-        for c in range(c0, c1):
-            con.couple_skip[c] = 0.0          # no certificate of separation (dacc restarts at 0)
-        if w == 0:
-            detected(step)
-        nbar += 1
-        team_barrier(asm, w, nbar * nwork)
-    return nbar, fits
-
-
-@ti.func
-def team_worker(w, nwork, nsteps, detect_in, nodes: ti.template(), tris: ti.template(), mats: ti.template(),
-                con: ti.template(), det: ti.template(), joints: ti.template(), step: ti.template(),
-                asm: ti.template(), feat: ti.template()):
-    """Worker w of :func:`taichi_fdem.engine.step.run_steps_blocks`: up to ``nsteps`` steps of the
-    parallel strategy for blocks w, w + nwork, ..., in step with the other workers through one
-    barrier per step (two with fracture): a node chunk is integrated once the blocks that write
-    its nodes have raised their "done" flags (:func:`team_chunks`).  Before the twenty-first
-    session a barrier also separated the forces from the integration, and the nodes were
-    integrated in nblk fixed shares.  Every block's and every chunk's work and partial sums are
-    the same whoever runs it, and the partials are combined in chunk and block order: the
-    results do not depend on nwork.  ``detect_in`` != 0: when contact detection is due, the
-    team runs it (:func:`team_detect`, the same couples as the serial broad phase of
-    :func:`taichi_fdem.engine.step.detect_serial`) and the launch goes on; 0: the launch ends
-    when detection is due (the host runs the parallel broad phase of a large scene)."""
+def team_worker(w, nwork, nsteps, flags, spin_max, nodes: ti.template(), tris: ti.template(),
+                mats: ti.template(), con: ti.template(), det: ti.template(), joints: ti.template(),
+                step: ti.template(), asm: ti.template(), feat: ti.template()):
+    """Worker w of a team of ``nwork``: claim and run units of the current stage (first its own
+    share, :func:`unit_of`), the last one of a stage also ending it (:func:`end_stage`); when
+    nothing is left to claim, wait at most ``spin_max`` tries for the stage to end, else raise
+    the abort flag.  Leaves at END or when the abort flag is up (after an abort the others
+    finish the stage they are in: a launch always stops at a stage boundary).  ``flags``: as
+    :func:`taichi_fdem.engine.step.run_steps_blocks`."""
+    detect_in = flags & 1
     N = nodes.node_x.shape[0]
     nblk = asm_blocks(N, asm)
-    T, J, C = item_counts(tris, joints, step, feat.contact, feat.fracture)
-    dt = step.step_dt[None]
-    g = step.step_gravity[None]
-    bc = step.step_switches[None] & SWITCH_BC
-    bc_work = step.step_switches[None] & SWITCH_BC_WORK
-    alpha = 0.0
-    if ti.static(feat.local_damping):
-        alpha = step.step_real[QS_ALPHA]
-    # the counters every worker follows, read before the first barrier (worker 0 writes them
-    # after it) and updated identically by every worker
-    dacc = step.step_real[DACC]
-    time = step.step_real[TIME]
-    nonfinite = step.step_int[NONFINITE]
-    rebal = step.step_int[REBALANCE]
-    nbar = 0
-    done = 0
-    code = 0
-    while done < nsteps:
-        if ti.static(feat.contact):
-            # 0a. contact detection when due, by the team (small scenes: see the docstring); a
-            # couple buffer too small ends the launch before the step (the host grows it)
-            if detect_in != 0 and dacc >= step.step_buffer[None]:
-                nbar, fits = team_detect(w, nwork, nbar, nodes, tris, det, con, step, asm, feat.friction)
-                if not fits:
-                    code = 1
-                    break
-                C = step.step_int[COUPLES]
-                dacc = 0.0
-                rebal = 0                       # new couples: split anew (as the fill asks)
-        # 0b. when due, worker 0 splits the couples anew and sets the blocks' node ranges (as
-        # engine.step.phase_blocks does)
-        if rebal <= 0:
-            if w == 0:
-                rebalance_blocks(nblk, T, J, C, nodes, tris, con, joints, step, asm, feat.contact, feat.fracture,
-                                 feat.loads)
-            nbar += 1
-            team_barrier(asm, w, nbar * nwork)
-            rebal = REBALANCE_STEPS
-        rebal -= 1
-        # 1. forces: each block's items into its copy (and the loads into node_f after block 0,
-        # by the worker that ran it, as in engine.step.step_parallel); then the block's copy of the
-        # inverted-triangle flag and its "done" flag (an atomic: a fence after its forces)
-        p = done % 2                          # the step's parity: its partials and contact work
-        ticket = nbar + 1
-        tail = nblk - 1
-        for k in range(nblk):
-            b, tail = nth_block(k, w, nwork, nblk, tail)
-            if claim(asm, b, ticket):
-                block_forces(b, nblk, T, J, C, dacc, p, nodes, tris, mats, con, joints, step, asm, feat.contact,
-                             feat.friction, feat.fracture, feat.many_blocks)
-                if ti.static(feat.loads):
-                    if b == 0:
-                        for q in range(nodes.load_nodes.shape[0]):
-                            apply_load(q, time, dt, nodes, step)
-                asm.asm_sync[sync_inverted(b, p)] = step.step_int[INVERTED]
-                ti.atomic_max(asm.asm_sync[sync_done(nblk, b)], ticket)
-        # 2. gather and integrate the nodes chunk by chunk, each once the blocks that write it are
-        # done (no barrier in between); each chunk's maxima and work to its partials of parity p
-        team_chunks(w, nwork, p, ticket, nblk, N, nodes, joints, asm, step, dt, g, bc, bc_work, alpha,
-                    feat.local_damping)
-        nbar += 1
-        team_barrier(asm, w, nbar * nwork)
-        # 3. the step's counters, from the partials in chunk and block order (the same in every
-        # worker; what the next step writes goes to the other parity's slots); worker 0 stores
-        # them.  Then the joints' work and the end of intact bonds.  A triangle that inverted in
-        # this step is in the copy of its own block's runner, made after its forces: whether any
-        # did does not depend on which block finished first
-        vm2 = 0.0
-        for q in range(nwork):
-            vm2 = ti.max(vm2, asm.asm_part[part_vmax(q, p)])
-            nonfinite = ti.max(nonfinite, asm.asm_sync[sync_bad(q, p)])
-        inverted = 0
-        for q in range(nblk):
-            inverted = ti.max(inverted, asm.asm_sync[sync_inverted(q, p)])
-        vmax = ti.sqrt(vm2)
-        dacc += 2.0 * dt * vmax
-        time += dt
-        if w == 0:
-            book_block_work(N, nblk, asm, step, p)
-            step.step_real[VMAX] = vmax
-            step.step_int[NONFINITE] = nonfinite
-            nch = chunk_count(nblk, N)
-            for c in range(nch):
-                if bc_work != 0:
-                    step.step_real[WORK_BOUNDARY] += asm.asm_part[part_chunk(nblk, nch, c, p)]
-                if ti.static(feat.local_damping):
-                    step.step_real[WORK_LOCAL] += asm.asm_part[part_chunk(nblk, nch, c, p) + 1]
-            step.step_real[DACC] = dacc
-            step.step_real[TIME] = time
-            step.step_int[REBALANCE] = rebal
-            if ti.static(feat.loads):
-                for k in range(nodes.load_nodes.shape[0]):
-                    book_load(k, dt, nodes, step)
-        done += 1
-        code = 0
-        if ti.static(feat.contact):
-            if detect_in == 0 and dacc >= step.step_buffer[None]:
-                code |= 1
-        if nonfinite != 0 or inverted != 0 or vmax > step.step_vlimit[None]:
-            code |= 2
-        if ti.static(feat.fracture):
-            # the joints' work and the end of intact bonds, which the next step's forces read:
-            # a second barrier (a scene without fracture needs none: the next step's forces
-            # write nothing that a worker still reads here, the parity-p slots aside)
-            tail = nblk - 1
-            for k in range(nblk):
-                b, tail = nth_block(k, w, nwork, nblk, tail)
-                if claim(asm, b, nbar + 1):
-                    for j in range(b * J // nblk, (b + 1) * J // nblk):
-                        add_joint_work(j, joints, tris, mats, nodes, step)
-            nbar += 1
-            team_barrier(asm, w, nbar * nwork)
-        if code != 0:
+    nch = chunk_count(N)
+    while True:
+        stage = sync_get(asm, SYNC_STAGE)
+        kind = stage % KINDS
+        if kind == END or sync_get(asm, SYNC_ABORT) != 0:
             break
-    if ti.static(not feat.fracture):
-        nbar += 1
-        team_barrier(asm, w, nbar * nwork)     # every worker has read the partials cleared below
-    if w == 0:
-        asm.asm_sync[1] = done + ti.select(code >= 2, UNSTABLE_BIT, 0) + ti.select(code & 1, DUE_BIT, 0)
-        # every worker read the partials before the last barrier: clear them, so that the scratch
-        # does not depend on how the steps were launched (a restart compares it)
-        for k in range(SYNC_LINE, sync_chunk(nblk, chunk_count(nblk, N))):     # (not the chunks' masks)
+        n = stage_units(kind, nblk, nch)
+        ticket = stage + 1
+        for k in range(n):
+            u = unit_of(kind, k, w, nwork, n)
+            if ti.atomic_max(asm.asm_sync[SYNC_CLAIM + u], ticket) < ticket:
+                run_unit(kind, u, nblk, nch, detect_in, nodes, tris, mats, con, det, joints, step, asm, feat)
+                if ti.atomic_add(asm.asm_sync[SYNC_DONE], 1) == n - 1:
+                    end_stage(kind, nblk, nch, nsteps, flags, nodes, step, asm, feat)
+        tries = 0
+        while sync_get(asm, SYNC_STAGE) == stage:
+            tries += 1
+            if tries >= spin_max:
+                ti.atomic_max(asm.asm_sync[SYNC_ABORT], 1)
+                break
+
+
+@ti.func
+def team_begin(resume, detect_in, step: ti.template(), asm: ti.template(), contact: ti.template()):
+    """Before the workers start (a serial task): a fresh launch starts a step; a resumed one
+    (after an abort) lowers the flag and carries on from the stage the team left."""
+    if resume == 0:
+        asm.asm_sync[SYNC_STAGE] = step_start(detect_in, step, contact)
+    asm.asm_sync[SYNC_ABORT] = 0
+    asm.asm_sync[SYNC_START] = asm.asm_sync[SYNC_STEPS]
+
+
+@ti.func
+def team_end(asm: ti.template(), unstable_bit, due_bit, abort_bit, timeout_bit):
+    """After the workers (a serial task): the launch's result, the steps it completed plus
+    ``unstable_bit`` / ``due_bit`` from the code, ``abort_bit`` when it stopped between two units
+    (the host resumes it) and ``timeout_bit`` when a wait ran past its bound.  A finished batch
+    clears the team's slots, so that the scratch does not depend on how the steps were launched
+    (a restart compares it)."""
+    code = asm.asm_sync[SYNC_CODE]
+    ret = asm.asm_sync[SYNC_STEPS] - asm.asm_sync[SYNC_START]
+    if code & 2:
+        ret += unstable_bit
+    if code & 1:
+        ret += due_bit
+    if asm.asm_sync[SYNC_ABORT] != 0:
+        ret += timeout_bit
+    if asm.asm_sync[SYNC_STAGE] % KINDS != END:
+        ret += abort_bit
+    else:
+        for k in range(asm.asm_sync.shape[0]):
             asm.asm_sync[k] = 0
         for k in range(asm.asm_part.shape[0]):
             asm.asm_part[k] = 0.0
+    return ret

@@ -41,11 +41,12 @@ __all__ = ["Simulation", "SimulationError", "SERIAL_MAX_STEPS", "SERIAL_TRI_STEP
 SERIAL_MAX_STEPS = 2000          # at most this many steps per serial launch
 SERIAL_TRI_STEPS = 2_000_000     # ~50 ms of work per serial launch: responsive progress and Ctrl-C
 TEAM_TRI_STEPS = 10_000_000      # the same for a team launch (Simulation.steps_per_launch)
-TEAM_CPU_SHARE = 0.6            # a team launch that got less CPU than this share of its workers...
-TEAM_PAUSE_FIRST = 0.25         # ...makes the parallel strategy give way for this long [s], doubled
-TEAM_PAUSE = 5.0                # at each pause that follows without a launch between that had its
-                                # cores, up to this long [s] (_check_team):
-PAUSE_SOLO_ITEMS = 50_000       # a team of one below this many items, one launch per step above
+TEAM_WAIT_MIN = 2e-3             # a team's wait is bounded by this [s], or by TEAM_WAIT_STEPS of its steps
+TEAM_WAIT_STEPS = 4.0            # (mean step times of the last launch), whichever is longer
+TEAM_SPINS_PER_S = 5e7           # tries of a team's wait per second (an i32 atomic each, ~10-20 ns)
+TEAM_PROBE_FIRST = 0.25          # the team and a worker alone are timed against each other after this [s],
+TEAM_PROBE_MAX = 8.0             # then twice as long after each probe that agrees, up to this [s]
+TEAM_PROBE_STEPS = 8             # a probe launch runs 1/8 of a launch's steps
 AUTO_PARALLEL_ITEMS = 600        # triangles + joints + couples from which "auto" runs parallel on >= 2 CPU threads
 DETECT_SERIAL_TRIS = 15_000      # up to this many contact triangles, detection runs as one serial launch
 
@@ -120,8 +121,10 @@ class Simulation(SimulationResults):
             self.strategy = "parallel"
 
     def _parallel_pays(self) -> bool:
-        """Whether the parallel strategy beats the serial one on this CPU (module docstring)."""
-        return backend.cpu_threads() >= 2 and self._items() >= AUTO_PARALLEL_ITEMS
+        """Whether the parallel strategy beats the serial one on this CPU (module docstring): at
+        least two threads and two usable cores (affinity set, CPU quota), and enough items."""
+        cores = min(backend.cpu_threads(), backend.usable_cores())
+        return cores >= 2 and self._items() >= AUTO_PARALLEL_ITEMS
 
     def _items(self) -> int:
         """Work items of a step: triangles + joints + contact couples."""
@@ -405,83 +408,130 @@ class Simulation(SimulationResults):
 
     def _team(self) -> int:
         """Workers of a parallel team launch (:func:`engine.step.run_steps_blocks`), 0 for one
-        launch per step; a worker waiting at a barrier holds its thread: min(blocks, threads).
-        While the team gives way (:meth:`_check_team`): a team of one below PAUSE_SOLO_ITEMS
-        items (no barrier to wait at; one launch per step would cost more than the step), one
-        launch per step above.  The same bits in every case."""
-        self._giving_way = False
+        launch per step: at most the blocks, Taichi's threads and the cores this process may use
+        (:func:`backend.usable_cores`: its affinity set and CPU quota), and :attr:`team_workers`;
+        one while the timing of the team against one worker chose one (:meth:`_choose_team`).
+        The same bits in every case."""
         if not self._team_launches():
             return 0
-        self._giving_way = _time.perf_counter() < self._team_pause
-        if self._giving_way:
-            return 1 if self._items() < PAUSE_SOLO_ITEMS else 0
-        return min(self._force_blocks, backend.cpu_threads(), self._team_workers or MAX_FORCE_BLOCKS)
+        return 1 if self._team_solo else self._team_size()
 
-    _team_pause = 0.0      # perf_counter time until which the team waits (oversubscribed CPU)
-    _team_seen = False
-    _team_backoff = TEAM_PAUSE_FIRST   # the next pause of the team [s] (_check_team)
-    _giving_way = False    # the last _team() found the team giving way
-    #: Steps of the parallel strategy run while its team gave way to another busy process
-    #: (:meth:`_check_team`): as a team of one, or one launch per step.  A diagnostic for
-    #: benchmarks: those steps ran on one thread.
-    paused_steps = 0
+    def _team_size(self) -> int:
+        """The most workers a team launch may have (:meth:`_team`)."""
+        return max(1, min(self._force_blocks, backend.cpu_threads(), backend.usable_cores(),
+                          self._team_workers or MAX_FORCE_BLOCKS))
 
-    def _check_team(self, nwork: int, wall: float, cpu: float) -> None:
-        """After a team launch of ``wall`` seconds that used ``cpu`` seconds of this process: its
-        workers spin at the barriers, so a process that got much less than ``nwork`` cores was
-        sharing them (another busy process); spinning then waits for descheduled workers (a
-        10k pile ran 30× slower next to a second one, measured).  Such a launch (of more than
-        20 ms) makes the team give way (:meth:`_team`: the same bits) for TEAM_PAUSE_FIRST
-        seconds, twice as long at each further pause, up to TEAM_PAUSE, until a launch of more
-        than 2 ms has its cores again.  Short pauses first: on a virtual machine a fresh team got
-        one core's worth of CPU time in its first ~10 launches (a share of 0.50-0.56, measured),
-        then two; a fixed 5 s pause then took a stirred 1k pile's whole
-        benchmark run onto one thread (19.6k steps/s against 31.4k serial, whose launches
-        detection ends every ~130 steps)."""
-        if nwork > 1 and self._team_seen:
-            if cpu < TEAM_CPU_SHARE * nwork * wall:
-                if wall > 0.02:
-                    self._team_pause = _time.perf_counter() + self._team_backoff
-                    self._team_backoff = min(TEAM_PAUSE, 2.0 * self._team_backoff)
-            elif wall > 0.002:
-                self._team_backoff = TEAM_PAUSE_FIRST
-        self._team_seen = True    # (not the first launch: it may compile, on one thread)
+    #: Counters of the team launches, for :meth:`info`: waits that ran past their bound, launches
+    #: resumed by one worker after one, probes timing the team against one worker, and the steps
+    #: run by one worker because it was the faster.
+    team_stats: dict = None
+    _team_solo = False     # one worker is the faster on this CPU now (_choose_team)
+    _team_probe_at = 0.0   # perf_counter time of the next probe
+    _team_probe_wait = TEAM_PROBE_FIRST
+
+    def _spin_bound(self) -> int:
+        """The bound of a team's wait, in tries: TEAM_WAIT_MIN, or TEAM_WAIT_STEPS mean step times
+        of the last launch, whichever is longer.  A wait that long means another worker lost its
+        core (a legitimate wait is for a unit another worker runs, a small share of a step)."""
+        step_s = self._team_step_s or 0.0
+        return int(min(2**31 - 1, TEAM_SPINS_PER_S * max(TEAM_WAIT_MIN, TEAM_WAIT_STEPS * step_s)))
+
+    _team_step_s = None    # mean wall time of a step in the last team launch [s]
+
+    def _launch_team(self, nsteps: int, nwork: int, flags: int, switches) -> int:
+        """One team launch of ``nsteps`` steps; a launch that stopped between two units because a
+        wait ran past its bound is resumed by one worker (the same bits).  Returns the kernel's
+        result with the steps of both launches."""
+        stats = self.team_stats
+        t0 = _time.perf_counter()
+        ret = self._launch_cached("run_steps_blocks", kernels.run_steps_blocks, nsteps, nwork, flags,
+                                  self._spin_bound(), *self._groups["team"], *switches)
+        done = 0
+        if ret & kernels.TIMEOUT_BIT:
+            stats["timeouts"] += 1
+        while ret & kernels.ABORT_BIT:
+            stats["resumed"] += 1
+            done += ret & (kernels.UNSTABLE_BIT - 1)
+            ret = self._launch_cached("run_steps_blocks", kernels.run_steps_blocks, nsteps - done, 1, flags | 2,
+                                      self._spin_bound(), *self._groups["team"], *switches)
+        ret = (ret & ~(kernels.UNSTABLE_BIT - 1) & ~kernels.TIMEOUT_BIT) | (done + (ret & (kernels.UNSTABLE_BIT - 1)))
+        steps = ret & (kernels.UNSTABLE_BIT - 1)
+        if steps:
+            self._team_step_s = (_time.perf_counter() - t0) / steps
+        if stats["timeouts"] and nwork > 1 and done + steps and self._team_probe_at > t0:
+            self._team_probe_at = t0        # a wait ran past its bound: time the two again now
+        return ret
+
+    def _choose_team(self, nwork: int, chunk: int, flags: int, switches) -> tuple[int, int]:
+        """When a probe is due (TEAM_PROBE_FIRST seconds after the first team launch, then twice as
+        long after each probe that agrees with the choice, up to TEAM_PROBE_MAX; at once after a
+        wait past its bound), time a short launch of one worker and one of the team, and run on
+        with the faster: a team on a CPU shared with another busy process waits for its
+        descheduled workers.  Returns (steps done by the probes, the kernel's last result)."""
+        now = _time.perf_counter()
+        if self._team_probe_at == 0.0:
+            self._team_probe_at = now + TEAM_PROBE_FIRST     # (the first launch compiles)
+            return 0, 0
+        if now < self._team_probe_at or chunk < 2 * TEAM_PROBE_STEPS:
+            return 0, 0
+        steps = max(1, chunk // TEAM_PROBE_STEPS)
+        rates, done, ret = {}, 0, 0
+        for workers in (1, nwork):
+            t0 = _time.perf_counter()
+            ret = self._launch_team(steps, workers, flags, switches)
+            k = ret & (kernels.UNSTABLE_BIT - 1)
+            done += k
+            rates[workers] = k / max(_time.perf_counter() - t0, 1e-9)
+            if ret & (kernels.UNSTABLE_BIT | kernels.DUE_BIT) or k < steps:
+                return done, ret
+        self.team_stats["probes"] += 1
+        solo = rates[1] > rates[nwork]
+        if solo == self._team_solo:
+            self._team_probe_wait = min(TEAM_PROBE_MAX, 2.0 * self._team_probe_wait)
+        else:
+            self._team_probe_wait = TEAM_PROBE_FIRST
+        self._team_solo = solo
+        self._team_probe_at = _time.perf_counter() + self._team_probe_wait
+        return done, ret
 
     def _step_parallel(self, n: int) -> None:
         switches = self._switches()
         due = self._detect_due()
-        nwork = self._team()
-        if nwork:
+        if self._team_launches():
+            if self.team_stats is None:
+                self.team_stats = {"timeouts": 0, "resumed": 0, "probes": 0, "solo_steps": 0}
             per_launch = self.steps_per_launch()
             # small scenes detect inside the team launch (the serial task of _detect), large ones
             # return to the host for the parallel broad phase
-            detect_in = int(self._detect_serially())
-            while n > 0 and nwork:
+            flags = int(self._detect_serially())
+            while n > 0:
                 if due:
                     self._detect()
                 chunk = min(n, per_launch)
-                paused = self._giving_way
-                w0, c0 = _time.perf_counter(), _time.process_time()
-                ret = self._launch_cached("run_steps_blocks", kernels.run_steps_blocks, chunk, nwork, detect_in,
-                                          *self._groups["team"], *switches)
-                self._check_team(nwork, _time.perf_counter() - w0, _time.process_time() - c0)
-                nwork = self._team()
-                done = ret & (kernels.UNSTABLE_BIT - 1)
-                self.step_count += done
-                if paused:
-                    self.paused_steps += done
-                n -= done
+                size = self._team_size()
+                ret = 0
+                if size > 1:
+                    done, ret = self._choose_team(size, chunk, flags, switches)
+                    self.step_count += done
+                    n -= done
+                    chunk -= done
+                if chunk > 0 and not ret & (kernels.UNSTABLE_BIT | kernels.DUE_BIT):
+                    nwork = self._team()
+                    ret = self._launch_team(chunk, nwork, flags, switches)
+                    if nwork == 1:
+                        self.team_stats["solo_steps"] += ret & (kernels.UNSTABLE_BIT - 1)
+                    self.step_count += ret & (kernels.UNSTABLE_BIT - 1)
+                    n -= ret & (kernels.UNSTABLE_BIT - 1)
                 due = bool(self.model.contact and ret & kernels.DUE_BIT)
                 if ret & kernels.UNSTABLE_BIT:
                     guards.raise_unstable(self)
+            return
         for _ in range(n):
             if due:
                 self._detect()
             code = self._launch_cached("step_parallel", kernels.step_parallel, *self._groups["parallel"], *switches,
                                        self.scratch.blocks)
             self.step_count += 1
-            if self._giving_way:
-                self.paused_steps += 1
             due = self.model.contact and bool(code & 1)
             if code & 2:
                 guards.raise_unstable(self)
@@ -666,7 +716,10 @@ class Simulation(SimulationResults):
     # info and checkpoints
     # ------------------------------------------------------------------------------------------
     def info(self) -> dict:
-        """Sizes, features, time step and strategy of this simulation."""
+        """Sizes, features, time step and strategy of this simulation; ``"threads"`` (Taichi's
+        CPU threads, the usable cores and the team's largest size) and ``"team"``: the team
+        launches' counters (waits past their bound, launches resumed by one worker, probes,
+        steps run by one worker because it was the faster; zeros before any team launch)."""
         md = self.model
         return {"nodes": md.node_count, "triangles": md.tri_count, "bodies": len(self.bodies),
                 "contact_triangles": md.ctri_count, "couples": self.couple_count, "dt": md.dt,
@@ -678,7 +731,10 @@ class Simulation(SimulationResults):
                 "joint_sets": {name: int((md.joint_set_np == k).sum())
                                for k, name in enumerate(getattr(md, "joint_set_names", ["default"]))},
                 "crack_edges": sum(getattr(b, "crack_count", 0) for b in self.bodies),
-                "precision": backend.precision()}
+                "precision": backend.precision(),
+                "threads": {"taichi": backend.cpu_threads(), "usable_cores": backend.usable_cores(),
+                            "team": self._team_size() if self._team_launches() else 0},
+                "team": dict(self.team_stats or {"timeouts": 0, "resumed": 0, "probes": 0, "solo_steps": 0})}
 
     def save(self, path) -> None:
         """Write a checkpoint of the whole state to ``path`` (one file, written atomically).

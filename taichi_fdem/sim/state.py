@@ -173,22 +173,12 @@ def size_assembly(md: Model, st: State, sw: Scratch) -> None:
         sw.asm_node_slots = ti.ndarray(ti.i32, shape=1)
         sw.asm_node_start = ti.ndarray(ti.i32, shape=1)
     team = sw.force_blocks if sw.parallel and sw.blocks else 0
-    chunks = team * ((N // team + TEAM_CHUNK) // TEAM_CHUNK) if team else 0    # engine.blocks.chunk_count
-    # the barrier counter and the launch's result (line 0), a line per block and its worker
-    # (engine.team.sync_own, sync_claim, sync_inverted, sync_bad), a line per block's "done"
-    # flag (sync_done), then the node chunks' claims (engine.blocks.sync_chunk), their skip masks
-    # (chunk_skip: zero, wait for every block, until the blocks' ranges are set) and each node's
-    # chunk; each worker's largest |v|² for even and odd steps (a line apart,
-    # engine.team.part_vmax), then each chunk's work terms for even and odd steps (part_chunk)
-    table = SYNC_LINE * (1 + 2 * team) + 2 * chunks
-    sync = np.zeros(table + (N if team else 0), np.int32)
-    for c in range(chunks):                      # chunk i of segment s: engine.blocks.chunk_nodes
-        s, i = divmod(c, chunks // team)
-        lo, length, m = s * N // team, (s + 1) * N // team - s * N // team, chunks // team
-        sync[table + lo + i * length // m: table + lo + (i + 1) * length // m] = c
-    sw.asm_sync = ti.ndarray(ti.i32, shape=sync.shape[0])
-    sw.asm_sync.from_numpy(sync)
-    sw.asm_part = ti.ndarray(rti, shape=max(1, 16 * team + 4 * chunks))
+    chunks = -(-N // TEAM_CHUNK) if team else 0                  # engine.blocks.chunk_count
+    # engine.team: two lines of counters, a claim slot per unit (blocks or chunks), each chunk's
+    # non-finite flag; each chunk's largest |v|², constraint and local-damping work
+    sw.asm_sync = ti.ndarray(ti.i32, shape=2 * SYNC_LINE + max(team, chunks) + chunks)
+    sw.asm_sync.fill(0)
+    sw.asm_part = ti.ndarray(rti, shape=max(1, 3 * chunks))
 
 
 def pack_groups(md: Model, st: State, sw: Scratch) -> dict:
