@@ -545,7 +545,7 @@ def test_a_team_stopped_between_stages_resumes_with_the_same_bits(monkeypatch):
     sim.run(0.01, progress=False)
     _same_bits(sim, ref)
     stats = sim.info()["team"]
-    assert stats["resumed"] > 3 * sim.step_count       # three stages or more per step
+    assert stats["resumed"] > 1.5 * sim.step_count     # two stages or more per step (forces, integration)
     # waits bounded at one try: whatever the timing, the same bits
     monkeypatch.setattr(simmod, "TEAM_SPINS_PER_S", 0.0)
     monkeypatch.setattr(simmod, "TEAM_WAIT_MIN", 0.0)
