@@ -191,7 +191,7 @@ def bench_size(fdem, size: int, strategy: str, steps: int | None, seconds: float
     n = steps if steps else max(5, int(math.ceil(seconds / per_step)))
     det0 = sim.detection_count
     step0 = sim.step_count
-    paused0 = sim.paused_steps
+    paused0 = sim.info()["team"]["solo_steps"]
     # the timed run in WINDOWS equal windows: the whole run's rate, and its best window's (the
     # machine is shared: a window another process slowed down shows in the mean, not the best)
     per = [n // windows + (1 if k < n % windows else 0) for k in range(windows)]
@@ -206,10 +206,9 @@ def bench_size(fdem, size: int, strategy: str, steps: int | None, seconds: float
         best = max(best, m / el)
     assert sim.step_count - step0 == n, (sim.step_count, step0, n)
     dets = sim.detection_count - det0
-    # steps run on one thread because the team gave way, its process having got less than its
-    # workers' CPU time (a busy host; Simulation._check_team): as a team of one, or one launch
-    # per step
-    paused = sim.paused_steps - paused0
+    # steps run by one worker because it timed faster than the team (a busy host;
+    # Simulation._choose_team)
+    paused = sim.info()["team"]["solo_steps"] - paused0
     x = sim.node_positions()
     if not np.all(np.isfinite(x)):
         raise RuntimeError(f"size {size}: non-finite positions after {sim.step_count} steps")
@@ -241,7 +240,7 @@ COLUMNS = [  # (header, key, format)
     ("couples/tri", "couples_per_tri", "{:.2f}"), ("steps", "steps", "{:,}"),
     ("steps/s", "steps_per_s", "{:,.0f}"), ("best window", "steps_per_s_best", "{:,.0f}"),
     ("Mtri-steps/s", "mtri_steps_per_s", "{:.1f}"),
-    ("det/1k steps", "detections_per_1k_steps", "{:.1f}"), ("paused steps", "paused_steps", "{:,}"),
+    ("det/1k steps", "detections_per_1k_steps", "{:.1f}"), ("solo steps", "paused_steps", "{:,}"),
     ("elastic", "elastic", "{:.0%}"), ("detection", "detection", "{:.0%}"), ("contact", "contact", "{:.0%}"),
     ("integration", "integration", "{:.0%}"), ("scene s", "scene_s", "{:.2f}"), ("build s", "build_s", "{:.2f}"),
     ("1st step s", "first_step_s", "{:.3f}"), ("cold start s", "cold_s", "{:.1f}"),

@@ -70,7 +70,7 @@ def measure(fdem, scene_kind: str, size: int, window: int, reps: int, warmup: in
     return {"scene": scene_kind, "triangles": a.tri_count, "couples": a.couple_count, "window": window,
             "reps": reps, "first": warmup + 1, "last": a.step_count, "median": med, "best": best,
             "ratio_team": pair(2, 1), "ratio_auto": pair(2, "serial"), "ratio_best": best[2] / best[1],
-            "ratio_best_auto": best[2] / best["serial"], "same_bits": same, "paused": b.paused_steps}
+            "ratio_best_auto": best[2] / best["serial"], "same_bits": same, "paused": b.info()["team"]["solo_steps"]}
 
 
 def main(argv=None) -> int:
@@ -93,7 +93,7 @@ def main(argv=None) -> int:
         runs += [("plate", n) for n in (args.sizes or [10000])]
     print("| scene | triangles | steps timed | window × rounds | serial steps/s (median, best) "
           "| 1 worker (median, best) | 2 workers (median, best) | 2 workers / serial | 2 / 1 worker "
-          "| best / best (serial, 1 worker) | same bits | paused steps |")
+          "| best / best (serial, 1 worker) | same bits | solo steps |")
     print("|:--|---:|:--|:--|---:|---:|---:|---:|---:|:--|:--|---:|")
     for kind, n in runs:
         warmup = args.warmup if args.warmup is not None else (50 if kind == "pile" else 4500)

@@ -8,11 +8,11 @@ kernels of :mod:`taichi_fdem.engine.step` with the array groups as argpacks (tim
 
 Execution strategy (:mod:`taichi_fdem.engine.step`): the serial one runs thousands of steps per
 launch on one core; the parallel one sums the forces without atomics and, on the CPU, runs
-thousands of steps per launch in a team of worker threads (:attr:`Simulation.team_steps`); up
-to :data:`DETECT_SERIAL_TRIS` contact triangles the team's first worker runs each contact
-detection inside the launch, larger scenes return to the host for the parallel broad phase.
-"auto" picks parallel on the CPU from 2 threads and :data:`AUTO_PARALLEL_ITEMS` items
-(triangles + joints + couples), and on GPUs (untested).
+thousands of steps per launch in a team of worker threads (:mod:`taichi_fdem.engine.team`,
+:attr:`Simulation.team_steps`) whose waits are bounded, sized to the usable cores, and timed
+against one worker on a shared CPU (:meth:`Simulation._choose_team`).  "auto" picks parallel
+on the CPU from 2 threads and usable cores and :data:`AUTO_PARALLEL_ITEMS` items (triangles +
+joints + couples), and on GPUs.
 """
 from __future__ import annotations
 
@@ -72,7 +72,7 @@ class Simulation(SimulationResults):
     #: for ``video=``; installed by the package (the renderer sits above the simulation).
     video_sink_factory = None
     #: parallel strategy on the CPU: run many steps per launch in a team of
-    #: min(:attr:`force_blocks`, threads) worker threads, the phases separated by barriers
+    #: at most min(:attr:`force_blocks`, threads, usable cores) workers
     #: (:func:`taichi_fdem.engine.step.run_steps_blocks`); False: one launch per step.  The same
     #: bits either way.
     team_steps = True
