@@ -447,8 +447,8 @@ class Simulation(SimulationResults):
         ret = self._launch_cached("run_steps_blocks", kernels.run_steps_blocks, nsteps, nwork, flags,
                                   self._spin_bound(), *self._groups["team"], *switches)
         done = 0
-        if ret & kernels.TIMEOUT_BIT:
-            stats["timeouts"] += 1
+        timed_out = bool(ret & kernels.TIMEOUT_BIT)
+        stats["timeouts"] += timed_out
         while ret & kernels.ABORT_BIT:
             stats["resumed"] += 1
             done += ret & (kernels.UNSTABLE_BIT - 1)
@@ -458,7 +458,7 @@ class Simulation(SimulationResults):
         steps = ret & (kernels.UNSTABLE_BIT - 1)
         if steps:
             self._team_step_s = (_time.perf_counter() - t0) / steps
-        if stats["timeouts"] and nwork > 1 and done + steps and self._team_probe_at > t0:
+        if timed_out and nwork > 1 and self._team_probe_at > t0:
             self._team_probe_at = t0        # a wait ran past its bound: time the two again now
         return ret
 
