@@ -26,7 +26,7 @@ def test_clockwise_triangle_is_reoriented_and_simulates():
     assert sim.node_masses(body).sum() == pytest.approx(1000.0 * 0.5, rel=1e-14)   # ρ A, positive
     # a stretched CW-input triangle pulls back (a reversed triangle would push further out)
     x = sim.node_positions()
-    sim.node_x.from_numpy(x * 1.01)
+    sim.state.node_x.from_numpy(x * 1.01)
     f = sim.forces()
     assert np.all(np.sum(f * (x - x.mean(0)), axis=1) < 0)
 

@@ -236,6 +236,7 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     md.dt_elastic, md.dt_contact, md.dt_joint = steps["elastic"], steps["contact"], steps["joint"]
     md.dt_estimate, md.dt_limit = steps["estimate"], steps["limit"]
     md.dt = timestep.choose_time_step(steps, dt, safety, force_dt)
+    md.force_dt = bool(force_dt)
 
     if buffer is None:
         buffer = 0.25 * float(edge_len[ctri].mean()) if len(ctri) else 0.0
@@ -251,7 +252,7 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
         raise ValueError(f"Scene.build: speed_limit must be > 0 m/s, got {speed_limit}")
 
     # ---- loads, curves, initial stress, local damping (FDEM_SPEC §12) --------------------------
-    load_nodes, load_vals = _load_table(scene, bodies, X, mass, md.dt, curves, free, vbc_raw, vcurve)
+    load_nodes, load_vals, md.dashpot_rate = _load_table(scene, bodies, X, mass, md.dt, curves, free, vbc_raw, vcurve)
     md.load_count = len(load_nodes)
     md.loads = md.load_count > 0
     md.curves = curves.list
@@ -435,7 +436,9 @@ def _boundary_edges(b):
 
 
 def _load_table(scene, bodies, X, mass, dt, curves, free, vbc_raw, vcurve):
-    """(load_nodes (L, 5) i32, load_vals (L, 4)): the load table of :mod:`taichi_fdem.engine.loads`."""
+    """(load_nodes (L, 5) i32, load_vals (L, 4), dashpot rate [1/s]): the load table of
+    :mod:`taichi_fdem.engine.loads`, and max over nodes of Σ ρ c_p L/2 / m of the absorbing
+    boundaries' dashpots (0 without), stable while rate · Δt < 1 (FDEM_SPEC §12.5)."""
     rows, vals = [], []
     kinds = {"pressure": LOAD_PRESSURE, "traction": LOAD_TRACTION, "force": LOAD_FORCE, "absorbing": LOAD_ABSORB}
     slices = None
@@ -483,6 +486,7 @@ def _load_table(scene, bodies, X, mass, dt, curves, free, vbc_raw, vcurve):
                              " (initial coordinates)")
         if not np.all(np.isfinite(vals[n0:])):
             raise ValueError(f"{what}: the load is not finite")
+    md_dash = float(np.max(dash / mass)) if np.any(dash > 0) else 0.0
     if np.any(dash > 0):
         ratio = float(np.max(dash * dt / mass))
         if ratio >= 1.0:
@@ -497,7 +501,7 @@ def _load_table(scene, bodies, X, mass, dt, curves, free, vbc_raw, vcurve):
     for r, (kind, i, j, c) in enumerate(rows):
         c0, cn = slices[c] if c >= 0 else (0, 0)
         table[r] = (kind, i, j, c0, cn)
-    return table, np.asarray(vals, np.float64).reshape(-1, 4)
+    return table, np.asarray(vals, np.float64).reshape(-1, 4), md_dash
 
 
 def _prestress(scene, bodies, X, tris):

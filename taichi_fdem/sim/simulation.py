@@ -50,22 +50,19 @@ TEAM_PROBE_STEPS = 8             # a probe launch runs 1/8 of a launch's steps
 AUTO_PARALLEL_ITEMS = 600        # triangles + joints + couples from which "auto" runs parallel on >= 2 CPU threads
 DETECT_SERIAL_TRIS = 15_000      # up to this many contact triangles, detection runs as one serial launch
 
-# Names the simulation answered before the model/state split (kept for scripts that reach the
-# arrays directly; new code uses sim.model.* and sim.state.*).
-_ALIASES = {"_X": "node_rest", "_mass_np": "node_mass_np", "_tri_nodes_np": "tri_nodes_np",
-            "_tri_body_np": "tri_body_np", "_tri_mat_np": "tri_mat_np", "_joint_tris_np": "joint_tris_np",
-            "pair_prop": "mat_pair", "ctri": "contact_tri", "cstart": "couple_start"}
-
-
 class Simulation(SimulationResults):
     """A built scene: model, state and the stepping loop.  Create with :meth:`Scene.build`.
 
     Units: SI.  Positions [m], velocities [m/s], masses [kg], energies [J] (the solver works per
     unit thickness; reported masses and energies are multiplied by the scene's thickness).
 
-    ``sim.model`` (built once) and ``sim.state`` (what a step changes) hold the arrays; the
-    model's counts, flags and time steps are also readable as attributes (``sim.dt``,
-    ``sim.dt_limit``, ``sim.tri_count``, ``sim.contact``, ...).
+    ``sim.model`` (built once, :class:`~taichi_fdem.sim.model.Model`) and ``sim.state`` (what a
+    step changes, :class:`~taichi_fdem.sim.model.State`) hold the arrays.  The commonly read
+    model values have read-only properties (:attr:`dt_limit`, :attr:`tri_count`,
+    :attr:`node_count`, :attr:`joint_count`, :attr:`contact`, :attr:`friction`,
+    :attr:`fracture`, :attr:`damping`, :attr:`contact_damping`, :attr:`buffer`); every other
+    value is read from ``sim.model``.  :attr:`dt` may be set (validated).  Assigning a name of
+    the model or the state on the simulation raises (it would change nothing).
     """
 
     #: ``factory(sim, video, fps, png_dir, renderer, cracks=False) -> (writer, draw)`` used by :meth:`run`
@@ -96,7 +93,7 @@ class Simulation(SimulationResults):
         self.thickness = scene.thickness
         self.model = build_model(scene, dt=dt, safety=safety, force_dt=force_dt, buffer=buffer, speed_limit=speed_limit,
                                  quasi_static=quasi_static, joined_pairs=joined_pairs, handover_damage=handover_damage)
-        self.bodies = self.model.bodies
+        object.__setattr__(self, "bodies", self.model.bodies)     # (also a model value)
         self.state = allocate_state(self.model)
         auto = strategy == "auto"
         if auto:
@@ -130,18 +127,6 @@ class Simulation(SimulationResults):
         """Work items of a step: triangles + joints + contact couples."""
         md = self.model
         return md.tri_count + (md.joint_count if md.fracture else 0) + self.couple_count
-
-    # model / state access ---------------------------------------------------------------------
-    def __getattr__(self, name):
-        # for names not found normally: the model's counts, flags, time steps and (compatibility) arrays
-        if name in ("model", "state", "scratch") or name.startswith("__"):
-            raise AttributeError(name)
-        name = _ALIASES.get(name, name)
-        for part in ("state", "model", "scratch"):
-            obj = self.__dict__.get(part)
-            if obj is not None and name in vars(obj):
-                return getattr(obj, name)
-        raise AttributeError(f"'Simulation' object has no attribute {name!r}")
 
     def _repack(self) -> None:
         """Rebuild the argpacks (after an array of the state was reallocated)."""
@@ -312,10 +297,105 @@ class Simulation(SimulationResults):
         self.launches[name] = self.launches.get(name, 0) + 1
         return launch_cached(self._launch_cache, name, kernel, *args)
 
+    # the simulated time is _clock[0] + (step_count - _clock[1]) * dt: (0, 0) until dt is set
+    _clock = (0.0, 0)
+
     @property
     def time(self) -> float:
-        """Simulated time [s]."""
-        return self.step_count * self.dt
+        """Simulated time [s]: the steps run times their time steps (:attr:`dt` may change)."""
+        t0, n0 = self._clock
+        return t0 + (self.step_count - n0) * self.model.dt
+
+    @property
+    def dt(self) -> float:
+        """The time step [s].  Settable between calls: a positive finite value, at most the
+        stable limit :attr:`dt_limit` (unless the scene was built with ``force_dt=True``) and,
+        with absorbing boundaries, below their dashpots' limit; the kernels integrate with it
+        from the next step on and :attr:`time` continues from its current value.  Loads and
+        velocity curves follow the simulated time, so they are unaffected."""
+        return self.model.dt
+
+    @dt.setter
+    def dt(self, value) -> None:
+        try:
+            dt = float(value)
+        except (TypeError, ValueError):
+            raise TypeError(f"sim.dt: a time step [s] must be a number, got {value!r}") from None
+        md = self.model
+        if not (math.isfinite(dt) and dt > 0):
+            raise ValueError(f"sim.dt: the time step must be a positive finite time [s], got {value!r}")
+        if dt > md.dt_limit and not md.force_dt:
+            raise ValueError(f"sim.dt = {dt:.4g} s is above the estimated stable limit {md.dt_limit:.4g} s "
+                             f"(sim.dt_limit); use dt <= {md.dt_limit:.4g} s, or build with "
+                             "Scene.build(dt=..., force_dt=True) to run above it")
+        if md.dashpot_rate * dt >= 1.0:
+            raise ValueError(f"sim.dt = {dt:.4g} s: the absorbing boundary's dashpots are unstable at this time "
+                             f"step (rate × dt = {md.dashpot_rate * dt:.3g} >= 1, FDEM_SPEC §12.5); use "
+                             f"dt < {1.0 / md.dashpot_rate:.4g} s")
+        object.__setattr__(self, "_clock", (self.time, self.step_count))
+        md.dt = dt
+        md.step_dt[None] = dt
+
+    @property
+    def dt_limit(self) -> float:
+        """Estimated stable time step [s] of the scene (``sim.model.dt_limit``; read-only)."""
+        return self.model.dt_limit
+
+    @property
+    def node_count(self) -> int:
+        """Number of nodes (``sim.model.node_count``; read-only)."""
+        return self.model.node_count
+
+    @property
+    def tri_count(self) -> int:
+        """Number of triangles (``sim.model.tri_count``; read-only)."""
+        return self.model.tri_count
+
+    @property
+    def joint_count(self) -> int:
+        """Number of joints (crack elements) between triangles (``sim.model.joint_count``; read-only)."""
+        return self.model.joint_count
+
+    @property
+    def contact(self) -> bool:
+        """Whether the scene has contact (``sim.model.contact``; read-only)."""
+        return self.model.contact
+
+    @property
+    def friction(self) -> bool:
+        """Whether any contact pair has friction (``sim.model.friction``; read-only)."""
+        return self.model.friction
+
+    @property
+    def fracture(self) -> bool:
+        """Whether the scene has joints that can break (``sim.model.fracture``; read-only)."""
+        return self.model.fracture
+
+    @property
+    def damping(self) -> bool:
+        """Whether any material has viscous damping (``sim.model.damping``; read-only)."""
+        return self.model.damping
+
+    @property
+    def contact_damping(self) -> bool:
+        """Whether any contact pair has contact damping (``sim.model.contact_damping``; read-only)."""
+        return self.model.contact_damping
+
+    @property
+    def buffer(self) -> float:
+        """Detection buffer [m]: contact detection runs again once the nodes may have moved
+        this far (``sim.model.buffer``; read-only)."""
+        return self.model.buffer
+
+    def __setattr__(self, name, value) -> None:
+        # a name of the model or the state assigned on the simulation would change nothing
+        model, state = self.__dict__.get("model"), self.__dict__.get("state")
+        if not hasattr(type(self), name) and name not in self.__dict__ and (
+                (model is not None and name in vars(model)) or (state is not None and name in vars(state))):
+            where = "model" if model is not None and name in vars(model) else "state"
+            raise AttributeError(f"sim.{name}: a value of the {where} is not a setting of the simulation; "
+                                 f"read it as sim.{where}.{name} (model values are fixed at Scene.build)")
+        object.__setattr__(self, name, value)
 
     @property
     def couple_count(self) -> int:
