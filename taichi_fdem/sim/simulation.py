@@ -17,9 +17,7 @@ detection inside the launch, larger scenes return to the host for the parallel b
 from __future__ import annotations
 
 import math
-import sys
 import time as _time
-from contextlib import closing as _closing, nullcontext
 
 import numpy as np
 
@@ -31,8 +29,8 @@ from .guards import SimulationError
 from ..engine.groups import COUPLES, DACC, DETECTIONS, FORCE_BLOCKS, FOUND, MAX_FORCE_BLOCKS, REBALANCE
 from .model import build_model, counter, set_counter
 from .state import allocate_scratch, allocate_state, grow_couples, pack_groups, size_assembly, size_couple_scratch
-from .cracks import CrackEventLog
-from .results import History, SimulationResults
+from .outputs import RunOutputs
+from .results import SimulationResults
 from .timestep import CONTACT_LIMIT_FACTOR  # noqa: F401  (re-exported)
 
 __all__ = ["Simulation", "SimulationError", "SERIAL_MAX_STEPS", "SERIAL_TRI_STEPS", "TEAM_TRI_STEPS",
@@ -49,6 +47,11 @@ TEAM_PROBE_MAX = 8.0             # then twice as long after each probe that agre
 TEAM_PROBE_STEPS = 8             # a probe launch runs 1/8 of a launch's steps
 AUTO_PARALLEL_ITEMS = 600        # triangles + joints + couples from which "auto" runs parallel on >= 2 CPU threads
 DETECT_SERIAL_TRIS = 15_000      # up to this many contact triangles, detection runs as one serial launch
+
+def _model_value(name: str, doc: str) -> property:
+    """A read-only property of :class:`Simulation` answering ``sim.model.<name>``."""
+    return property(lambda self: getattr(self.model, name), doc=f"{doc}  (``sim.model.{name}``; read-only)")
+
 
 class Simulation(SimulationResults):
     """A built scene: model, state and the stepping loop.  Create with :meth:`Scene.build`.
@@ -336,56 +339,17 @@ class Simulation(SimulationResults):
         md.dt = dt
         md.step_dt[None] = dt
 
-    @property
-    def dt_limit(self) -> float:
-        """Estimated stable time step [s] of the scene (``sim.model.dt_limit``; read-only)."""
-        return self.model.dt_limit
-
-    @property
-    def node_count(self) -> int:
-        """Number of nodes (``sim.model.node_count``; read-only)."""
-        return self.model.node_count
-
-    @property
-    def tri_count(self) -> int:
-        """Number of triangles (``sim.model.tri_count``; read-only)."""
-        return self.model.tri_count
-
-    @property
-    def joint_count(self) -> int:
-        """Number of joints (crack elements) between triangles (``sim.model.joint_count``; read-only)."""
-        return self.model.joint_count
-
-    @property
-    def contact(self) -> bool:
-        """Whether the scene has contact (``sim.model.contact``; read-only)."""
-        return self.model.contact
-
-    @property
-    def friction(self) -> bool:
-        """Whether any contact pair has friction (``sim.model.friction``; read-only)."""
-        return self.model.friction
-
-    @property
-    def fracture(self) -> bool:
-        """Whether the scene has joints that can break (``sim.model.fracture``; read-only)."""
-        return self.model.fracture
-
-    @property
-    def damping(self) -> bool:
-        """Whether any material has viscous damping (``sim.model.damping``; read-only)."""
-        return self.model.damping
-
-    @property
-    def contact_damping(self) -> bool:
-        """Whether any contact pair has contact damping (``sim.model.contact_damping``; read-only)."""
-        return self.model.contact_damping
-
-    @property
-    def buffer(self) -> float:
-        """Detection buffer [m]: contact detection runs again once the nodes may have moved
-        this far (``sim.model.buffer``; read-only)."""
-        return self.model.buffer
+    dt_limit = _model_value("dt_limit", "Estimated stable time step [s] of the scene.")
+    node_count = _model_value("node_count", "Number of nodes.")
+    tri_count = _model_value("tri_count", "Number of triangles.")
+    joint_count = _model_value("joint_count", "Number of joints (crack elements) between triangles.")
+    contact = _model_value("contact", "Whether the scene has contact (bool).")
+    friction = _model_value("friction", "Whether any contact pair has friction (bool).")
+    fracture = _model_value("fracture", "Whether the scene has joints that can break (bool).")
+    damping = _model_value("damping", "Whether any material has viscous damping (bool).")
+    contact_damping = _model_value("contact_damping", "Whether any contact pair has contact damping (bool).")
+    buffer = _model_value("buffer", "Detection buffer [m]: contact detection runs again once a node may have "
+                                    "moved this far.")
 
     def __setattr__(self, name, value) -> None:
         # a name of the model or the state assigned on the simulation would change nothing
@@ -732,65 +696,27 @@ class Simulation(SimulationResults):
             per_frame = max(1, int(round(float(frame_dt) / self.dt)))
         else:
             per_frame = self.steps_per_launch()
-        writer = draw = None
-        if video is not None:
-            if Simulation.video_sink_factory is None:
-                raise RuntimeError("run(video=...): no video writer installed (import taichi_fdem installs one)")
-            if renderer is not None and video_cracks:
-                raise ValueError("run: video_cracks= applies to the default renderer; give cracks= to the "
-                                 "RendererImage passed as renderer=")
-            writer, draw = Simulation.video_sink_factory(self, video, fps, png_dir, renderer,
-                                                         cracks=bool(video_cracks))
-        elif video_cracks:
-            raise ValueError("run: video_cracks=True needs video=")
-        if progress is None:
-            progress = sys.stdout.isatty()
-        bar = None
-        if progress:
-            from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
-            bar = Progress(TextColumn("[bold]taichi_fdem[/]"), BarColumn(), TextColumn("t = {task.fields[t]} s"),
-                           TextColumn("{task.percentage:>5.1f}%"), TimeRemainingColumn(), transient=True)
-        hist = None
-        if history is not None:
-            every = max(1, total // 200) if history_every is None else int(history_every)
-            if every < 1:
-                raise ValueError(f"run: history_every must be >= 1 step, got {history_every}")
-            hist = History(self, history)
-            hist.write()
-        cracks = None
-        if crack_events is not None:
-            cracks = CrackEventLog(self, crack_events)
-            cracks.write()
-        with (writer if writer is not None else nullcontext()), (bar if bar is not None else nullcontext()), \
-                (_closing(hist) if hist is not None else nullcontext()), \
-                (_closing(cracks) if cracks is not None else nullcontext()):
-            task = bar.add_task("run", total=total, t="0") if bar is not None else None
-            if writer is not None:
-                draw()
+        outputs = RunOutputs(self, total, video=video, fps=fps, png_dir=png_dir, renderer=renderer, progress=progress,
+                             history=history, history_every=history_every, crack_events=crack_events,
+                             video_cracks=video_cracks)
+        with outputs:
             done = 0
             guard = guards.RunGuard(self, check_energy, energy_tol, max_penetration, check_every)
             while done < total:
                 k = min(per_frame, total - done)
                 while k > 0:                       # checks (and history rows) on their own schedule
-                    j = min(k, guard.steps_to_next_check())
-                    if hist is not None:
-                        j = min(j, every - done % every)
+                    j = outputs.steps_to_next_row(done, min(k, guard.steps_to_next_check()))
                     t_step = _time.perf_counter()
                     self.step(j)
                     guard.step_wall = (_time.perf_counter() - t_step) / j
                     k -= j
                     done += j
-                    if cracks is not None:
-                        cracks.write()
+                    outputs.after_steps()
                     guard.check(j, last=done >= total)
-                    if hist is not None and (done % every == 0 or done >= total):
-                        hist.write()
-                if writer is not None:
-                    draw()
+                    outputs.after_check(done)
+                outputs.after_frame(done)
                 if callback is not None:
                     callback(self)
-                if bar is not None:
-                    bar.update(task, completed=done, t=f"{self.time:.4g}")
 
     # ------------------------------------------------------------------------------------------
     # info and checkpoints
