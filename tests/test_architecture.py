@@ -13,7 +13,7 @@ PKG = pathlib.Path(__file__).resolve().parent.parent / "taichi_fdem"
 LAYERS = [
     ("backend", "material", "mesh", "discontinuity"),
     ("engine",),
-    ("timestep", "model", "state"),
+    ("timestep", "arrays", "model", "state"),
     ("guards", "energies", "cracks", "results", "outputs", "profiling", "excavation", "simulation"),
     ("scene",),
     ("render", "io", "cli", "sweep", "verification", "__init__"),

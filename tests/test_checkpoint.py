@@ -49,7 +49,7 @@ def test_restart_continues_exactly(tmp_path, strategy):
     a.step(300)                                 # state A: the uninterrupted run
 
     b = fdem.Simulation.load(path)
-    assert b.step_count == saved_step and b.couple_max == saved_max
+    assert b.step_count == saved_step and b.state.couple_max == saved_max
     assert b.time == saved_step * a.dt
     b.step(300)                                 # state B: the restarted run
 

@@ -81,3 +81,36 @@ def test_restore_last_good_restores_the_time_step():
     sim.restore_last_good()
     assert sim.step_count == 20 and sim.dt == dt and sim.model.step_dt[None] == dt
     assert sim.time == pytest.approx(20 * dt)
+
+
+def _scenes():
+    """A plain body, and a fracturing block on a fixed base with a load and a prescribed
+    velocity (contact, joints, loads, boundary conditions)."""
+    rock = fdem.Material(**ROCK, friction=0.5, tensile_strength=5e6, fracture_energy=50.0)
+    plain = fdem.Scene(gravity=(0.0, G))
+    plain.add_body(fdem.mesh.disk(radius=0.05, h=0.03), rock)
+    rich = fdem.Scene(gravity=(0.0, G))
+    top = rich.add_body(fdem.mesh.rectangle(0.2, 0.1, 0.03), rock, position=(0.0, 0.2), fracture=True)
+    rich.add_body(fdem.mesh.rectangle(0.5, 0.1, 0.05), rock, position=(0.0, 0.0), fixed=True)
+    rich.apply_pressure(lambda x, y: y > 0.24, 1e5, body=top)
+    return [plain.build(), rich.build()]
+
+
+@pytest.mark.parametrize("which", [0, 1])
+def test_every_array_is_declared_and_every_declared_array_allocated(which):
+    """Model and State hold exactly the Taichi arrays of their declarations (and the Model
+    exactly its declared NumPy arrays); each declared shape has as many axes as the array."""
+    from taichi_fdem.sim.arrays import MODEL_ARRAYS, MODEL_HOST_ARRAYS, STATE_ARRAYS
+    sim = _scenes()[which]
+    import taichi as ti
+    for obj, declared in ((sim.model, MODEL_ARRAYS), (sim.state, STATE_ARRAYS)):
+        held = {k for k, v in vars(obj).items() if isinstance(v, ti.Ndarray)}
+        assert held == set(declared), (f"{type(obj).__name__}: undeclared {sorted(held - set(declared))}, "
+                                       f"not allocated {sorted(set(declared) - held)}")
+        assert list(obj.ndarrays()) == list(declared)
+        for name, spec in declared.items():
+            axes = 0 if spec.shape == "()" else spec.shape.count(",") + (not spec.shape.endswith(",)"))
+            assert len(getattr(obj, name).shape) == axes, (name, spec.shape, getattr(obj, name).shape)
+            assert spec.unit and spec.doc
+    host = {k for k, v in vars(sim.model).items() if isinstance(v, np.ndarray)}
+    assert host == set(MODEL_HOST_ARRAYS), sorted(host ^ set(MODEL_HOST_ARRAYS))

@@ -25,6 +25,7 @@ import numpy as np
 import taichi as ti
 
 from . import timestep
+from .arrays import MODEL_ARRAYS, MODEL_HOST_ARRAYS, STATE_ARRAYS
 from .. import backend
 from ..engine.groups import SWITCH_BC, SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING, SWITCH_PRESTRESS
 from ..engine.joints import FAN_HEAD, HANDOVER_DAMAGE, fan_links, initial_intact, neighbour_pairs
@@ -67,10 +68,17 @@ def _next_pow2(n: int) -> int:
 
 
 class _Arrays:
-    """A bag of named arrays; :meth:`ndarrays` lists the Taichi ones."""
+    """A bag of named arrays; the Taichi ones are declared in :attr:`ARRAYS`
+    (:mod:`taichi_fdem.sim.arrays`: shape, element type, unit)."""
+
+    #: name -> :class:`~taichi_fdem.sim.arrays.ArraySpec` of every Taichi array (None: undeclared)
+    ARRAYS: dict | None = None
 
     def ndarrays(self) -> dict:
-        return {k: v for k, v in vars(self).items() if isinstance(v, ti.Ndarray)}
+        """The Taichi arrays, by name: the declared ones in declared order (then any other)."""
+        arrays = {k: v for k, v in vars(self).items() if isinstance(v, ti.Ndarray)}
+        order = list(self.ARRAYS or ()) + [k for k in arrays if k not in (self.ARRAYS or ())]
+        return {k: arrays[k] for k in order if k in arrays}
 
 
 class Model(_Arrays):
@@ -78,20 +86,21 @@ class Model(_Arrays):
 
     Counts: ``node_count``, ``tri_count``, ``joint_count``, ``ctri_count`` (contact
     triangles).  Flags: ``contact``, ``friction``, ``contact_damping``, ``damping``,
-    ``fracture``, ``has_bc``, ``has_bc_work``.  Time steps [s]: ``dt``, ``dt_estimate``,
-    ``dt_limit``, ``dt_elastic``, ``dt_contact``, ``dt_joint``.  ``buffer`` [m],
-    ``speed_limit`` [m/s].  NumPy copies: ``node_rest`` (X [m]), ``node_velocity0``,
-    ``node_mass_np``, ``tri_nodes_np``, ``tri_body_np``, ``tri_mat_np``, ``tri_area0_np``,
-    ``joint_tris_np``.
-    Taichi arrays: ``node_mass``, ``node_free``, ``tri_*``, ``mat_*``, ``body_flags``,
-    ``contact_tri``, ``joint_nodes``, ``joint_prop`` and the step parameters ``step_dt``,
-    ``step_gravity``, ``step_buffer``, ``step_vlimit``, ``step_switches``.
+    ``fracture``, ``has_bc``, ``has_bc_work``, ``force_dt``.  Time steps [s]: ``dt``,
+    ``dt_estimate``, ``dt_limit``, ``dt_elastic``, ``dt_contact``, ``dt_joint``; ``dashpot_rate``
+    [1/s] (absorbing boundaries: stable while dashpot_rate · dt < 1).  ``buffer`` [m],
+    ``speed_limit`` [m/s].  Arrays: the Taichi ones in :data:`~taichi_fdem.sim.arrays.MODEL_ARRAYS`,
+    the NumPy copies in :data:`~taichi_fdem.sim.arrays.MODEL_HOST_ARRAYS` (name, shape, unit).
     """
+    ARRAYS = MODEL_ARRAYS
+    HOST_ARRAYS = MODEL_HOST_ARRAYS
 
 
 class State(_Arrays):
-    """What a step changes (see the module docstring); every Taichi array here is saved by
-    checkpoints.  ``couple_max`` is the capacity of the couple buffer."""
+    """What a step changes (see the module docstring): the Taichi arrays declared in
+    :data:`~taichi_fdem.sim.arrays.STATE_ARRAYS`, every one saved by checkpoints, and
+    ``couple_max``, the capacity of the couple buffer."""
+    ARRAYS = STATE_ARRAYS
 
 
 class Scratch(_Arrays):

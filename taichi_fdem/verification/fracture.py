@@ -39,12 +39,12 @@ class JointPair:
         self.dt = 1e-4
         # every node is prescribed: no stability limit applies
         self.sim = scene.build(dt=self.dt, force_dt=True)
-        self.jn = self.sim.joint_nodes.to_numpy()[0]
-        self.vbc = self.sim.node_vbc.to_numpy()
+        self.jn = self.sim.model.joint_nodes.to_numpy()[0]
+        self.vbc = self.sim.state.node_vbc.to_numpy()
 
     def move_A(self, velocity):
         self.vbc[self.A] = velocity
-        self.sim.node_vbc.from_numpy(self.vbc)
+        self.sim.state.node_vbc.from_numpy(self.vbc)
 
     def gap(self):
         """Mean (opening, sliding) of the joint from the node positions (§7.2)."""
