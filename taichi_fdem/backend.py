@@ -16,6 +16,32 @@ _PRECISIONS = {"f64": (ti.f64, np.float64), "f32": (ti.f32, np.float32)}
 
 _state = {"initialised": False, "arch": None, "precision": None, "generation": 0}
 
+#: The Taichi version the front-end shortcuts (:func:`_memoise_front_end`) were written for and
+#: checked against (tests/test_startup.py); under any other version they are not applied.
+FRONT_END_TAICHI = (1, 7, 4)
+#: Taichi internals the shortcuts replace while applied: (owner, attribute) -> the original.
+_front_end_originals: dict = {}
+
+
+def front_end_shortcuts() -> bool:
+    """Whether the front-end shortcuts of :func:`init` are applied in this process."""
+    return bool(_front_end_originals)
+
+
+def _set_front_end_shortcuts(on: bool) -> None:
+    """Apply (under Taichi :data:`FRONT_END_TAICHI` only) or remove the front-end shortcuts."""
+    if on and not _front_end_originals and tuple(getattr(ti, "__version__", ())) == FRONT_END_TAICHI:
+        _memoise_front_end()
+    elif not on:
+        for (owner, name), original in _front_end_originals.items():
+            setattr(owner, name, original)
+        _front_end_originals.clear()
+
+
+def _patch(owner, name, value) -> None:
+    _front_end_originals.setdefault((owner, name), getattr(owner, name))
+    setattr(owner, name, value)
+
 
 def _memoise_front_end() -> None:
     """Make Taichi's front end do its pure source bookkeeping once per function, not per use.
@@ -31,7 +57,8 @@ def _memoise_front_end() -> None:
     values (so the kernels and their cache keys do not change): the source of a function object
     by that object; a position message by everything it reads (the function, its file and
     line offset, the node's type and span, the line of a block statement's first statement).
-    Does nothing if Taichi's internals differ from 1.7's.
+    Applied by :func:`init` (``front_end_shortcuts``) under Taichi :data:`FRONT_END_TAICHI`
+    only; does nothing if Taichi's internals differ from that version's.
     """
     import functools
     import sys
@@ -61,7 +88,7 @@ def _memoise_front_end() -> None:
 
     get_pos_info._fdem_memo = True
     get_pos_info._fdem_original = original
-    ASTTransformerContext.get_pos_info = get_pos_info
+    _patch(ASTTransformerContext, "get_pos_info", get_pos_info)
     sourcefile, sourcelines = kernel_impl.getsourcefile, kernel_impl.getsourcelines
     files, lines = {}, {}
 
@@ -77,10 +104,11 @@ def _memoise_front_end() -> None:
         src, start = lines[obj]
         return list(src), start
 
-    kernel_impl.getsourcefile, kernel_impl.getsourcelines = getsourcefile, getsourcelines
+    _patch(kernel_impl, "getsourcefile", getsourcefile)
+    _patch(kernel_impl, "getsourcelines", getsourcelines)
     # kernel_impl uses textwrap.fill on each source line and textwrap.dedent on the source
-    kernel_impl.textwrap = types.SimpleNamespace(fill=functools.lru_cache(maxsize=None)(_textwrap.fill),
-                                                 dedent=functools.lru_cache(maxsize=None)(_textwrap.dedent))
+    _patch(kernel_impl, "textwrap", types.SimpleNamespace(fill=functools.lru_cache(maxsize=None)(_textwrap.fill),
+                                                          dedent=functools.lru_cache(maxsize=None)(_textwrap.dedent)))
     # the position messages wrap each source line and its hint at 80 columns with a new
     # TextWrapper: the same lines and hints come back for every node on them (a pure function
     # of the text at that width)
@@ -96,7 +124,7 @@ def _memoise_front_end() -> None:
                     lines = wrapped[key] = tuple(super().wrap(text))
                 return list(lines)
 
-        _atu.TextWrapper = _Wrapper
+        _patch(_atu, "TextWrapper", _Wrapper)
     # Taichi asks at each @ti.func / @ti.kernel whether it decorates a method by reading the
     # source of the statement that runs the frame applying the decorator (a "class" line: that
     # frame is a class body), one frame further out, ~0.5 ms each.  A frame that is a module's
@@ -112,14 +140,12 @@ def _memoise_front_end() -> None:
             return inside(level_of_class_stackframe + 1)      # (one frame more: this one)
 
         _inside_class._fdem_memo = True
-        kernel_impl._inside_class = _inside_class
-
-
-_memoise_front_end()
+        _patch(kernel_impl, "_inside_class", _inside_class)
 
 
 def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, debug: bool | None = None,
-         cpu_max_num_threads: int | None = None, fast_compile: bool | None = None) -> None:
+         cpu_max_num_threads: int | None = None, fast_compile: bool | None = None,
+         front_end_shortcuts: bool | None = None) -> None:
     """Initialise Taichi for taichi_fdem.
 
     Parameters
@@ -142,6 +168,15 @@ def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, 
         which two bodies separate): the figures of the accuracy benchmark are measured with the
         default.  None (default): on when the environment variable TAICHI_FDEM_FAST_COMPILE is
         "1".
+    front_end_shortcuts : memoise the pure source bookkeeping of Taichi's front end (source
+        lookups, text wrapping, error-position messages; :func:`_memoise_front_end`), which
+        roughly halves the first step of a warm start.  The memos return exactly Taichi's own
+        answers (tests/test_startup.py), so the kernels and their cache keys are unchanged.
+        They patch five Taichi internals for the process, so they are applied only here and
+        only under the Taichi version they were written for (:data:`FRONT_END_TAICHI`); under
+        any other version this setting does nothing.  False removes them again.  None
+        (default): on unless the environment variable TAICHI_FDEM_FRONT_END_SHORTCUTS is "0".
+        Importing taichi_fdem patches nothing.
 
     Calling ``init`` again with the same settings does nothing (a notebook cell or a pasted
     example may call it twice).  With other settings it re-initialises Taichi: simulations built
@@ -153,6 +188,9 @@ def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, 
         raise ValueError(f"fdem.init: unknown precision {precision!r}; choose 'f64' or 'f32'")
     if debug is None:
         debug = os.environ.get("TAICHI_FDEM_DEBUG", "") == "1"
+    if front_end_shortcuts is None:
+        front_end_shortcuts = os.environ.get("TAICHI_FDEM_FRONT_END_SHORTCUTS", "") != "0"
+    _set_front_end_shortcuts(bool(front_end_shortcuts))
     kwargs = dict(arch=getattr(ti, _ARCHS[arch]), default_fp=_PRECISIONS[precision][0], default_ip=ti.i32,
                   offline_cache=offline_cache, debug=debug, log_level=ti.WARN,
                   # Taichi's CFG optimisation (store-to-load forwarding and dead-store elimination over

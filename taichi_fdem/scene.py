@@ -569,7 +569,7 @@ class Scene:
 
         Parameters
         ----------
-        dt : time step [s].  None (default): ``safety`` × the book's estimate ``sim.dt_estimate``
+        dt : time step [s].  None (default): ``safety`` × the book's estimate ``sim.model.dt_estimate``
             (FDEM_SPEC §6.2: elements h/c_p with damping, contact h√(ρ/p), joints L√(ρ/p_f)).
             A dt above the stable limit ``sim.dt_limit`` (the same with contact and joint terms
             × 0.4 and damping rated on the element size, as measured in the stress tests) raises

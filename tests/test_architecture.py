@@ -13,8 +13,8 @@ PKG = pathlib.Path(__file__).resolve().parent.parent / "taichi_fdem"
 LAYERS = [
     ("backend", "material", "mesh", "discontinuity"),
     ("engine",),
-    ("timestep", "model", "state"),
-    ("guards", "energies", "cracks", "results", "profiling", "excavation", "simulation"),
+    ("timestep", "arrays", "model", "state"),
+    ("guards", "energies", "cracks", "results", "outputs", "profiling", "excavation", "simulation"),
     ("scene",),
     ("render", "io", "cli", "sweep", "verification", "__init__"),
 ]
@@ -118,3 +118,78 @@ def test_core_does_not_load_drivers(module):
             "'taichi_fdem.io', 'taichi_fdem.cli'))]; print(loaded); assert not loaded")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+def _import_graph() -> dict:
+    """module -> the package modules it imports (function-level imports included; an imported
+    name resolves to the module that defines it, a package to its __init__)."""
+    mods = dict(_modules())
+
+    def resolve(target):
+        while target:
+            if target in mods:
+                return target
+            if target + ".__init__" in mods:
+                return target + ".__init__"
+            target = target.rpartition(".")[0]
+        return None
+
+    return {name: {r for t, _ in _imports(name, path) if (r := resolve(t)) is not None and r != name}
+            for name, path in mods.items()}
+
+
+def _find_cycle(graph: dict):
+    """The first circle a depth-first search of ``graph`` meets, as a list of nodes, or None."""
+    colour, path = {}, []
+
+    def visit(v):
+        colour[v] = 1
+        path.append(v)
+        for w in sorted(graph.get(v, ())):
+            if colour.get(w) == 1:
+                return path[path.index(w):] + [w]
+            if w not in colour and (found := visit(w)):
+                return found
+        path.pop()
+        colour[v] = 2
+        return None
+
+    for v in sorted(graph):
+        if v not in colour and (found := visit(v)):
+            return found
+    return None
+
+
+def test_no_import_cycle():
+    """The import graph of the package (every module, function-level imports included) is
+    acyclic, so no two modules of a layer or subpackage import each other, directly or around
+    a circle."""
+    graph = _import_graph()
+    assert "mesh.arrangement" in graph["mesh.generators"]          # (the graph sees the imports)
+    cycle = _find_cycle(graph)
+    assert cycle is None, "import cycle: " + " -> ".join(cycle)
+
+
+def test_cycle_search_finds_circles():
+    assert _find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
+    assert _find_cycle({"a": {"b", "c"}, "b": {"c"}, "c": set()}) is None
+    assert _find_cycle({"x": {"y"}, "y": {"y2"}, "y2": {"y"}}) == ["y", "y2", "y"]
+
+
+@pytest.mark.parametrize("where", ["sim/simulation.py", "sim/results.py", "sim/model.py", "sim/state.py"])
+def test_no_attribute_forwarding(where):
+    """No class of the simulation layer forwards unknown attributes (``__getattr__`` or
+    ``__getattribute__``): Simulation, Model and State answer only the names they declare.  (A
+    module-level PEP 562 loader, as in taichi_fdem/__init__.py, is not a class's.)"""
+    tree = ast.parse((PKG / where).read_text())
+    bad = [f"{cls.name}.{fn.name}" for cls in ast.walk(tree) if isinstance(cls, ast.ClassDef)
+           for fn in cls.body if isinstance(fn, ast.FunctionDef) and fn.name in ("__getattr__", "__getattribute__")]
+    assert not bad, f"{where}: attribute forwarding in {bad}"
+
+
+def test_simulation_model_state_classes_do_not_forward():
+    from taichi_fdem.sim.model import Model, State
+    from taichi_fdem.sim.simulation import Simulation
+    for cls in (Simulation, Model, State):
+        for klass in cls.__mro__[:-1]:
+            assert "__getattr__" not in vars(klass), f"{klass.__name__} defines __getattr__"

@@ -42,20 +42,20 @@ def test_restart_continues_exactly(tmp_path, strategy):
     path = tmp_path / "run.ckpt"
     a = block_on_floor(strategy)
     a.step(150)
-    a._alloc_couples(3 * a.couple_max)         # a couple buffer that grew: its shape differs from a fresh build
+    a._alloc_couples(3 * a.state.couple_max)         # a couple buffer that grew: its shape differs from a fresh build
     a.step(50)
     a.save(path)
-    saved_step, saved_max = a.step_count, a.couple_max
+    saved_step, saved_max = a.step_count, a.state.couple_max
     a.step(300)                                 # state A: the uninterrupted run
 
     b = fdem.Simulation.load(path)
-    assert b.step_count == saved_step and b.couple_max == saved_max
+    assert b.step_count == saved_step and b.state.couple_max == saved_max
     assert b.time == saved_step * a.dt
     b.step(300)                                 # state B: the restarted run
 
     assert b.step_count == a.step_count and b.time == a.time and b.dt == a.dt
     assert [x.name for x in b.bodies] == ["floor", "block"]
-    assert a.friction and a.damping and a.contact_damping and a.has_bc and a.couple_count > 0
+    assert a.friction and a.damping and a.contact_damping and a.model.has_bc and a.couple_count > 0
     ea, eb = a.energies(), b.energies()         # (before comparing arrays: fills the _energy_out scratch)
     for key in ea:
         assert eb[key] == pytest.approx(ea[key], rel=1e-12, abs=1e-15), key
@@ -93,8 +93,8 @@ def test_loaded_simulation_is_complete(tmp_path):
             assert vb == va, name
     # the fix_nodes lambda was stored as the node mask it selected, in the restored scene too
     assert len(b.scene._constraints) == 1
-    mask = b.scene._constraints[0].where(a._X[:, 0], a._X[:, 1])
-    np.testing.assert_array_equal(mask, a._X[:, 1] < -0.049)
+    mask = b.scene._constraints[0].where(a.model.node_rest[:, 0], a.model.node_rest[:, 1])
+    np.testing.assert_array_equal(mask, a.model.node_rest[:, 1] < -0.049)
     # the interaction override survives (keyed by the restored material objects)
     fl, bl = b.bodies[0].material, b.bodies[1].material
     assert b.scene._interactions[(id(fl), id(bl))] == {"friction": 0.3}

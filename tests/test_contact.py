@@ -149,7 +149,7 @@ def test_translation_and_rotation_invariance(pair_sim):
     try:
         for theta, shift in ((0.0, (3.25, -7.5)), (0.7, (0.0, 0.0)), (2.0, (-1.5, 4.0)), (-math.pi / 2, (2.0, 1.0))):
             R = np.array([[math.cos(theta), -math.sin(theta)], [math.sin(theta), math.cos(theta)]])
-            sim.node_x.from_numpy(x0 @ R.T + np.asarray(shift))
+            sim.state.node_x.from_numpy(x0 @ R.T + np.asarray(shift))
             after = pair_forces(sim, bodies)
             worst = 0.0
             for (xa, fa), (xb, fb) in zip(before, after):
@@ -160,7 +160,7 @@ def test_translation_and_rotation_invariance(pair_sim):
                             / np.abs(fa).max())
             assert worst < 1e-11, (theta, shift)   # relative; coordinates up to ~200 m
     finally:
-        sim.node_x.from_numpy(x0)
+        sim.state.node_x.from_numpy(x0)
 
 
 def test_shared_edge_gives_no_force():
@@ -206,7 +206,7 @@ def test_force_is_gradient_of_contact_energy():
         sim = build_quiet(scene)
         x0 = sim.node_positions()
         f = sim.forces(contact_only=True)
-        energy = lambda x: (sim.node_x.from_numpy(x), sim.energies()["contact"])[1]
+        energy = lambda x: (sim.state.node_x.from_numpy(x), sim.energies()["contact"])[1]
         X = x0
         region = clip_convex(X[:3], X[3:])
         EA = P * potential_integral(region, X[:3])

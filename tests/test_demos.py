@@ -102,9 +102,9 @@ def test_fragment_plate_short(tmp_path):
     assert r["broken_joints"] >= 5
     assert 0 < r["fracture_energy_J"] < r["initial_energy_J"]
     assert r["energy_rel_error_max"] < 1e-3
-    intact = sim.joint_state.to_numpy()[: sim.joint_count] == 0
+    intact = sim.state.joint_state.to_numpy()[: sim.joint_count] == 0
     n_plate = plate.triangles.stop - plate.triangles.start
-    ref = _components(sim.tri_count, sim._joint_tris_np[intact]) - (sim.tri_count - n_plate)
+    ref = _components(sim.tri_count, sim.model.joint_tris_np[intact]) - (sim.tri_count - n_plate)
     assert ref >= 2
     assert sim.fragment_count(plate) == ref
     assert sim.fragment_count() == ref + 1

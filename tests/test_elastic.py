@@ -37,13 +37,13 @@ def test_rigid_motion_gives_no_stress_and_no_force(plane):
     assert sim.forces().shape == X.shape
     for theta, shift in ((0.0, (12.5, -3.0)), (1.0, (0.0, 0.0)), (1.0, (0.3, 0.7)), (2.5, (-4.0, 1.0)),
                          (-math.pi, (0.0, 0.0))):
-        sim.node_x.from_numpy(c + (X - c) @ rotation(theta).T + np.asarray(shift))
+        sim.state.node_x.from_numpy(c + (X - c) @ rotation(theta).T + np.asarray(shift))
         sigma = sim.stresses()
         assert np.abs(sigma).max() < 1e-12 * E          # relative to E: round-off only
         f = sim.forces()
         assert np.abs(f).max() < 1e-12 * E * h           # relative to the force scale E·h
         assert abs(sim.energies()["strain"]) < 1e-15 * E * mesh.area   # W = 0 up to cancellation
-    sim.node_x.from_numpy(X)
+    sim.state.node_x.from_numpy(X)
 
 
 def test_patch_test_general_affine_map():
@@ -56,7 +56,7 @@ def test_patch_test_general_affine_map():
     X = sim.node_positions()
     for F in (np.array([[1.05, 0.02], [-0.03, 0.97]]), np.array([[0.9, 0.3], [0.1, 1.2]]),
               rotation(0.8) @ np.array([[1.1, 0.05], [0.0, 0.95]])):
-        sim.node_x.from_numpy(X @ F.T + np.array([0.2, -0.1]))
+        sim.state.node_x.from_numpy(X @ F.T + np.array([0.2, -0.1]))
         sigma = sim.stresses()
         assert np.abs(sigma - sigma[0]).max() < 1e-10 * np.abs(sigma[0]).max()   # uniform stress
         assert np.allclose(sigma[0], sigma[0].T, rtol=0, atol=1e-12 * np.abs(sigma[0]).max())
@@ -72,7 +72,7 @@ def test_patch_test_general_affine_map():
         virial = np.einsum("ni,nj->ij", x, f)
         area = 0.5 * np.abs(np.linalg.det(F)) * 2 * mesh.area
         assert np.allclose(virial, -sigma[0] * area, rtol=0, atol=1e-9 * np.abs(sigma[0]).max() * area)
-    sim.node_x.from_numpy(X)
+    sim.state.node_x.from_numpy(X)
 
 
 @pytest.mark.parametrize("plane", ["stress", "strain"])
@@ -89,14 +89,14 @@ def test_uniaxial_stress_modulus_and_poisson(plane):
     eps = 1e-6
 
     def evaluate(eps_y):
-        sim.node_x.from_numpy(X * np.array([1.0 + eps, 1.0 + eps_y]))
+        sim.state.node_x.from_numpy(X * np.array([1.0 + eps, 1.0 + eps_y]))
         return sim.stresses(), sim.forces()
 
     s0, _ = evaluate(0.0)
     s1, _ = evaluate(-0.5 * eps)
     eps_y = -0.5 * eps * s0[0, 1, 1] / (s0[0, 1, 1] - s1[0, 1, 1])
     sigma, f = evaluate(eps_y)
-    sim.node_x.from_numpy(X)
+    sim.state.node_x.from_numpy(X)
     assert abs(sigma[:, 1, 1]).max() < 1e-6 * abs(sigma[0, 0, 0])
     assert abs(sigma[:, 0, 1]).max() < 1e-9 * abs(sigma[0, 0, 0])
     E_meas = sigma[:, 0, 0].mean() / eps
@@ -111,9 +111,9 @@ def test_uniaxial_stress_modulus_and_poisson(plane):
     assert -f[right, 0].sum() / (height * eps) == pytest.approx(E_ref, rel=1e-4)
     assert np.abs(f[interior]).max() < 1e-9 * np.abs(f).max()
     # and the strain energy ½ σ ε per unit area
-    sim.node_x.from_numpy(X * np.array([1.0 + eps, 1.0 + eps_y]))
+    sim.state.node_x.from_numpy(X * np.array([1.0 + eps, 1.0 + eps_y]))
     assert sim.energies()["strain"] == pytest.approx(0.5 * E_ref * eps ** 2 * width * height, rel=1e-4)
-    sim.node_x.from_numpy(X)
+    sim.state.node_x.from_numpy(X)
 
 
 def test_rotated_stretch_rotates_the_stress():
@@ -122,12 +122,12 @@ def test_rotated_stretch_rotates_the_stress():
     sim, body = single_body_sim(mesh, "strain")
     X = sim.node_positions()
     F = np.array([[1.02, 0.01], [0.0, 0.99]])
-    sim.node_x.from_numpy(X @ F.T)
+    sim.state.node_x.from_numpy(X @ F.T)
     s = sim.stresses()[0]
     R = rotation(1.0)
-    sim.node_x.from_numpy(X @ (R @ F).T)
+    sim.state.node_x.from_numpy(X @ (R @ F).T)
     s_rot = sim.stresses()
-    sim.node_x.from_numpy(X)
+    sim.state.node_x.from_numpy(X)
     assert np.abs(s_rot - R @ s @ R.T).max() < 1e-9 * np.abs(s).max()
 
 

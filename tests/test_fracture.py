@@ -191,7 +191,7 @@ def test_no_fracture_no_joint_kernel():
     assert sim.fracture is False and sim.joint_count == 0
     assert "eval_joints" not in sim.launches
     assert sim.launches                                  # the parallel strategy counts its launches
-    assert sim.joint_nodes.shape[0] == 1 and sim.joint_state.shape[0] == 1
+    assert sim.model.joint_nodes.shape[0] == 1 and sim.state.joint_state.shape[0] == 1
     assert sim.broken_joint_count == 0 and sim.fragment_count() == 2
     assert sim.energies()["fracture"] == 0.0 and sim.energies()["joints"] == 0.0
     assert np.all(sim.tri_damage() == 0.0)

@@ -34,21 +34,21 @@ class Square:
         scene.fix_nodes(lambda x, y: x < 2.0, body=body, velocity=(0.0, 0.0))
         self.sim = scene.build(dt=DT, force_dt=True, joined_pairs="joint" if carried else "contact",
                                handover_damage=handover_damage)
-        jt = self.sim.joint_tris.to_numpy()[0]
-        tn = self.sim.tri_nodes.to_numpy()
+        jt = self.sim.model.joint_tris.to_numpy()[0]
+        tn = self.sim.model.tri_nodes.to_numpy()
         self.A = tn[jt[0]]
-        jn = self.sim.joint_nodes.to_numpy()[0]
+        jn = self.sim.model.joint_nodes.to_numpy()[0]
         x = self.sim.node_positions()
         e = 0.5 * (x[jn[1]] + x[jn[2]] - x[jn[0]] - x[jn[3]])
         self.L = float(np.linalg.norm(e))
         self.e = e / self.L
         self.n = np.array([-self.e[1], self.e[0]])          # points into A
         self.tri_a = int(jt[0])
-        self.vbc = self.sim.node_vbc.to_numpy()
+        self.vbc = self.sim.state.node_vbc.to_numpy()
 
     def move_A(self, velocity):
         self.vbc[self.A] = velocity
-        self.sim.node_vbc.from_numpy(self.vbc)
+        self.sim.state.node_vbc.from_numpy(self.vbc)
 
     def compress(self, overlap, steps=100):
         self.move_A(-self.n * overlap / (steps * DT))
@@ -61,7 +61,7 @@ class Square:
 
 def test_initial_bits_mark_the_joint_edge_only():
     s = Square()
-    v = s.sim.tri_intact.to_numpy()
+    v = s.sim.state.tri_intact.to_numpy()
     assert np.all(v & INTACT) and not np.any(v & DAMAGED)
     free = [sum(bool(x & (EDGE_FREE << e)) for e in range(3)) for x in v]
     assert free == [2, 2, 3]          # one joint edge (the diagonal) in each half of the square
@@ -100,7 +100,7 @@ def test_handover_keeps_the_energy(handover):
         totals.append(e["total"])
         contact.append(e["contact"])
         dmax.append(float(s.sim.state.joint_dmax.to_numpy()[0].max()))
-        if s.sim.tri_intact.to_numpy()[s.tri_a] & DAMAGED:
+        if s.sim.state.tri_intact.to_numpy()[s.tri_a] & DAMAGED:
             break
     else:
         pytest.fail("the joint did not damage")
@@ -117,7 +117,7 @@ def test_handover_keeps_the_energy(handover):
 
 def test_joined_pairs_contact_mode_and_bad_value():
     s = Square(carried=False)
-    v = s.sim.tri_intact.to_numpy()
+    v = s.sim.state.tri_intact.to_numpy()
     assert np.all(v & (7 * EDGE_FREE) == 7 * EDGE_FREE)          # no edge carried
     with pytest.raises(ValueError, match="joined_pairs"):
         fdem.Scene().build(joined_pairs="none")
@@ -143,7 +143,7 @@ def test_carried_pair_shear_strength_includes_the_contact_friction_share():
     tau = []
     for _ in range(400):
         s.sim.step(1)
-        if s.sim.tri_intact.to_numpy()[s.tri_a] & DAMAGED:
+        if s.sim.state.tri_intact.to_numpy()[s.tri_a] & DAMAGED:
             break
         tau.append(abs(s.sim.forces()[s.A].sum(axis=0) @ s.e) / s.L)
     print(f"\npeak τ / (c − σ_j tanφ − μ σ_x) = {max(tau) / fs:.6f} (c − σ_j tanφ alone: {(c - sig_j * tanphi) / fs:.3f})")

@@ -487,7 +487,7 @@ def _stretched(plane, e):
     sc.add_body(fdem.mesh.rectangle(1.0, 0.5, h=0.1), mat)
     sim = sc.build()
     X = sim.node_positions()
-    sim.node_x.from_numpy(X * np.array([1.0 + e, 1.0]))
+    sim.state.node_x.from_numpy(X * np.array([1.0 + e, 1.0]))
     return sim, mat, X
 
 
@@ -513,12 +513,12 @@ def test_tri_scalars_uniaxial_stretch_analytic():
     assert np.allclose(r.tri_scalars(sim, "min_principal"), syy, rtol=1e-9)
     assert np.allclose(r.tri_scalars(sim, "speed"), 0.5)
     # displacement of node i is (e X_i, 0): the triangle mean of |u| by hand
-    disp = (e * np.abs(X[:, 0]))[sim._tri_nodes_np].mean(1)
+    disp = (e * np.abs(X[:, 0]))[sim.model.tri_nodes_np].mean(1)
     assert np.allclose(r.tri_scalars(sim, "displacement"), disp, rtol=1e-12)
     with pytest.raises(ValueError):
         r.tri_scalars(sim, "body")
     # a shear: principal stresses from the numpy stress tensor
-    sim.node_x.from_numpy(X + np.stack([0.02 * X[:, 1], np.zeros(len(X))], axis=1))
+    sim.state.node_x.from_numpy(X + np.stack([0.02 * X[:, 1], np.zeros(len(X))], axis=1))
     T = sim.stresses()
     w = np.linalg.eigvalsh(0.5 * (T + T.transpose(0, 2, 1)))
     assert np.allclose(r.tri_scalars(sim, "max_principal"), w[:, 1], rtol=1e-9, atol=1e-6 * np.abs(w).max())
@@ -712,18 +712,18 @@ def _reference_frame(r, sim, mode):
     vmin = r.vmin if r.vmin is not None else float(vals[fin].min())
     vmax = r.vmax if r.vmax is not None else float(vals[fin].max())
     cols = np.ascontiguousarray(render.colormap(vals, vmin, vmax, r.cmap))
-    x = sim.node_x.to_numpy()
-    view, scale = r._letterbox(r._world_box(sim.node_x), r._bar_layout()["reserve"] if r.colorbar else 0)
+    x = sim.state.node_x.to_numpy()
+    view, scale = r._letterbox(r._world_box(sim.state.node_x), r._bar_layout()["reserve"] if r.colorbar else 0)
     img = ti.Vector.ndarray(3, ti.f32, shape=(r.height, r.width))
     out = ti.ndarray(ti.u8, shape=(r.height, r.width, 3))
     p = ti.Vector.ndarray(2, ti.f32, shape=(x.shape[0],))
-    params = ti.ndarray(sim.node_x.dtype, shape=(3,))
+    params = ti.ndarray(sim.state.node_x.dtype, shape=(3,))
     params.from_numpy(np.array([view[0], view[3], scale], dtype=x.dtype))
     c = ti.Vector.ndarray(3, ti.f32, shape=(cols.shape[0],))
     c.from_numpy(cols)
     render._clear_kernel(img, ti.Vector(r.background, dt=ti.f32))
-    render._to_pixels_kernel(sim.node_x, params, p)
-    render._raster_kernel(p, sim.tri_nodes, c, img, ti.Vector(r.edge_color, dt=ti.f32),
+    render._to_pixels_kernel(sim.state.node_x, params, p)
+    render._raster_kernel(p, sim.model.tri_nodes, c, img, ti.Vector(r.edge_color, dt=ti.f32),
                           float(0.5 * r.edge_width), int(r.draw_edges and r.edge_width > 0))
     render._resolve_kernel(img, out, 1)
     return out.to_numpy(), (vmin, vmax)

@@ -85,7 +85,7 @@ def test_examples_load_and_build():
     assert settings.video.endswith(".mp4") and settings.color_by == "von_mises"
     assert np.allclose(sim.node_velocities(0), [1.0, 0.0]) and np.allclose(sim.node_velocities(1), 0.0)
     assert np.allclose(sim.scene.gravity, 0.0)
-    assert sim.materials[0].young == 1.0e7 and sim.materials[0].name == "rubber"
+    assert sim.model.materials[0].young == 1.0e7 and sim.model.materials[0].name == "rubber"
 
 
 def test_base_scene_values(tmp_path):

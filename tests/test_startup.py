@@ -1,13 +1,26 @@
-"""The front-end memos of ``backend._memoise_front_end`` (start-up time) change no value Taichi sees."""
+"""The front-end memos of ``backend._memoise_front_end`` (start-up time) change no value Taichi
+sees, and patch nothing unless ``fdem.init`` applies them (the session's init does, under
+Taichi ``backend.FRONT_END_TAICHI``)."""
 import ast
 import inspect
+import os
+import subprocess
+import sys
 import textwrap
 
-import taichi_fdem as fdem  # noqa: F401  (installs the memos)
+import pytest
+import taichi as ti
+
+import taichi_fdem as fdem  # noqa: F401
+from taichi_fdem import backend
 from taichi.lang import kernel_impl
 from taichi.lang.ast.ast_transformer_utils import ASTTransformerContext
 
 from taichi_fdem.engine import contact, team
+
+pytestmark = pytest.mark.skipif(tuple(ti.__version__) != backend.FRONT_END_TAICHI
+                                or os.environ.get("TAICHI_FDEM_FRONT_END_SHORTCUTS") == "0",
+                                reason="the front-end shortcuts are off (another Taichi, or switched off)")
 
 
 def _nodes(tree):
@@ -83,3 +96,65 @@ def test_module_functions_and_methods_are_told_apart():
             return 2
 
     assert Counter().total() == 3
+
+
+_PROBE = """
+import sys, textwrap
+from taichi.lang import kernel_impl
+from taichi.lang.ast import ast_transformer_utils as atu
+def internals():
+    return (atu.ASTTransformerContext.get_pos_info, kernel_impl.getsourcefile, kernel_impl.getsourcelines,
+            kernel_impl.textwrap, kernel_impl._inside_class, atu.TextWrapper)
+before = internals()
+assert kernel_impl.textwrap is textwrap and atu.TextWrapper is textwrap.TextWrapper
+import taichi_fdem as fdem
+from taichi_fdem import backend
+print("import", sum(a is not b for a, b in zip(internals(), before)), backend.front_end_shortcuts())
+fdem.init(arch="cpu", front_end_shortcuts=sys.argv[1] == "1")
+print("init", sum(a is not b for a, b in zip(internals(), before)), backend.front_end_shortcuts())
+fdem.init(arch="cpu", front_end_shortcuts=False)
+print("off", sum(a is not b for a, b in zip(internals(), before)), backend.front_end_shortcuts())
+"""
+
+
+def _probe(switch: str, env: dict | None = None) -> list[str]:
+    environ = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path), **(env or {}))
+    out = subprocess.run([sys.executable, "-c", _PROBE, switch], capture_output=True, text=True, env=environ,
+                         timeout=120)
+    assert out.returncode == 0, out.stderr
+    return [line for line in out.stdout.splitlines() if line.split()[0] in ("import", "init", "off")]
+
+
+def test_import_patches_nothing_and_init_applies_or_removes_the_shortcuts():
+    """In a fresh process: importing taichi_fdem leaves all six patched names of Taichi as they
+    were; ``init(front_end_shortcuts=True)`` replaces them (six of six under the checked Taichi
+    version); ``init(front_end_shortcuts=False)`` puts Taichi's own back."""
+    assert _probe("1") == ["import 0 False", "init 6 True", "off 0 False"]
+
+
+def test_switched_off_init_patches_nothing():
+    """``init(front_end_shortcuts=False)``, and the environment switch
+    TAICHI_FDEM_FRONT_END_SHORTCUTS=0 with the default, patch nothing."""
+    assert _probe("0") == ["import 0 False", "init 0 False", "off 0 False"]
+    probe = _PROBE.replace('front_end_shortcuts=sys.argv[1] == "1"', "")
+    environ = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path), TAICHI_FDEM_FRONT_END_SHORTCUTS="0")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, env=environ, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert [ln for ln in out.stdout.splitlines() if ln.startswith(("import", "init"))] == ["import 0 False",
+                                                                                          "init 0 False"]
+
+
+def test_other_taichi_versions_get_no_shortcuts(monkeypatch):
+    """Under a Taichi version other than the one the shortcuts were checked against,
+    applying them does nothing."""
+    backend._set_front_end_shortcuts(False)
+    try:
+        monkeypatch.setattr(backend, "FRONT_END_TAICHI", (1, 7, 99))
+        backend._set_front_end_shortcuts(True)
+        assert not backend.front_end_shortcuts()
+        assert kernel_impl.textwrap is textwrap and ASTTransformerContext.get_pos_info.__name__ == "get_pos_info"
+        assert not getattr(ASTTransformerContext.get_pos_info, "_fdem_memo", False)
+    finally:
+        monkeypatch.undo()
+        backend._set_front_end_shortcuts(True)
+    assert backend.front_end_shortcuts()

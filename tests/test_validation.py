@@ -26,7 +26,7 @@ def test_clockwise_triangle_is_reoriented_and_simulates():
     assert sim.node_masses(body).sum() == pytest.approx(1000.0 * 0.5, rel=1e-14)   # ρ A, positive
     # a stretched CW-input triangle pulls back (a reversed triangle would push further out)
     x = sim.node_positions()
-    sim.node_x.from_numpy(x * 1.01)
+    sim.state.node_x.from_numpy(x * 1.01)
     f = sim.forces()
     assert np.all(np.sum(f * (x - x.mean(0)), axis=1) < 0)
 
@@ -163,7 +163,7 @@ def test_dt_above_stable_limit_raises_unless_forced():
     scene = fdem.Scene()
     scene.add_body(fdem.mesh.rectangle(1, 1, 0.25), MAT)
     limit = scene.build().dt_limit
-    assert scene.build().dt == pytest.approx(0.2 * scene.build().dt_estimate, rel=1e-12)   # default safety 0.2
+    assert scene.build().dt == pytest.approx(0.2 * scene.build().model.dt_estimate, rel=1e-12)   # default safety 0.2
     with pytest.raises(ValueError, match="stable limit"):
         scene.build(dt=2.0 * limit)
     sim = scene.build(dt=2.0 * limit, force_dt=True)
@@ -183,21 +183,21 @@ def test_stable_limit_follows_the_spec_formula():
     cp = math.sqrt(E * (1 - nu) / (rho * (1 + nu) * (1 - 2 * nu)))
     scene = fdem.Scene()
     scene.add_body(mesh, MAT)
-    assert scene.build().dt_estimate == pytest.approx(h_min / cp, rel=1e-12)
+    assert scene.build().model.dt_estimate == pytest.approx(h_min / cp, rel=1e-12)
     assert scene.build().dt_limit == pytest.approx(h_min / cp, rel=1e-12)
     scene.add_body(mesh, MAT, position=(0.0, 2.0))
     p = 10.0 * E                                                            # default penalty 10 E
-    assert scene.build().dt_estimate == pytest.approx(h_min * math.sqrt(rho / p), rel=1e-12)
+    assert scene.build().model.dt_estimate == pytest.approx(h_min * math.sqrt(rho / p), rel=1e-12)
     assert scene.build().dt_limit == pytest.approx(0.4 * h_min * math.sqrt(rho / p), rel=1e-12)
     # damping ratio ξ lowers the limits by √(1+ξ²) − ξ (elements: β; contact: ξ of §5.2)
     damped = fdem.Scene()
     damped.add_body(mesh, MAT.with_(damping=0.5))
-    assert damped.build().dt_estimate == pytest.approx(h_min / cp * (math.sqrt(1.25) - 0.5), rel=1e-12)
-    assert damped.build().dt_limit < damped.build().dt_estimate      # damping rated on h_eq ≥ h_min
+    assert damped.build().model.dt_estimate == pytest.approx(h_min / cp * (math.sqrt(1.25) - 0.5), rel=1e-12)
+    assert damped.build().dt_limit < damped.build().model.dt_estimate      # damping rated on h_eq ≥ h_min
     cdamped = fdem.Scene()
     cdamped.add_body(mesh, MAT.with_(contact_damping=0.5))
     cdamped.add_body(mesh, MAT.with_(contact_damping=0.5), position=(0.0, 2.0))
-    assert cdamped.build().dt_estimate == pytest.approx(h_min * math.sqrt(rho / p) * (math.sqrt(1.25) - 0.5),
+    assert cdamped.build().model.dt_estimate == pytest.approx(h_min * math.sqrt(rho / p) * (math.sqrt(1.25) - 0.5),
                                                         rel=1e-12)
 
 

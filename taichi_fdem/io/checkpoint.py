@@ -200,7 +200,7 @@ def save(sim, path) -> None:
         driver[name] = value
     md = sim.model
     plain = {"driver": driver, "state": state_plain,
-             "build": {"dt": md.dt, "buffer": md.buffer, "speed_limit": md.speed_limit,
+             "build": {"dt": md.dt, "force_dt": md.force_dt, "buffer": md.buffer, "speed_limit": md.speed_limit,
                        "quasi_static": getattr(md, "qs_alpha", 0.0), "joined_pairs": md.joined_pairs,
                        "handover_damage": md.handover_damage}}
     try:
@@ -313,6 +313,7 @@ def load(path):
                       quasi_static=build.get("quasi_static", 0.0) or False,
                       joined_pairs=build.get("joined_pairs", "contact"),     # (older checkpoints: "contact",
                       handover_damage=build.get("handover_damage", 0.0))     # and the handover at first damage)
+    sim.model.force_dt = bool(build.get("force_dt", False))    # (built with force_dt: the saved dt is kept)
     st = sim.state
     for name, value in state_plain.items():
         setattr(st, name, value)

@@ -56,7 +56,7 @@ def frame_fields(sim) -> dict:
     (point vectors (n, 2), stress and strain (m, 3)).  Vectorised NumPy, no loop over nodes.
     """
     x = sim.node_positions()
-    tris = np.asarray(sim._tri_nodes_np, dtype=np.int64)
+    tris = np.asarray(sim.model.tri_nodes_np, dtype=np.int64)
     node_body = np.zeros(sim.node_count, dtype=np.int32)
     for b in sim.bodies:                       # one slice per body, not per node
         node_body[b.nodes] = b.index
@@ -66,14 +66,14 @@ def frame_fields(sim) -> dict:
     szz = np.zeros_like(sxx)
     scene = getattr(sim, "scene", None)
     if getattr(scene, "plane", "stress") == "strain":     # Hooke's out-of-plane stress σ_zz = ν(σ_xx + σ_yy)
-        nu = np.array([m.poisson for m in sim.materials])[np.asarray(sim._tri_mat_np)]
+        nu = np.array([m.poisson for m in sim.model.materials])[np.asarray(sim.model.tri_mat_np)]
         szz = nu * (sxx + syy)
     von_mises = np.sqrt(np.maximum(0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2)
                                    + 3.0 * sxy * sxy, 0.0))
 
     # deformation gradient F = [x1 - x0, x2 - x0] · (rest edges)^-1, as in Simulation.stresses
     Fx = np.stack([x[tris[:, 1]] - x[tris[:, 0]], x[tris[:, 2]] - x[tris[:, 0]]], axis=2)
-    F = Fx @ _to_numpy(sim.tri_rest_inv).astype(np.float64)
+    F = Fx @ _to_numpy(sim.model.tri_rest_inv).astype(np.float64)
     E = 0.5 * (F.transpose(0, 2, 1) @ F - np.eye(2))
 
     damage = getattr(sim, "tri_damage", None)
@@ -88,8 +88,8 @@ def frame_fields(sim) -> dict:
 
     cells = {"stress": np.stack([sxx, syy, sxy], axis=1), "von_mises": von_mises,
              "strain": np.stack([E[:, 0, 0], E[:, 1, 1], 0.5 * (E[:, 0, 1] + E[:, 1, 0])], axis=1),
-             "body_id": np.asarray(sim._tri_body_np, dtype=np.int32),
-             "material_id": np.asarray(sim._tri_mat_np, dtype=np.int32),
+             "body_id": np.asarray(sim.model.tri_body_np, dtype=np.int32),
+             "material_id": np.asarray(sim.model.tri_mat_np, dtype=np.int32),
              "damage": damage}
     active = getattr(sim, "active_triangles", None)
     if callable(active):                       # triangles removed by an excavation are not written

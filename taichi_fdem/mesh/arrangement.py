@@ -57,9 +57,35 @@ def _line_label(lines, i) -> str:
     return f"line {i}" + (f" ({name!r})" if name is not None else "")
 
 
+def _inside_polygon(p: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Even-odd point-in-polygon test for points ``p`` (N, 2) and polygon ``v`` (k, 2)."""
+    a, b = v, np.roll(v, -1, axis=0)
+    inside = np.zeros(len(p), dtype=bool)
+    for start in range(0, len(p), 2048):
+        q = p[start:start + 2048, None, :]
+        straddle = (a[None, :, 1] > q[..., 1]) != (b[None, :, 1] > q[..., 1])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xint = a[None, :, 0] + (q[..., 1] - a[None, :, 1]) * (b[None, :, 0] - a[None, :, 0]) / (b[None, :, 1] - a[None, :, 1])
+        inside[start:start + 2048] = (np.count_nonzero(straddle & (q[..., 0] < xint), axis=1) % 2) == 1
+    return inside
+
+
+def _distance_to_polygon(p: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Distance from points ``p`` (N, 2) to the closed polyline ``v`` (k, 2)."""
+    a, b = v, np.roll(v, -1, axis=0)
+    ab = b - a
+    ll = np.maximum((ab * ab).sum(1), 1e-300)
+    dist = np.empty(len(p))
+    for start in range(0, len(p), 2048):
+        q = p[start:start + 2048, None, :]
+        t = np.clip(((q - a[None]) * ab[None]).sum(-1) / ll[None], 0.0, 1.0)
+        d = q - (a[None] + t[..., None] * ab[None])
+        dist[start:start + 2048] = np.sqrt((d * d).sum(-1).min(axis=1))
+    return dist
+
+
 def _inside_or_on(p: np.ndarray, v: np.ndarray, tol: float) -> np.ndarray:
     """Points ``p`` (N, 2) inside the polygon ``v`` (even-odd) or within ``tol`` of its outline."""
-    from .generators import _distance_to_polygon, _inside_polygon
     return _inside_polygon(p, v) | (_distance_to_polygon(p, v) <= tol)
 
 

@@ -12,7 +12,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .arrangement import arrange, distance_to_segments
+from .arrangement import _distance_to_polygon, _inside_polygon, arrange, distance_to_segments
 from .lines import Segments, as_segments
 from .triangulate import _CDT
 from .trimesh import MAX_COORDINATE, TriMesh, _guard_size, _nround, _positive, _vec2
@@ -256,33 +256,6 @@ def _check_simple(v: np.ndarray, where: str) -> None:
             i, j = int(rows[r]), int(c)
             raise ValueError(f"{where}: polygon is not simple (self-intersecting): edge {i} (vertices {i}-"
                              f"{(i + 1) % k}) meets edge {j} (vertices {j}-{(j + 1) % k})")
-
-
-def _inside_polygon(p: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Even-odd point-in-polygon test for points ``p`` (N, 2) and polygon ``v`` (k, 2)."""
-    a, b = v, np.roll(v, -1, axis=0)
-    inside = np.zeros(len(p), dtype=bool)
-    for start in range(0, len(p), 2048):
-        q = p[start:start + 2048, None, :]
-        straddle = (a[None, :, 1] > q[..., 1]) != (b[None, :, 1] > q[..., 1])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            xint = a[None, :, 0] + (q[..., 1] - a[None, :, 1]) * (b[None, :, 0] - a[None, :, 0]) / (b[None, :, 1] - a[None, :, 1])
-        inside[start:start + 2048] = (np.count_nonzero(straddle & (q[..., 0] < xint), axis=1) % 2) == 1
-    return inside
-
-
-def _distance_to_polygon(p: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Distance from points ``p`` (N, 2) to the closed polyline ``v`` (k, 2)."""
-    a, b = v, np.roll(v, -1, axis=0)
-    ab = b - a
-    ll = np.maximum((ab * ab).sum(1), 1e-300)
-    dist = np.empty(len(p))
-    for start in range(0, len(p), 2048):
-        q = p[start:start + 2048, None, :]
-        t = np.clip(((q - a[None]) * ab[None]).sum(-1) / ll[None], 0.0, 1.0)
-        d = q - (a[None] + t[..., None] * ab[None])
-        dist[start:start + 2048] = np.sqrt((d * d).sum(-1).min(axis=1))
-    return dist
 
 
 def polygon(vertices, h: float | None = None, lines=None, engine: str = "builtin") -> TriMesh:

@@ -374,10 +374,10 @@ class RendererImage(_Overlays):
         x0 = self._rest_positions(sim, consts)
         out = consts.get("scalars")
         if out is None:
-            out = ti.ndarray(dtype=sim.node_x.dtype, shape=(sim.tri_count,))
+            out = ti.ndarray(dtype=sim.state.node_x.dtype, shape=(sim.tri_count,))
             consts["scalars"] = out
-        _tri_scalar_kernel(sim.node_x, sim.node_v, x0, sim.tri_nodes, sim.tri_rest_inv, sim.tri_mat,
-                           sim.mat_mu, sim.mat_lam, int(kid), out)
+        _tri_scalar_kernel(sim.state.node_x, sim.state.node_v, x0, sim.model.tri_nodes, sim.model.tri_rest_inv, sim.model.tri_mat,
+                           sim.model.mat_mu, sim.model.mat_lam, int(kid), out)
         return out.to_numpy().astype(np.float64)
 
     @staticmethod
@@ -385,8 +385,8 @@ class RendererImage(_Overlays):
         """The simulation's rest positions X [m] as an ndarray, cached per simulation."""
         x0 = consts.get("x0")
         if x0 is None:
-            x0 = ti.Vector.ndarray(2, sim.node_x.dtype, shape=(sim.node_count,))
-            x0.from_numpy(np.ascontiguousarray(sim._X, dtype=_np_dtype(sim.node_x.dtype)))
+            x0 = ti.Vector.ndarray(2, sim.state.node_x.dtype, shape=(sim.node_count,))
+            x0.from_numpy(np.ascontiguousarray(sim.model.node_rest, dtype=_np_dtype(sim.state.node_x.dtype)))
             consts["x0"] = x0
         return x0
 
@@ -395,10 +395,10 @@ class RendererImage(_Overlays):
         kernels skip them); cached per number of removed triangles."""
         active = getattr(sim, "active_triangles", None)
         if not callable(active):
-            return sim.tri_nodes
+            return sim.model.tri_nodes
         keep = np.asarray(active(), dtype=bool)
         if keep.all():
-            return sim.tri_nodes
+            return sim.model.tri_nodes
         key = ("drawn_triangles", int((~keep).sum()))
         nd = consts.get(key)
         if nd is None:
@@ -416,16 +416,16 @@ class RendererImage(_Overlays):
         x0 = self._rest_positions(sim, consts)
         scal = consts.get("frame_scalars")
         if scal is None:
-            scal = consts["frame_scalars"] = ti.ndarray(dtype=sim.node_x.dtype, shape=(sim.tri_count,))
+            scal = consts["frame_scalars"] = ti.ndarray(dtype=sim.state.node_x.dtype, shape=(sim.tri_count,))
         info = self._np_small.get("range")
         if info is None:
             info = self._np_small["range"] = np.zeros(3, dtype=np.float64)
         if kid < 0:      # "damage": per-triangle joint damage from the simulation, fixed range [0, 1]
-            scal.from_numpy(np.ascontiguousarray(sim.tri_damage(), dtype=_np_dtype(sim.node_x.dtype)))
+            scal.from_numpy(np.ascontiguousarray(sim.tri_damage(), dtype=_np_dtype(sim.state.node_x.dtype)))
             info[:] = (0.0, 1.0, sim.tri_count)
             return scal, info
-        _sim_scalar_kernel(sim.node_x, sim.node_v, x0, sim.tri_nodes, sim.tri_rest_inv, sim.tri_mat,
-                           sim.mat_mu, sim.mat_lam, int(kid), scal, info)
+        _sim_scalar_kernel(sim.state.node_x, sim.state.node_v, x0, sim.model.tri_nodes, sim.model.tri_rest_inv, sim.model.tri_mat,
+                           sim.model.mat_mu, sim.model.mat_lam, int(kid), scal, info)
         return scal, info
 
     def _follow_box(self, sim):
@@ -439,8 +439,8 @@ class RendererImage(_Overlays):
         if width is None:
             pts = body.mesh.points
             width = 4.0 * max(float(np.ptp(pts[:, 0])), float(np.ptp(pts[:, 1])), 1e-12)
-        c = self._small_nd("centroid", sim.node_x.dtype, 3)
-        _centroid_kernel(sim.node_x, body.nodes.start, body.nodes.stop, c)
+        c = self._small_nd("centroid", sim.state.node_x.dtype, 3)
+        _centroid_kernel(sim.state.node_x, body.nodes.start, body.nodes.stop, c)
         cx, cy, cnt = (float(v) for v in c.to_numpy())
         if cnt <= 0 or not (math.isfinite(cx) and math.isfinite(cy)):
             if self.last_view is not None:
@@ -456,8 +456,8 @@ class RendererImage(_Overlays):
         if nj == 0:
             return
         xmin, xmax, _, ymax = self.last_view
-        params = np.array([xmin, ymax, self.width / (xmax - xmin)], dtype=_np_dtype(sim.node_x.dtype))
-        _cracks_u8_kernel(sim.node_x, sim.joint_nodes, sim.joint_state, nj, params, img,
+        params = np.array([xmin, ymax, self.width / (xmax - xmin)], dtype=_np_dtype(sim.state.node_x.dtype))
+        _cracks_u8_kernel(sim.state.node_x, sim.model.joint_nodes, sim.state.joint_state, nj, params, img,
                           ti.Vector(self.crack_color, dt=ti.f32), float(0.5 * self.crack_width))
 
     def render_sim(self, sim, color_by=None) -> np.ndarray:
@@ -475,7 +475,7 @@ class RendererImage(_Overlays):
             key = "colors_" + mode
             colors = consts.get(key)
             if colors is None:
-                ids = sim._tri_body_np if mode == "body" else sim._tri_mat_np
+                ids = sim.model.tri_body_np if mode == "body" else sim.model.tri_mat_np
                 colors = ti.Vector.ndarray(3, ti.f32, shape=(sim.tri_count,))
                 colors.from_numpy(np.ascontiguousarray(body_colors(ids), dtype=np.float32))
                 consts[key] = colors
@@ -512,9 +512,9 @@ class RendererImage(_Overlays):
         if self.follow is not None:
             box = self._follow_box(sim)
         else:
-            box = self._world_box(sim.node_x)
+            box = self._world_box(sim.state.node_x)
         layout = self._bar_layout() if bar is not None else None
-        img = self._draw(sim.node_x, self._drawn_triangles(sim, consts), c_nd, box,
+        img = self._draw(sim.state.node_x, self._drawn_triangles(sim, consts), c_nd, box,
                          layout["reserve"] if layout else 0,
                          scal=None if kid is None else scal, rng=None if kid is None else (vmin, vmax))
         if self.cracks:

@@ -83,9 +83,10 @@ def max_couple_penetration(sim) -> dict:
 
 # ---- last good state ---------------------------------------------------------------------------
 def snapshot(sim) -> dict:
-    """A copy of the whole state (every ndarray of ``sim.state``, the couple capacity, the step)."""
+    """A copy of the whole state (every ndarray of ``sim.state``, the couple capacity, the step,
+    the time step and the clock of :attr:`Simulation.time`)."""
     st = sim.state
-    return {"step_count": sim.step_count, "couple_max": st.couple_max,
+    return {"step_count": sim.step_count, "couple_max": st.couple_max, "dt": sim.model.dt, "clock": sim._clock,
             "arrays": {k: v.to_numpy() for k, v in st.ndarrays().items()}}
 
 
@@ -103,6 +104,9 @@ def restore(sim, snap: dict) -> None:
                 raise RuntimeError(f"restore_last_good: array {k} shrank since the saved state")
         cur.from_numpy(saved)
     sim.step_count = snap["step_count"]
+    sim._clock = snap["clock"]
+    sim.model.dt = snap["dt"]
+    sim.model.step_dt[None] = snap["dt"]
     sim._after_restore()
 
 

@@ -25,6 +25,7 @@ import numpy as np
 import taichi as ti
 
 from . import timestep
+from .arrays import MODEL_ARRAYS, MODEL_HOST_ARRAYS, STATE_ARRAYS
 from .. import backend
 from ..engine.groups import SWITCH_BC, SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING, SWITCH_PRESTRESS
 from ..engine.joints import FAN_HEAD, HANDOVER_DAMAGE, fan_links, initial_intact, neighbour_pairs
@@ -67,10 +68,17 @@ def _next_pow2(n: int) -> int:
 
 
 class _Arrays:
-    """A bag of named arrays; :meth:`ndarrays` lists the Taichi ones."""
+    """A bag of named arrays; the Taichi ones are declared in :attr:`ARRAYS`
+    (:mod:`taichi_fdem.sim.arrays`: shape, element type, unit)."""
+
+    #: name -> :class:`~taichi_fdem.sim.arrays.ArraySpec` of every Taichi array (None: undeclared)
+    ARRAYS: dict | None = None
 
     def ndarrays(self) -> dict:
-        return {k: v for k, v in vars(self).items() if isinstance(v, ti.Ndarray)}
+        """The Taichi arrays, by name: the declared ones in declared order (then any other)."""
+        arrays = {k: v for k, v in vars(self).items() if isinstance(v, ti.Ndarray)}
+        order = list(self.ARRAYS or ()) + [k for k in arrays if k not in (self.ARRAYS or ())]
+        return {k: arrays[k] for k in order if k in arrays}
 
 
 class Model(_Arrays):
@@ -78,20 +86,21 @@ class Model(_Arrays):
 
     Counts: ``node_count``, ``tri_count``, ``joint_count``, ``ctri_count`` (contact
     triangles).  Flags: ``contact``, ``friction``, ``contact_damping``, ``damping``,
-    ``fracture``, ``has_bc``, ``has_bc_work``.  Time steps [s]: ``dt``, ``dt_estimate``,
-    ``dt_limit``, ``dt_elastic``, ``dt_contact``, ``dt_joint``.  ``buffer`` [m],
-    ``speed_limit`` [m/s].  NumPy copies: ``node_rest`` (X [m]), ``node_velocity0``,
-    ``node_mass_np``, ``tri_nodes_np``, ``tri_body_np``, ``tri_mat_np``, ``tri_area0_np``,
-    ``joint_tris_np``.
-    Taichi arrays: ``node_mass``, ``node_free``, ``tri_*``, ``mat_*``, ``body_flags``,
-    ``contact_tri``, ``joint_nodes``, ``joint_prop`` and the step parameters ``step_dt``,
-    ``step_gravity``, ``step_buffer``, ``step_vlimit``, ``step_switches``.
+    ``fracture``, ``has_bc``, ``has_bc_work``, ``force_dt``.  Time steps [s]: ``dt``,
+    ``dt_estimate``, ``dt_limit``, ``dt_elastic``, ``dt_contact``, ``dt_joint``; ``dashpot_rate``
+    [1/s] (absorbing boundaries: stable while dashpot_rate · dt < 1).  ``buffer`` [m],
+    ``speed_limit`` [m/s].  Arrays: the Taichi ones in :data:`~taichi_fdem.sim.arrays.MODEL_ARRAYS`,
+    the NumPy copies in :data:`~taichi_fdem.sim.arrays.MODEL_HOST_ARRAYS` (name, shape, unit).
     """
+    ARRAYS = MODEL_ARRAYS
+    HOST_ARRAYS = MODEL_HOST_ARRAYS
 
 
 class State(_Arrays):
-    """What a step changes (see the module docstring); every Taichi array here is saved by
-    checkpoints.  ``couple_max`` is the capacity of the couple buffer."""
+    """What a step changes (see the module docstring): the Taichi arrays declared in
+    :data:`~taichi_fdem.sim.arrays.STATE_ARRAYS`, every one saved by checkpoints, and
+    ``couple_max``, the capacity of the couple buffer."""
+    ARRAYS = STATE_ARRAYS
 
 
 class Scratch(_Arrays):
@@ -236,6 +245,7 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     md.dt_elastic, md.dt_contact, md.dt_joint = steps["elastic"], steps["contact"], steps["joint"]
     md.dt_estimate, md.dt_limit = steps["estimate"], steps["limit"]
     md.dt = timestep.choose_time_step(steps, dt, safety, force_dt)
+    md.force_dt = bool(force_dt)
 
     if buffer is None:
         buffer = 0.25 * float(edge_len[ctri].mean()) if len(ctri) else 0.0
@@ -251,7 +261,7 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
         raise ValueError(f"Scene.build: speed_limit must be > 0 m/s, got {speed_limit}")
 
     # ---- loads, curves, initial stress, local damping (FDEM_SPEC §12) --------------------------
-    load_nodes, load_vals = _load_table(scene, bodies, X, mass, md.dt, curves, free, vbc_raw, vcurve)
+    load_nodes, load_vals, md.dashpot_rate = _load_table(scene, bodies, X, mass, md.dt, curves, free, vbc_raw, vcurve)
     md.load_count = len(load_nodes)
     md.loads = md.load_count > 0
     md.curves = curves.list
@@ -435,7 +445,9 @@ def _boundary_edges(b):
 
 
 def _load_table(scene, bodies, X, mass, dt, curves, free, vbc_raw, vcurve):
-    """(load_nodes (L, 5) i32, load_vals (L, 4)): the load table of :mod:`taichi_fdem.engine.loads`."""
+    """(load_nodes (L, 5) i32, load_vals (L, 4), dashpot rate [1/s]): the load table of
+    :mod:`taichi_fdem.engine.loads`, and max over nodes of Σ ρ c_p L/2 / m of the absorbing
+    boundaries' dashpots (0 without), stable while rate · Δt < 1 (FDEM_SPEC §12.5)."""
     rows, vals = [], []
     kinds = {"pressure": LOAD_PRESSURE, "traction": LOAD_TRACTION, "force": LOAD_FORCE, "absorbing": LOAD_ABSORB}
     slices = None
@@ -483,6 +495,7 @@ def _load_table(scene, bodies, X, mass, dt, curves, free, vbc_raw, vcurve):
                              " (initial coordinates)")
         if not np.all(np.isfinite(vals[n0:])):
             raise ValueError(f"{what}: the load is not finite")
+    md_dash = float(np.max(dash / mass)) if np.any(dash > 0) else 0.0
     if np.any(dash > 0):
         ratio = float(np.max(dash * dt / mass))
         if ratio >= 1.0:
@@ -497,7 +510,7 @@ def _load_table(scene, bodies, X, mass, dt, curves, free, vbc_raw, vcurve):
     for r, (kind, i, j, c) in enumerate(rows):
         c0, cn = slices[c] if c >= 0 else (0, 0)
         table[r] = (kind, i, j, c0, cn)
-    return table, np.asarray(vals, np.float64).reshape(-1, 4)
+    return table, np.asarray(vals, np.float64).reshape(-1, 4), md_dash
 
 
 def _prestress(scene, bodies, X, tris):

@@ -17,9 +17,7 @@ joints + couples), and on GPUs.
 from __future__ import annotations
 
 import math
-import sys
 import time as _time
-from contextlib import closing as _closing, nullcontext
 
 import numpy as np
 
@@ -31,8 +29,8 @@ from .guards import SimulationError
 from ..engine.groups import COUPLES, DACC, DETECTIONS, FORCE_BLOCKS, FOUND, MAX_FORCE_BLOCKS, REBALANCE
 from .model import build_model, counter, set_counter
 from .state import allocate_scratch, allocate_state, grow_couples, pack_groups, size_assembly, size_couple_scratch
-from .cracks import CrackEventLog
-from .results import History, SimulationResults
+from .outputs import RunOutputs
+from .results import SimulationResults
 from .timestep import CONTACT_LIMIT_FACTOR  # noqa: F401  (re-exported)
 
 __all__ = ["Simulation", "SimulationError", "SERIAL_MAX_STEPS", "SERIAL_TRI_STEPS", "TEAM_TRI_STEPS",
@@ -50,11 +48,9 @@ TEAM_PROBE_STEPS = 8             # a probe launch runs 1/8 of a launch's steps
 AUTO_PARALLEL_ITEMS = 600        # triangles + joints + couples from which "auto" runs parallel on >= 2 CPU threads
 DETECT_SERIAL_TRIS = 15_000      # up to this many contact triangles, detection runs as one serial launch
 
-# Names the simulation answered before the model/state split (kept for scripts that reach the
-# arrays directly; new code uses sim.model.* and sim.state.*).
-_ALIASES = {"_X": "node_rest", "_mass_np": "node_mass_np", "_tri_nodes_np": "tri_nodes_np",
-            "_tri_body_np": "tri_body_np", "_tri_mat_np": "tri_mat_np", "_joint_tris_np": "joint_tris_np",
-            "pair_prop": "mat_pair", "ctri": "contact_tri", "cstart": "couple_start"}
+def _model_value(name: str, doc: str) -> property:
+    """A read-only property of :class:`Simulation` answering ``sim.model.<name>``."""
+    return property(lambda self: getattr(self.model, name), doc=f"{doc}  (``sim.model.{name}``; read-only)")
 
 
 class Simulation(SimulationResults):
@@ -63,9 +59,13 @@ class Simulation(SimulationResults):
     Units: SI.  Positions [m], velocities [m/s], masses [kg], energies [J] (the solver works per
     unit thickness; reported masses and energies are multiplied by the scene's thickness).
 
-    ``sim.model`` (built once) and ``sim.state`` (what a step changes) hold the arrays; the
-    model's counts, flags and time steps are also readable as attributes (``sim.dt``,
-    ``sim.dt_limit``, ``sim.tri_count``, ``sim.contact``, ...).
+    ``sim.model`` (built once, :class:`~taichi_fdem.sim.model.Model`) and ``sim.state`` (what a
+    step changes, :class:`~taichi_fdem.sim.model.State`) hold the arrays.  The commonly read
+    model values have read-only properties (:attr:`dt_limit`, :attr:`tri_count`,
+    :attr:`node_count`, :attr:`joint_count`, :attr:`contact`, :attr:`friction`,
+    :attr:`fracture`, :attr:`damping`, :attr:`contact_damping`, :attr:`buffer`); every other
+    value is read from ``sim.model``.  :attr:`dt` may be set (validated).  Assigning a name of
+    the model or the state on the simulation raises (it would change nothing).
     """
 
     #: ``factory(sim, video, fps, png_dir, renderer, cracks=False) -> (writer, draw)`` used by :meth:`run`
@@ -96,7 +96,7 @@ class Simulation(SimulationResults):
         self.thickness = scene.thickness
         self.model = build_model(scene, dt=dt, safety=safety, force_dt=force_dt, buffer=buffer, speed_limit=speed_limit,
                                  quasi_static=quasi_static, joined_pairs=joined_pairs, handover_damage=handover_damage)
-        self.bodies = self.model.bodies
+        object.__setattr__(self, "bodies", self.model.bodies)     # (also a model value)
         self.state = allocate_state(self.model)
         auto = strategy == "auto"
         if auto:
@@ -130,18 +130,6 @@ class Simulation(SimulationResults):
         """Work items of a step: triangles + joints + contact couples."""
         md = self.model
         return md.tri_count + (md.joint_count if md.fracture else 0) + self.couple_count
-
-    # model / state access ---------------------------------------------------------------------
-    def __getattr__(self, name):
-        # for names not found normally: the model's counts, flags, time steps and (compatibility) arrays
-        if name in ("model", "state", "scratch") or name.startswith("__"):
-            raise AttributeError(name)
-        name = _ALIASES.get(name, name)
-        for part in ("state", "model", "scratch"):
-            obj = self.__dict__.get(part)
-            if obj is not None and name in vars(obj):
-                return getattr(obj, name)
-        raise AttributeError(f"'Simulation' object has no attribute {name!r}")
 
     def _repack(self) -> None:
         """Rebuild the argpacks (after an array of the state was reallocated)."""
@@ -312,10 +300,66 @@ class Simulation(SimulationResults):
         self.launches[name] = self.launches.get(name, 0) + 1
         return launch_cached(self._launch_cache, name, kernel, *args)
 
+    # the simulated time is _clock[0] + (step_count - _clock[1]) * dt: (0, 0) until dt is set
+    _clock = (0.0, 0)
+
     @property
     def time(self) -> float:
-        """Simulated time [s]."""
-        return self.step_count * self.dt
+        """Simulated time [s]: the steps run times their time steps (:attr:`dt` may change)."""
+        t0, n0 = self._clock
+        return t0 + (self.step_count - n0) * self.model.dt
+
+    @property
+    def dt(self) -> float:
+        """The time step [s].  Settable between calls: a positive finite value, at most the
+        stable limit :attr:`dt_limit` (unless the scene was built with ``force_dt=True``) and,
+        with absorbing boundaries, below their dashpots' limit; the kernels integrate with it
+        from the next step on and :attr:`time` continues from its current value.  Loads and
+        velocity curves follow the simulated time, so they are unaffected."""
+        return self.model.dt
+
+    @dt.setter
+    def dt(self, value) -> None:
+        try:
+            dt = float(value)
+        except (TypeError, ValueError):
+            raise TypeError(f"sim.dt: a time step [s] must be a number, got {value!r}") from None
+        md = self.model
+        if not (math.isfinite(dt) and dt > 0):
+            raise ValueError(f"sim.dt: the time step must be a positive finite time [s], got {value!r}")
+        if dt > md.dt_limit and not md.force_dt:
+            raise ValueError(f"sim.dt = {dt:.4g} s is above the estimated stable limit {md.dt_limit:.4g} s "
+                             f"(sim.dt_limit); use dt <= {md.dt_limit:.4g} s, or build with "
+                             "Scene.build(dt=..., force_dt=True) to run above it")
+        if md.dashpot_rate * dt >= 1.0:
+            raise ValueError(f"sim.dt = {dt:.4g} s: the absorbing boundary's dashpots are unstable at this time "
+                             f"step (rate × dt = {md.dashpot_rate * dt:.3g} >= 1, FDEM_SPEC §12.5); use "
+                             f"dt < {1.0 / md.dashpot_rate:.4g} s")
+        object.__setattr__(self, "_clock", (self.time, self.step_count))
+        md.dt = dt
+        md.step_dt[None] = dt
+
+    dt_limit = _model_value("dt_limit", "Estimated stable time step [s] of the scene.")
+    node_count = _model_value("node_count", "Number of nodes.")
+    tri_count = _model_value("tri_count", "Number of triangles.")
+    joint_count = _model_value("joint_count", "Number of joints (crack elements) between triangles.")
+    contact = _model_value("contact", "Whether the scene has contact (bool).")
+    friction = _model_value("friction", "Whether any contact pair has friction (bool).")
+    fracture = _model_value("fracture", "Whether the scene has joints that can break (bool).")
+    damping = _model_value("damping", "Whether any material has viscous damping (bool).")
+    contact_damping = _model_value("contact_damping", "Whether any contact pair has contact damping (bool).")
+    buffer = _model_value("buffer", "Detection buffer [m]: contact detection runs again once a node may have "
+                                    "moved this far.")
+
+    def __setattr__(self, name, value) -> None:
+        # a name of the model or the state assigned on the simulation would change nothing
+        model, state = self.__dict__.get("model"), self.__dict__.get("state")
+        if not hasattr(type(self), name) and name not in self.__dict__ and (
+                (model is not None and name in vars(model)) or (state is not None and name in vars(state))):
+            where = "model" if model is not None and name in vars(model) else "state"
+            raise AttributeError(f"sim.{name}: a value of the {where} is not a setting of the simulation; "
+                                 f"read it as sim.{where}.{name} (model values are fixed at Scene.build)")
+        object.__setattr__(self, name, value)
 
     @property
     def couple_count(self) -> int:
@@ -652,65 +696,27 @@ class Simulation(SimulationResults):
             per_frame = max(1, int(round(float(frame_dt) / self.dt)))
         else:
             per_frame = self.steps_per_launch()
-        writer = draw = None
-        if video is not None:
-            if Simulation.video_sink_factory is None:
-                raise RuntimeError("run(video=...): no video writer installed (import taichi_fdem installs one)")
-            if renderer is not None and video_cracks:
-                raise ValueError("run: video_cracks= applies to the default renderer; give cracks= to the "
-                                 "RendererImage passed as renderer=")
-            writer, draw = Simulation.video_sink_factory(self, video, fps, png_dir, renderer,
-                                                         cracks=bool(video_cracks))
-        elif video_cracks:
-            raise ValueError("run: video_cracks=True needs video=")
-        if progress is None:
-            progress = sys.stdout.isatty()
-        bar = None
-        if progress:
-            from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
-            bar = Progress(TextColumn("[bold]taichi_fdem[/]"), BarColumn(), TextColumn("t = {task.fields[t]} s"),
-                           TextColumn("{task.percentage:>5.1f}%"), TimeRemainingColumn(), transient=True)
-        hist = None
-        if history is not None:
-            every = max(1, total // 200) if history_every is None else int(history_every)
-            if every < 1:
-                raise ValueError(f"run: history_every must be >= 1 step, got {history_every}")
-            hist = History(self, history)
-            hist.write()
-        cracks = None
-        if crack_events is not None:
-            cracks = CrackEventLog(self, crack_events)
-            cracks.write()
-        with (writer if writer is not None else nullcontext()), (bar if bar is not None else nullcontext()), \
-                (_closing(hist) if hist is not None else nullcontext()), \
-                (_closing(cracks) if cracks is not None else nullcontext()):
-            task = bar.add_task("run", total=total, t="0") if bar is not None else None
-            if writer is not None:
-                draw()
+        outputs = RunOutputs(self, total, video=video, fps=fps, png_dir=png_dir, renderer=renderer, progress=progress,
+                             history=history, history_every=history_every, crack_events=crack_events,
+                             video_cracks=video_cracks)
+        with outputs:
             done = 0
             guard = guards.RunGuard(self, check_energy, energy_tol, max_penetration, check_every)
             while done < total:
                 k = min(per_frame, total - done)
                 while k > 0:                       # checks (and history rows) on their own schedule
-                    j = min(k, guard.steps_to_next_check())
-                    if hist is not None:
-                        j = min(j, every - done % every)
+                    j = outputs.steps_to_next_row(done, min(k, guard.steps_to_next_check()))
                     t_step = _time.perf_counter()
                     self.step(j)
                     guard.step_wall = (_time.perf_counter() - t_step) / j
                     k -= j
                     done += j
-                    if cracks is not None:
-                        cracks.write()
+                    outputs.after_steps()
                     guard.check(j, last=done >= total)
-                    if hist is not None and (done % every == 0 or done >= total):
-                        hist.write()
-                if writer is not None:
-                    draw()
+                    outputs.after_check(done)
+                outputs.after_frame(done)
                 if callback is not None:
                     callback(self)
-                if bar is not None:
-                    bar.update(task, completed=done, t=f"{self.time:.4g}")
 
     # ------------------------------------------------------------------------------------------
     # info and checkpoints

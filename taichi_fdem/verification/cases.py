@@ -46,7 +46,7 @@ def case_wave(resolution: int = 100, safety: float = 0.2, penalty_factor: float 
         scene.fix_nodes(lambda x, y: np.ones_like(x, bool), velocity=(None, 0.0))
     scene.fix_nodes(lambda x, y: x <= 1e-9 * L, velocity=(v0, None))
     sim, build = _build(scene, safety)
-    X = sim._X
+    X = sim.model.node_rest
     cols = []
     for xs in (0.25 * L, 0.65 * L):
         xc = h * round(xs / h)
@@ -186,16 +186,16 @@ def case_hertz(resolution: int = 10, safety: float = 0.2, penalty_factor: float 
     c = mat.p_wave_speed("strain")
     T = load_time * Hc / c
     vmax = 2 * delta / T                                  # ∫ vmax sin²(πt/T) dt = vmax T/2 = δ
-    X = sim._X
+    X = sim.model.node_rest
     top_nodes = np.flatnonzero((X[:, 1] >= top - 1e-9) & (np.arange(len(X)) >= cap.node_start))
-    vbc = sim.node_vbc.to_numpy()
+    vbc = sim.state.node_vbc.to_numpy()
     total = int(math.ceil(T * 4.0 / 3.0 / sim.dt))
     k = max(1, min(200, total // 300))
     t0 = _time.perf_counter()
     while sim.step_count < total:
         t = sim.time + 0.5 * k * sim.dt
         vbc[top_nodes, 1] = -vmax * math.sin(math.pi * t / T) ** 2 if t < T else 0.0
-        sim.node_vbc.from_numpy(vbc)
+        sim.state.node_vbc.from_numpy(vbc)
         sim.step(k)
     f = sim.forces(contact_only=True)
     wall = _time.perf_counter() - t0
@@ -252,7 +252,7 @@ def case_cantilever(resolution: int = 8, safety: float = 0.2, penalty_factor: fl
     scene.fix_nodes(lambda x, y: x <= 1e-9, velocity=(0.0, 0.0))
     scene.fix_nodes(lambda x, y: x >= L - 1e-9, velocity=(None, 0.0))
     sim, build = _build(scene, safety)
-    X = sim._X
+    X = sim.model.node_rest
     tip = np.flatnonzero(X[:, 0] >= L - 1e-9)
     Ee = E if plane == "stress" else E / (1 - NU ** 2)
     omega = 15.42 * math.sqrt(Ee * d ** 3 / 12 / (RHO * d * L ** 4))
@@ -260,7 +260,7 @@ def case_cantilever(resolution: int = 8, safety: float = 0.2, penalty_factor: fl
     T = 3 * period
     delta = 1e-3 * L
     vmax = 2 * delta / T
-    vbc = sim.node_vbc.to_numpy()
+    vbc = sim.state.node_vbc.to_numpy()
     total = int(math.ceil((T + 2 * period) / sim.dt))
     k = max(1, min(500, int(period / sim.dt / 40)))
     Ps = []
@@ -268,7 +268,7 @@ def case_cantilever(resolution: int = 8, safety: float = 0.2, penalty_factor: fl
     while sim.step_count < total:
         t = sim.time + 0.5 * k * sim.dt
         vbc[tip, 1] = vmax * math.sin(math.pi * t / T) ** 2 if t < T else 0.0
-        sim.node_vbc.from_numpy(vbc)
+        sim.state.node_vbc.from_numpy(vbc)
         sim.step(k)
         if sim.time > T:
             Ps.append(-sim.forces()[tip, 1].sum())      # the beam pulls the tip nodes back
@@ -297,16 +297,16 @@ def case_rotation(resolution: int = 8, safety: float = 0.2, penalty_factor: floa
     scene = Scene(gravity=(0.0, 0.0))
     scene.add_body(mesh.rectangle(L, d, d / resolution, origin=(0.0, -0.5 * d)), mat)
     sim, build = _build(scene, safety)
-    X = sim._X
+    X = sim.model.node_rest
     worst = worst_f = 0.0
     t0 = _time.perf_counter()
-    real = sim.node_x.to_numpy().dtype
+    real = sim.state.node_x.to_numpy().dtype
     for th in angles:
         Rm = np.array([[math.cos(th), -math.sin(th)], [math.sin(th), math.cos(th)]])
-        sim.node_x.from_numpy((X @ Rm.T + np.array([0.3, -0.2])).astype(real))
+        sim.state.node_x.from_numpy((X @ Rm.T + np.array([0.3, -0.2])).astype(real))
         worst = max(worst, float(np.abs(sim.stresses()).max()) / E)
         worst_f = max(worst_f, float(np.abs(sim.forces()).max()) / (E * d / resolution))
-    sim.node_x.from_numpy(X.astype(real))
+    sim.state.node_x.from_numpy(X.astype(real))
     omega = 0.02 * mat.p_wave_speed("strain") / L
     c = X.mean(0)
     r = X - c

@@ -39,12 +39,12 @@ class JointPair:
         self.dt = 1e-4
         # every node is prescribed: no stability limit applies
         self.sim = scene.build(dt=self.dt, force_dt=True)
-        self.jn = self.sim.joint_nodes.to_numpy()[0]
-        self.vbc = self.sim.node_vbc.to_numpy()
+        self.jn = self.sim.model.joint_nodes.to_numpy()[0]
+        self.vbc = self.sim.state.node_vbc.to_numpy()
 
     def move_A(self, velocity):
         self.vbc[self.A] = velocity
-        self.sim.node_vbc.from_numpy(self.vbc)
+        self.sim.state.node_vbc.from_numpy(self.vbc)
 
     def gap(self):
         """Mean (opening, sliding) of the joint from the node positions (§7.2)."""
@@ -214,7 +214,7 @@ def brazilian_load(sim, bodies, p, samples: int = 240, frame=None, window: float
     t_load = p["load_time"] * D / cp
     n_total = int(1.3 * t_load / sim.dt)
     k = max(1, n_total // samples)
-    vbc0 = sim.node_vbc.to_numpy()
+    vbc0 = sim.state.node_vbc.to_numpy()
     t_ramp = 0.1 * t_load
     yt0, yb0 = sim.node_positions(top)[:, 1].mean(), sim.node_positions(bot)[:, 1].mean()
     rec = {"t": [0.0], "P_inst": [0.0], "approach": [0.0], "broken": [0], "work": [sim.energies()["boundary_work"]],
@@ -222,7 +222,7 @@ def brazilian_load(sim, bodies, p, samples: int = 240, frame=None, window: float
     t_win = window * D / cp
     while sim.step_count < n_total:
         if sim.time < t_ramp + k * sim.dt:
-            sim.node_vbc.from_numpy(vbc0 * min(1.0, (sim.time + 0.5 * k * sim.dt) / t_ramp))
+            sim.state.node_vbc.from_numpy(vbc0 * min(1.0, (sim.time + 0.5 * k * sim.dt) / t_ramp))
         sim.step(k)
         rec["t"].append(sim.time)
         rec["P_inst"].append(float(sim.forces()[top.nodes, 1].sum()))

@@ -69,7 +69,7 @@ def stress_run(sim, duration: float, samples: int = 100, **run_kw) -> dict:
     out["max_penetration"] = rec["pen"]
     if out["stable"]:
         x = sim.node_positions()
-        t = sim._tri_nodes_np
+        t = sim.model.tri_nodes_np
         u, w = x[t[:, 1]] - x[t[:, 0]], x[t[:, 2]] - x[t[:, 0]]
         a2 = u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0]
         out["inverted"] = bool(np.any(a2 <= 0))
