@@ -367,3 +367,18 @@ def test_line_groups_of_a_mesh_file_as_crack_and_joint_selectors(tmp_path):
     assert b.joint_count == 4                         # x = 0: 0.1 m / 0.025 m, not on the crack
     both = Scene(gravity=(0, 0)).add_body(groups["rock"], Material(**ROCK), cracks=groups.lines)
     assert both.crack_count == 12                     # a dict of line groups: their union
+
+
+def test_a_fracture_body_without_fracture_energy_names_its_material_as_given():
+    """The error names the material by its name, its group label or (unnamed) its repr."""
+    no_gf = fdem.Material(density=2600.0, young=1e9, poisson=0.25, tensile_strength=1e6)
+    mesh = fdem.mesh.rectangle(1.0, 1.0, 0.25)
+    cases = ((no_gf.with_(name="granite"), {}, "material 'granite'"),
+             ({"host": no_gf}, {"groups": np.full(mesh.triangle_count, "host")}, "group 'host'"),
+             (no_gf, {}, "Material(density=2600.0"))
+    for material, kw, named in cases:
+        scene = fdem.Scene()
+        with pytest.raises(ValueError, match="fracture_energy") as err:
+            scene.add_body(mesh, material, fracture=True, **kw)
+            scene.build()
+        assert named in str(err.value) and "np.int32" not in str(err.value)
