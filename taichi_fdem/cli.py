@@ -166,7 +166,7 @@ def cmd_demo(args) -> int:
         raise _BadInput(f"no demo named {args.name!r}" + (f" (did you mean {close[0]!r}?)" if close else "")
                         + f"; available: {', '.join(names)}")
     if folder not in sys.path:
-        sys.path.insert(0, folder)        # the demos import their helper module _common
+        sys.path.insert(0, folder)        # the demos import their shared module _common
     spec = importlib.util.spec_from_file_location(f"demo_{args.name}", os.path.join(folder, args.name + ".py"))
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)

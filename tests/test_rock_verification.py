@@ -93,7 +93,7 @@ def test_jointed_specimen_lattice_has_straight_60_degree_lines():
 
 
 def test_readme_loads_example_runs_as_written(tmp_path, monkeypatch, capsys):
-    """The README's loads example runs as written (fdem.init skipped: the session has Taichi)
+    """The README's loads example runs as written (fdem.init skipped: the test run has started Taichi)
     and prints a bore displacement within 2 % of Lamé's 93.75 µm."""
     import os
     import re
