@@ -103,8 +103,8 @@ def worker(args) -> dict:
     build_s = time.perf_counter() - t0
     if sim.strategy != s.strategy:
         # "auto" resolved otherwise for the real scene than for the small copy: compile (or load)
-        # that strategy's kernels too, before the timed run (before the eighteenth session the
-        # first chunk of an auto run on 2 threads paid it: 0.38 M triangle-steps/s)
+        # that strategy's kernels too, before the timed run (otherwise the first timed chunk pays
+        # the compile)
         t0 = time.perf_counter()
         s.strategy = sim.strategy
         s.step(2)

@@ -1,4 +1,4 @@
-"""Helpers shared by the demos (command line, timing, per-body kinematics)."""
+"""Functions shared by the demos (command line, timing, per-body kinematics)."""
 from __future__ import annotations
 
 import argparse

@@ -19,6 +19,20 @@ Layers (imports run downwards only; see docs/architecture.md):
   use (``fdem.render``, ``fdem.sweep``, ...), so importing the core loads none of them.
 """
 import importlib
+import os as _os
+
+# Taichi prints a version banner when it is imported; importing taichi_fdem (and so
+# ``taichi-fdem --help``) stays silent, and the command line prints the banner when a command
+# starts Taichi (``cli._init``).  The variable is restored, so child processes see it unchanged.
+_banner = _os.environ.get("ENABLE_TAICHI_HEADER_PRINT")
+_os.environ["ENABLE_TAICHI_HEADER_PRINT"] = "False"
+try:
+    import taichi as _ti  # noqa: F401
+finally:
+    if _banner is None:
+        del _os.environ["ENABLE_TAICHI_HEADER_PRINT"]
+    else:
+        _os.environ["ENABLE_TAICHI_HEADER_PRINT"] = _banner
 
 from . import mesh
 from .backend import init

@@ -143,6 +143,21 @@ def _memoise_front_end() -> None:
         _patch(kernel_impl, "_inside_class", _inside_class)
 
 
+def taichi_header() -> str:
+    """Taichi's one-line start-up banner ("[Taichi] version 1.7.4, llvm ..., python ...").
+
+    ``taichi_fdem`` imports Taichi without it (``taichi_fdem/__init__.py``); the command line
+    prints it when a command starts Taichi.
+    """
+    import contextlib
+    import io
+    from taichi._lib import utils
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        utils._print_taichi_header()
+    return buf.getvalue().strip()
+
+
 def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, debug: bool | None = None,
          cpu_max_num_threads: int | None = None, fast_compile: bool | None = None,
          front_end_shortcuts: bool | None = None) -> None:
@@ -192,7 +207,7 @@ def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, 
         front_end_shortcuts = os.environ.get("TAICHI_FDEM_FRONT_END_SHORTCUTS", "") != "0"
     _set_front_end_shortcuts(bool(front_end_shortcuts))
     kwargs = dict(arch=getattr(ti, _ARCHS[arch]), default_fp=_PRECISIONS[precision][0], default_ip=ti.i32,
-                  offline_cache=offline_cache, debug=debug, log_level=ti.WARN,
+                  offline_cache=offline_cache, debug=debug, log_level=os.environ.get("TI_LOG_LEVEL", ti.WARN),
                   # Taichi's CFG optimisation (store-to-load forwarding and dead-store elimination over
                   # the control-flow graph) grows faster than linearly with the size of a kernel: off,
                   # the 1k pile's cold start fell from 18.7 s to 3.9 s (serial) and from 36 s to 6.1 s

@@ -19,6 +19,8 @@ import sys
 import time
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+# the documentation's scene-file reference (every key, its unit and default)
+SCENEFILE_DOCS = "the Scene-file reference page of the documentation (docs/reference/scenefile.md)."
 
 
 class _BadInput(Exception):
@@ -37,15 +39,31 @@ def _demo_names(folder: str) -> list[str]:
 
 
 def _init(args) -> None:
+    """Start Taichi for a command that steps or builds a simulation, with its version line on stderr.
+
+    Importing the package prints no banner (``taichi_fdem/__init__.py``), so ``--help``,
+    ``--version`` and bad arguments print only what they are about; the line appears here, once,
+    when a command starts Taichi (with the arch Taichi chose, on stderr, so that stdout holds only
+    the command's own output).  ``fdem.init`` starts it at log level warning (or ``TI_LOG_LEVEL``).
+    """
+    import contextlib
+    import io
     from . import backend
     if not backend.is_initialised():
-        backend.init(arch=args.arch, precision=args.precision)
+        said = io.StringIO()                 # Taichi's "[Taichi] Starting on arch=x64" line
+        with contextlib.redirect_stdout(said):
+            backend.init(arch=args.arch, precision=args.precision)
+        arch = said.getvalue().strip().rpartition("arch=")[2]
+        print(backend.taichi_header() + (f", arch {arch}" if arch else ""), file=sys.stderr)
 
 
 def _fmt_energy(e: dict) -> str:
-    keys = ["kinetic", "strain", "contact", "gravity", "damping", "friction", "contact_damping", "boundary_work",
-            "total"]
-    return "\n".join(f"    {k:<16} {float(e[k]):+.6e} J" for k in keys if k in e)
+    """One line per term of ``total`` as it enters it (work done on the system with its minus sign),
+    so that the printed terms add up to the printed total."""
+    from .sim.energies import TOTAL_TERMS
+    lines = [f"    {('- ' if sign < 0 else '') + k:<16} {sign * float(e[k]):+.6e} J" for k, sign in TOTAL_TERMS]
+    lines.append(f"    {'total':<16} {float(e['total']):+.6e} J")
+    return "\n".join(lines)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -148,7 +166,7 @@ def cmd_demo(args) -> int:
         raise _BadInput(f"no demo named {args.name!r}" + (f" (did you mean {close[0]!r}?)" if close else "")
                         + f"; available: {', '.join(names)}")
     if folder not in sys.path:
-        sys.path.insert(0, folder)        # the demos import their helper module _common
+        sys.path.insert(0, folder)        # the demos import their shared module _common
     spec = importlib.util.spec_from_file_location(f"demo_{args.name}", os.path.join(folder, args.name + ".py"))
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
@@ -205,8 +223,10 @@ def build_parser() -> argparse.ArgumentParser:
         prog="taichi-fdem",
         description="2D combined finite-discrete element simulations on Taichi: run scene files, "
                     "parameter sweeps and demos.",
-        epilog="Exit codes: 0 ok, 1 simulation failure, 2 bad input.  Scene and sweep file formats: "
-               "python -c 'import taichi_fdem.io.scenefile as m; help(m)'.")
+        epilog=f"Exit codes: 0 ok, 1 simulation failure, 2 bad input.  Scene and sweep file keys, units "
+               f"and defaults: {SCENEFILE_DOCS}")
+    from . import __version__
+    ap.add_argument("--version", action="version", version=f"taichi-fdem {__version__}")
     ap.add_argument("--traceback", action="store_true", help="show Python tracebacks of failures")
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("--arch", default="cpu", choices=("cpu", "cuda", "gpu", "vulkan", "metal", "opengl"),

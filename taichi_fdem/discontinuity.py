@@ -103,6 +103,17 @@ def _apply_strength(prop: np.ndarray, rows: np.ndarray, strength, seed_key) -> N
         prop[rows, 4] *= f                         # G_II
 
 
+def _material_label(body, mt, group: int) -> str:
+    """The material of group ``group`` as the user named it: its ``name``, its group label of
+    ``add_body(..., groups=)``, or (a single unnamed material) its repr."""
+    if mt.name:
+        return f"material {mt.name!r}"
+    labels = getattr(body, "group_labels", None)
+    if labels is not None:
+        return f"the material of group {labels[group]!r}"
+    return f"the body's material {mt!r}"
+
+
 def split_body(body, joint_sets: list, where: str) -> None:
     """(Re)compute ``body``'s split mesh, joints and per-joint properties from its selections.
 
@@ -155,7 +166,7 @@ def split_body(body, joint_sets: list, where: str) -> None:
             mt = mats[g]
             if not mt.can_fracture:
                 raise ValueError(f"{where}: joints need tensile_strength [Pa] and fracture_energy [J/m²] on "
-                                 f"material {mt.name or g!r}")
+                                 f"{_material_label(body, mt, int(g))}")
             prop[own & (weaker == g)] = mt.joint_properties()
     for k, js in enumerate(joint_sets, start=1):
         rows = joints & (set_of_edge == k)

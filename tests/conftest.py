@@ -1,9 +1,9 @@
-"""Shared fixtures and helpers of the taichi_fdem verification suite.
+"""Shared fixtures and reference functions of the taichi_fdem verification suite.
 
-Taichi is initialised once per session (CPU, f64): ``fdem.init`` calls ``ti.init``, which
+Taichi is initialised once per test run (CPU, f64): ``fdem.init`` calls ``ti.init``, which
 resets every Taichi object, so it must never be called again inside a test.
 
-The helpers below are independent NumPy re-implementations of the quantities the tests
+The functions below are independent NumPy re-implementations of the quantities the tests
 check against (triangle geometry, polygon clipping, the Munjiza potential, brute-force
 contact detection).  They are written from FDEM_SPEC.md, not from the package code.
 """
@@ -22,7 +22,7 @@ from taichi_fdem.mesh import TriMesh
 
 @pytest.fixture(scope="session", autouse=True)
 def fdem_session():
-    """Initialise Taichi for the whole session (CPU, double precision)."""
+    """Initialise Taichi once for the whole test run (CPU, double precision)."""
     fdem.init(arch="cpu", precision="f64")
     yield
 
@@ -295,7 +295,7 @@ DEMOS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def load_demo(name):
-    """The module demos/NAME.py (the demos import their helper module _common from demos/)."""
+    """The module demos/NAME.py (the demos import their shared module _common from demos/)."""
     import importlib.util
     import sys
     if DEMOS not in sys.path:

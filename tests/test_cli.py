@@ -210,3 +210,42 @@ def test_run_checkpoint(capsys, tmp_path):
     assert t_end == pytest.approx(0.007, abs=2 * sim.dt)          # 0.005 s + 0.002 s
     code, out, err = run(capsys, "run", str(tmp_path / "s2.toml"), "--from", str(tmp_path / "missing.ckpt"))
     assert code == 2 and "no checkpoint file" in err
+
+
+def test_help_and_version_print_no_taichi_banner():
+    """--help and --version start no Taichi and print no banner; --help names the scene-file
+    reference page, --version the package's one version."""
+    import taichi_fdem
+    for argv, stream in ((["--help"], "stdout"), (["run", "--help"], "stdout"), (["--version"], "stdout")):
+        p = subprocess.run([sys.executable, "-m", "taichi_fdem.cli", *argv], capture_output=True, text=True)
+        assert p.returncode == 0, p.stderr
+        assert "[Taichi]" not in p.stdout + p.stderr, argv
+    p = subprocess.run([sys.executable, "-m", "taichi_fdem.cli", "--help"], capture_output=True, text=True)
+    assert "docs/reference/scenefile.md" in " ".join(p.stdout.split())
+    p = subprocess.run([sys.executable, "-m", "taichi_fdem.cli", "--version"], capture_output=True, text=True)
+    assert p.stdout.strip() == f"taichi-fdem {taichi_fdem.__version__}"
+
+
+def test_a_command_that_starts_taichi_prints_its_banner_once_on_stderr():
+    p = subprocess.run([sys.executable, "-m", "taichi_fdem.cli", "info"], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    assert "[Taichi]" not in p.stdout                         # stdout: the command's own output
+    assert p.stderr.count("[Taichi] version") == 1 and "Starting on arch" not in p.stderr
+
+
+def test_energy_summary_prints_every_term_of_the_total(capsys):
+    """The printed terms of the energy summary (each with the sign it enters the total with) add
+    up to the printed total, on the cracked slab (joints and fracture present)."""
+    import re
+    from taichi_fdem.sim.energies import TOTAL_TERMS
+    code, out, err = run(capsys, "run", os.path.join(ROOT, "examples", "cracked_slab.toml"), "--duration", "0.01",
+                         "--no-video", "--no-progress")
+    assert code == 0, err
+    block = out[out.index("energies at the end:"):]
+    vals = dict(re.findall(r"^\s+(- \w+|\w+)\s+([+-][0-9.]+e[+-]\d+) J$", block, re.M))
+    total = float(vals.pop("total"))
+    assert {k.removeprefix("- ") for k in vals} == {k for k, _ in TOTAL_TERMS}
+    assert "joints" in vals and "fracture" in vals and "- load_work" in vals
+    terms = [float(v) for v in vals.values()]
+    # each term printed to 7 significant digits
+    assert sum(terms) == pytest.approx(total, abs=len(terms) * 5e-7 * max(map(abs, terms)))

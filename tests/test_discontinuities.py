@@ -312,17 +312,17 @@ def test_serial_and_parallel_agree_on_a_partly_jointed_body_with_a_crack_tip():
     assert a.energies()["total"] == pytest.approx(b.energies()["total"], rel=1e-9)
 
 
-def test_readme_discontinuity_example_runs_as_written(capsys):
-    """README "Discontinuities, joint sets and heterogeneity": the example runs as written; its
+def test_guide_discontinuity_example_runs_as_written(capsys):
+    """docs/guide/fracture.md "Discontinuities, joint sets and heterogeneity": the example runs as written; its
     band of joints, its crack (x = 0 below y = −0.1: 3 edges of 0.05 m) and its joint set
     (y = 0.15: 20 edges) are where it says."""
     import os
     import re
-    readme = open(os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "README.md")).read()
-    sec = readme[readme.index("### Discontinuities, joint sets and heterogeneity"):]
+    readme = open(os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "docs", "guide", "fracture.md")).read()
+    sec = readme[readme.index("## Discontinuities, joint sets and heterogeneity"):]
     code = re.search(r"```python\n(.*?)```", sec, re.S).group(1)
     scope: dict = {}
-    exec(compile(code, "README.md", "exec"), scope)
+    exec(compile(code, "docs/guide/fracture.md", "exec"), scope)
     assert "['default', 'bedding']" in capsys.readouterr().out
     block = scope["block"]
     assert block.crack_count == 3
@@ -367,3 +367,18 @@ def test_line_groups_of_a_mesh_file_as_crack_and_joint_selectors(tmp_path):
     assert b.joint_count == 4                         # x = 0: 0.1 m / 0.025 m, not on the crack
     both = Scene(gravity=(0, 0)).add_body(groups["rock"], Material(**ROCK), cracks=groups.lines)
     assert both.crack_count == 12                     # a dict of line groups: their union
+
+
+def test_a_fracture_body_without_fracture_energy_names_its_material_as_given():
+    """The error names the material by its name, its group label or (unnamed) its repr."""
+    no_gf = fdem.Material(density=2600.0, young=1e9, poisson=0.25, tensile_strength=1e6)
+    mesh = fdem.mesh.rectangle(1.0, 1.0, 0.25)
+    cases = ((no_gf.with_(name="granite"), {}, "material 'granite'"),
+             ({"host": no_gf}, {"groups": np.full(mesh.triangle_count, "host")}, "group 'host'"),
+             (no_gf, {}, "Material(density=2600.0"))
+    for material, kw, named in cases:
+        scene = fdem.Scene()
+        with pytest.raises(ValueError, match="fracture_energy") as err:
+            scene.add_body(mesh, material, fracture=True, **kw)
+            scene.build()
+        assert named in str(err.value) and "np.int32" not in str(err.value)

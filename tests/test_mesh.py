@@ -9,7 +9,7 @@ from taichi_fdem import mesh as M
 from taichi_fdem.mesh import TriMesh
 
 
-# --------------------------------------------------------------------------- helpers
+# --------------------------------------------------------------------------- shared checks
 def shoelace(v):
     v = np.asarray(v, dtype=float)
     return 0.5 * abs(np.sum(v[:, 0] * np.roll(v[:, 1], -1) - np.roll(v[:, 0], -1) * v[:, 1]))

@@ -344,16 +344,16 @@ def test_gmsh_engine_missing(monkeypatch):
     np.testing.assert_array_equal(a.triangles, b.triangles)
 
 
-def test_readme_fracture_lines_example_runs_as_written(capsys):
-    """README "Meshes with fracture lines": the example runs as written and the edges it
+def test_guide_fracture_lines_example_runs_as_written(capsys):
+    """docs/guide/meshes.md "Meshes with fracture lines": the example runs as written and the edges it
     selects add up to the fault's length sqrt(2) m."""
     import os
     import re
-    readme = open(os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "README.md")).read()
-    sec = readme[readme.index("### Meshes with fracture lines"):]
+    readme = open(os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "docs", "guide", "meshes.md")).read()
+    sec = readme[readme.index("## Meshes with fracture lines"):]
     code = re.search(r"```python\n(.*?)```", sec, re.S).group(1)
     scope: dict = {}
-    exec(compile(code, "README.md", "exec"), scope)
+    exec(compile(code, "docs/guide/meshes.md", "exec"), scope)
     out = capsys.readouterr().out
     count, length = re.search(r"(\d+) edges along the fault, ([0-9.]+) m", out).groups()
     assert float(length) == pytest.approx(math.sqrt(2.0), rel=1e-11)

@@ -92,16 +92,16 @@ def test_jointed_specimen_lattice_has_straight_60_degree_lines():
 # the quasi-static scenarios (slope at μ = 1.2 tan θ, stack of blocks, cantilever) are in test_loads.py
 
 
-def test_readme_loads_example_runs_as_written(tmp_path, monkeypatch, capsys):
-    """The README's loads example runs as written (fdem.init skipped: the session has Taichi)
+def test_guide_loads_example_runs_as_written(tmp_path, monkeypatch, capsys):
+    """The loads example of docs/guide/loads.md runs as written (fdem.init skipped: the test run has started Taichi)
     and prints a bore displacement within 2 % of Lamé's 93.75 µm."""
     import os
     import re
-    readme = open(os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "README.md")).read()
-    sec = readme[readme.index("### Loads, boundaries and quasi-static runs"):]
+    readme = open(os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "docs", "guide", "loads.md")).read()
+    sec = readme[readme.index("# Loads, boundaries and quasi-static runs"):]
     code = re.search(r"```python\n(.*?)```", sec, re.S).group(1).replace("fdem.init()\n", "")
     monkeypatch.chdir(tmp_path)
-    exec(compile(code, "README.md", "exec"), {})
+    exec(compile(code, "docs/guide/loads.md", "exec"), {})
     out = capsys.readouterr().out
     u = float(re.search(r"u_r = ([0-9.]+) µm", out).group(1))
     assert u == pytest.approx(93.75, rel=0.02)

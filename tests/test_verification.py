@@ -133,9 +133,7 @@ print(json.dumps({n: V.case_wave(resolution=n, precision="f32")["error"] for n i
 def test_f32_fails_small_strain_wave_at_200_elements():
     """README: f32 fails small-strain problems, wave error above 30 % at 200 elements and above
     100 % at 400 (the 10⁻⁴ strain increments reach the f32 round-off of the coordinates), while
-    f64 holds 0.4 % at 200.  f32 needs its own process (fdem.init resets Taichi).  (Measured
-    0.39 and 2.87 in the twenty-first session; the test had asserted > 100 % at 200 too, which
-    no longer held: it runs only under the slow marker.)"""
+    f64 holds 0.4 % at 200.  f32 needs its own process (fdem.init resets Taichi)."""
     import json
     import subprocess
     import sys

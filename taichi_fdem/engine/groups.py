@@ -130,8 +130,8 @@ DET_CAND = 8              # partners of a contact triangle the count scan keeps 
 MAX_FORCE_BLOCKS = 64     # the couple ranges' bounds live in step_int[SPLIT + b], b = 0..blocks
 REBALANCE_STEPS = 512     # steps between two recomputations of the couple ranges (and after a detection): a
                           # serial pass (~50 ns per couple) while the other workers wait; 512 rather than 128
-                          # (before the twentieth session): 1.03-1.08x on the 10k pile, 1.02x on the
-                          # fracturing plate, the same at 1k and 100k (2 workers, one process)
+                          # is 1.03-1.08x faster on the 10k pile, 1.02x on the fracturing plate, the same at
+                          # 1k and 100k (2 workers, one process)
 # estimated costs per step, ~ns on one thread, for the blocks' couple ranges
 # (engine.blocks.rebalance_couples), measured in the block loop: a couple bonded or skipped by its
 # certificate of separation ~4 (3.5 in a resting 10k pile, 4-5 in the 10k plate after the impact),

@@ -144,8 +144,8 @@ def integrate_span(lo, hi, nodes: ti.template(), joints: ti.template(), asm: ti.
         # order, each over the nodes its items can write (its range, step_int[RANGE + 2b],
         # engine.blocks.block_node_ranges), each entry reset for the next step.  Two blocks
         # (the default): block 1's copy is added in the integration loop below, the same sum
-        # without a pass of its own that stores node_f and loads it again (1.3-3.3 % on the
-        # piles and the plate, twenty-second session)
+        # without a pass of its own that stores node_f and loads it again (1.3-3.3 % faster on
+        # the piles and the plate)
         nblk = asm_blocks(N, asm)
         if nblk == 2:
             f_lo = ti.max(lo, step.step_int[RANGE + 2])

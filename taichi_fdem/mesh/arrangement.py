@@ -22,7 +22,7 @@ import numpy as np
 
 from .lines import Segments
 
-__all__: list = []   # private helper module
+__all__: list = []   # private module
 
 #: geometric tolerance, relative to the largest extent of the polygon
 REL_TOL = 1e-9

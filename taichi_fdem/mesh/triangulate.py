@@ -12,11 +12,11 @@ from collections import deque
 
 import numpy as np
 
-__all__: list = []   # private helper module: nothing public
+__all__: list = []   # private module: nothing public
 
 
 class _CDT:
-    """Constrained Delaunay triangulation of a point set (private helper).
+    """Constrained Delaunay triangulation of a point set (private).
 
     Incremental Bowyer-Watson insertion inside a large super-triangle, then constrained
     edges restored by Sloan's edge-flipping and the Delaunay property re-established by

@@ -1,4 +1,4 @@
-"""The :class:`TriMesh` data class, its geometry helpers, :func:`merge`, and the small argument
+"""The :class:`TriMesh` data class, its geometry functions, :func:`merge`, and the small argument
 checks shared by the mesh constructors (pure NumPy).
 
 A :class:`TriMesh` is an immutable pair of arrays
@@ -34,7 +34,7 @@ MIN_LENGTH = 1.0e-9
 MAX_COORDINATE = 1.0e9
 
 
-# --------------------------------------------------------------------------- helpers
+# --------------------------------------------------------------------------- geometry
 def _nround(x: float) -> int:
     """Nearest integer, halves rounded down (2.5 -> 2), robust to last-bit noise."""
     return int(math.floor(x + 0.5 - 1e-9))

@@ -10,7 +10,7 @@
 * :func:`colormap` / :func:`body_colors` turn scalar fields and body ids into per-triangle
   colours (built-in tables, no matplotlib).
 * :class:`VideoWriter` streams frames to ``.mp4`` (libx264), ``.gif`` or a PNG directory.
-* :func:`save_png`, :func:`annotate` are small image helpers.
+* :func:`save_png`, :func:`annotate` are small image functions.
 
 All kernels take ``ti.types.ndarray()`` arguments, so a new scene or image size never causes
 a recompilation (kernels are compiled once per dtype / dimensionality).
@@ -20,7 +20,7 @@ is only read through the object handed in):
 
 * :mod:`._util` -- argument checks and Taichi / NumPy array conversions;
 * :mod:`.colors` -- :data:`COLOR_MODES`, :data:`COLORMAPS`, :func:`colormap`, :func:`body_colors`;
-* :mod:`.kernels` -- the Taichi kernels (rasterisers, colouring scalars, small helpers);
+* :mod:`.kernels` -- the Taichi kernels (rasterisers, colouring scalars, bounding boxes, clearing);
 * :mod:`.labels` -- colour bar, labels and stamp (Pillow), :func:`annotate`;
 * :mod:`.raster` -- :class:`RendererImage`;
 * :mod:`.video` -- :func:`save_png`, :class:`VideoWriter`.
@@ -36,4 +36,4 @@ from .video import VideoWriter, save_png
 
 __all__ = ["RendererImage", "colormap", "body_colors", "VideoWriter", "save_png", "annotate",
            "COLORMAPS", "COLOR_MODES"]
-# The private kernels and helpers above are re-exported for the tests that drive them directly.
+# The private kernels and functions above are re-exported for the tests that drive them directly.

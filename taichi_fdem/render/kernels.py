@@ -9,7 +9,7 @@
   (speed, displacement, von Mises and principal stresses), the latter with their finite range;
 * :func:`_cracks_u8_kernel` -- the broken joints of a simulation as their two crack faces (crack
   overlay), one thread per joint, straight into a uint8 image;
-* :func:`_bbox_kernel`, :func:`_centroid_kernel`, :func:`_clear_u8_kernel` -- small helpers.
+* :func:`_bbox_kernel`, :func:`_centroid_kernel`, :func:`_clear_u8_kernel` -- bounding box, centroids, clearing.
 
 All kernels take ``ti.types.ndarray()`` arguments, so a new scene or image size never causes
 a recompilation (kernels are compiled once per dtype / dimensionality).

@@ -22,6 +22,12 @@ from ..engine.diagnostics import energy_terms
 from ..engine.groups import WORK_ABSORB, WORK_BOUNDARY, WORK_CDAMPING, WORK_FRICTION, WORK_LOAD, WORK_LOCAL
 
 
+# the terms of ``total`` and their signs (work done on the system enters with −1)
+TOTAL_TERMS = (("kinetic", 1), ("strain", 1), ("contact", 1), ("gravity", 1), ("joints", 1), ("damping", 1),
+               ("friction", 1), ("contact_damping", 1), ("fracture", 1), ("local_damping", 1), ("absorbed", 1),
+               ("excavated", 1), ("boundary_work", -1), ("load_work", -1))
+
+
 def compute_energies(sim) -> dict:
     """The energy account of ``sim`` (per the scene thickness), see the module docstring."""
     md, st = sim.model, sim.state
@@ -45,7 +51,5 @@ def compute_energies(sim) -> dict:
         broken = st.joint_state.to_numpy() != 0
         e["joints"] = float(work[~broken].sum()) * t
         e["fracture"] = float(work[broken].sum()) * t
-    e["total"] = (e["kinetic"] + e["strain"] + e["contact"] + e["gravity"] + e["joints"] + e["damping"]
-                  + e["friction"] + e["contact_damping"] + e["fracture"] + e["local_damping"] + e["absorbed"]
-                  + e["excavated"] - e["boundary_work"] - e["load_work"])
+    e["total"] = sum(sign * e[k] for k, sign in TOTAL_TERMS)
     return e

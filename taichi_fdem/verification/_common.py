@@ -1,4 +1,4 @@
-"""Shared material constants and helpers of the verification cases."""
+"""Shared material constants and functions of the verification cases."""
 from __future__ import annotations
 
 import math
