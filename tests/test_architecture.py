@@ -14,7 +14,7 @@ LAYERS = [
     ("backend", "material", "mesh", "discontinuity"),
     ("engine",),
     ("timestep", "model", "state"),
-    ("guards", "energies", "cracks", "results", "profiling", "excavation", "simulation"),
+    ("guards", "energies", "cracks", "ae", "results", "profiling", "excavation", "simulation"),
     ("scene",),
     ("render", "io", "cli", "sweep", "verification", "__init__"),
 ]
