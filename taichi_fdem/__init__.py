@@ -30,7 +30,7 @@ from .sim.simulation import Simulation
 
 __version__ = "0.1.0"
 __all__ = ["init", "mesh", "render", "export", "checkpoint", "scenefile", "sweep", "Material", "Scene", "Body", "Curve",
-           "Weibull", "NormalStrength", "Simulation", "SimulationError", "__version__"]
+           "Weibull", "NormalStrength", "Simulation", "SimulationError", "calibrate", "__version__"]
 
 # driver modules, loaded on first attribute access (PEP 562)
 _LAZY = {"render": "taichi_fdem.render", "export": "taichi_fdem.io.vtu", "checkpoint": "taichi_fdem.io.checkpoint",
@@ -40,6 +40,10 @@ _LAZY = {"render": "taichi_fdem.render", "export": "taichi_fdem.io.vtu", "checkp
 
 
 def __getattr__(name):
+    if name == "calibrate":                      # fdem.calibrate(...): the function
+        from .sweep.calibrate import calibrate
+        globals()[name] = calibrate
+        return calibrate
     if name in _LAZY:
         module = importlib.import_module(_LAZY[name])
         globals()[name] = module
