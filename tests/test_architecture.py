@@ -16,7 +16,7 @@ LAYERS = [
     ("timestep", "model", "state"),
     ("guards", "energies", "cracks", "ae", "results", "profiling", "excavation", "simulation"),
     ("scene",),
-    ("render", "io", "cli", "sweep", "verification", "__init__"),
+    ("render", "io", "cli", "sweep", "verification", "lab", "__init__"),
 ]
 
 
