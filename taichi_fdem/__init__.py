@@ -15,7 +15,8 @@ Layers (imports run downwards only; see docs/architecture.md):
 * :mod:`model` (scene → model + state, :mod:`timestep`), then the driver :mod:`simulation`
   (with :mod:`guards`, :mod:`energies`, :mod:`results`), then the builder :mod:`scene`;
 * drivers on top: :mod:`render`, :mod:`io` (VTU, checkpoints, scene files), :mod:`viewer`,
-  :mod:`cli`, :mod:`sweep`, :mod:`verification`, :mod:`stability`.  They are imported on first
+  :mod:`cli`, :mod:`sweep`, :mod:`verification`, :mod:`stability`, :mod:`lab` (standard lab
+  tests: ``fdem.lab.ucs``, ``brazilian``, ``triaxial``, ``direct_shear``, ``fit_envelope``).  They are imported on first
   use (``fdem.render``, ``fdem.sweep``, ...), so importing the core loads none of them.
 """
 import importlib
@@ -43,17 +44,21 @@ from .scene import Body, Curve, Scene
 from .sim.simulation import Simulation
 
 __version__ = "0.1.0"
-__all__ = ["init", "mesh", "render", "export", "checkpoint", "scenefile", "sweep", "Material", "Scene", "Body", "Curve",
-           "Weibull", "NormalStrength", "Simulation", "SimulationError", "__version__"]
+__all__ = ["init", "mesh", "render", "export", "checkpoint", "scenefile", "sweep", "lab", "Material", "Scene", "Body", "Curve",
+           "Weibull", "NormalStrength", "Simulation", "SimulationError", "calibrate", "__version__"]
 
 # driver modules, loaded on first attribute access (PEP 562)
 _LAZY = {"render": "taichi_fdem.render", "export": "taichi_fdem.io.vtu", "checkpoint": "taichi_fdem.io.checkpoint",
          "scenefile": "taichi_fdem.io.scenefile", "sweep": "taichi_fdem.sweep", "io": "taichi_fdem.io",
          "verification": "taichi_fdem.verification", "stability": "taichi_fdem.verification.stability",
-         "viewer": "taichi_fdem.render.viewer", "cli": "taichi_fdem.cli"}
+         "viewer": "taichi_fdem.render.viewer", "cli": "taichi_fdem.cli", "lab": "taichi_fdem.lab"}
 
 
 def __getattr__(name):
+    if name == "calibrate":                      # fdem.calibrate(...): the function
+        from .sweep.calibrate import calibrate
+        globals()[name] = calibrate
+        return calibrate
     if name in _LAZY:
         module = importlib.import_module(_LAZY[name])
         globals()[name] = module

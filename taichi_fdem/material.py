@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, replace
 
 
@@ -33,6 +34,25 @@ BOUNDS = {
 }
 
 
+#: The range of real solids (SI): outside it a value is most likely in the wrong unit
+#: (``young=20`` meant 20 GPa, ``density=2.6`` meant 2.6 g/cm³).  Soft foams and gels have
+#: E ~ 1e4–1e6 Pa, diamond 1.2e12 Pa; cork ~120 kg/m³, osmium 2.26e4 kg/m³.
+#: ``Material`` warns (RuntimeWarning) outside these; it does not refuse.
+REAL_RANGE = {
+    "density": (50.0, 2.5e4, "kg/m³", "e.g. 2600 for granite, not 2.6 g/cm³"),
+    "young": (1e3, 1.5e12, "Pa", "e.g. 20e9 for 20 GPa"),
+    "tensile_strength": (1.0, 1e10, "Pa", "e.g. 8e6 for 8 MPa"),
+}
+
+#: Joint cohesion over tensile strength below which ``Material`` warns.  Intact rock has
+#: UCS/BTS ≈ 10–20 (Sheorey 1997, *Empirical Rock Failure Criteria*; Hoek 2007, *Practical Rock
+#: Engineering* §11); with Mohr–Coulomb UCS = 2c cos φ/(1 − sin φ) and φ = 30–40° that is
+#: c ≈ 2–4 f_t.  With c ≤ f_t a compressed joint fails in shear before the tensile strength is
+#: reached: a Brazilian disc with c = f_t, φ = 30° fails by shear in its centre at about 0.56 f_t
+#: instead of splitting at f_t (measured; with c = 3 f_t, φ = 35° it splits at 1.06 f_t).
+COHESION_WARN_RATIO = 1.0
+
+
 @dataclass(frozen=True)
 class Material:
     """A bulk material of the deformable triangles and its contact properties.
@@ -62,7 +82,10 @@ class Material:
     ``fracture=True``):
 
     tensile_strength : f_t [Pa], > 0.
-    cohesion : c [Pa] of the Mohr–Coulomb shear strength (default: f_t).
+    cohesion : c [Pa] of the Mohr–Coulomb shear strength (default: f_t, with a RuntimeWarning).
+        Rock has c ≈ 2–4 f_t (UCS/BTS ≈ 10–20); with c ≤ f_t compressed joints fail in shear
+        first, and a Brazilian test returns about half of f_t (see ``COHESION_WARN_RATIO``).
+        ``Material`` warns when c ≤ f_t (given, or by default).
     friction_angle : internal friction angle φ_i [degrees] (default 30).
     fracture_energy : G_I, mode I fracture energy [J/m²], > 0.
     fracture_energy_shear : G_II, mode II fracture energy [J/m²] (default: 5 × G_I).
@@ -122,6 +145,18 @@ class Material:
             if v is not None and v != 0.0 and not lo <= v <= hi:
                 raise ValueError(f"{where}: {key}={v:g}{' ' + unit if unit else ''} is outside the accepted range "
                                  f"[{lo:g}, {hi:g}]{' ' + unit if unit else ''} (SI units; a typo?)")
+        for key, (lo, hi, unit, hint) in REAL_RANGE.items():
+            v = getattr(self, key)
+            if v is not None and not lo <= v <= hi:
+                warnings.warn(f"{where}: {key}={v:g} {unit} is outside the range of real materials "
+                              f"[{lo:g}, {hi:g}] {unit}; the unit is {unit} ({hint})", RuntimeWarning, stacklevel=3)
+        if self.tensile_strength is not None and self.fracture_energy is not None:
+            c = self.cohesion if self.cohesion is not None else self.tensile_strength
+            if c <= COHESION_WARN_RATIO * self.tensile_strength:
+                warnings.warn(f"{where}: joint cohesion c = {c:g} Pa{' (the default f_t)' if self.cohesion is None else ''}"
+                              f" is <= tensile_strength f_t = {self.tensile_strength:g} Pa: compressed joints fail "
+                              "in shear first (a Brazilian disc fails at ~0.56 f_t); rock has c ≈ 2–4 f_t "
+                              "(UCS/BTS ≈ 10–20): pass cohesion= explicitly", RuntimeWarning, stacklevel=3)
 
     # --- derived quantities -------------------------------------------------------------------
     @property

@@ -14,9 +14,9 @@ LAYERS = [
     ("backend", "material", "mesh", "discontinuity"),
     ("engine",),
     ("timestep", "arrays", "model", "state"),
-    ("guards", "energies", "cracks", "results", "outputs", "profiling", "excavation", "simulation"),
+    ("guards", "energies", "cracks", "ae", "results", "outputs", "profiling", "excavation", "simulation"),
     ("scene",),
-    ("render", "io", "cli", "sweep", "verification", "__init__"),
+    ("render", "io", "cli", "sweep", "verification", "lab", "__init__"),
 ]
 
 

@@ -35,7 +35,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-__all__ = ["ExporterVtu", "frame_fields", "write_cracks_vtu"]
+__all__ = ["ExporterVtu", "frame_fields", "write_cracks_vtu", "write_ae_vtu"]
 
 
 def _to_numpy(a) -> np.ndarray:
@@ -271,6 +271,42 @@ def write_cracks_vtu(path, sim, binary: bool = True) -> str:
             mesh = meshio.Mesh(points, [("line", lines)], cell_data={name: [v] for name, v in data.items()})
             meshio.write(tmp, mesh, file_format="vtu", binary=binary)
         else:                   # meshio writes no readable empty grid: an empty piece by hand
+            with open(tmp, "w") as fh:
+                fh.write(_EMPTY_VTU)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+    return path
+
+
+def write_ae_vtu(path, ae: dict, binary: bool = True) -> str:
+    """Write acoustic-emission events (``sim.ae_events()`` or :func:`taichi_fdem.sim.ae.ae_events`)
+    as VTU points; returns the path.
+
+    One ``vertex`` cell per AE event at its location (z = 0).  Cell and point data: ``time`` [s],
+    ``end`` [s], ``energy`` [J], ``moment`` [N·m], ``magnitude`` (M_w), ``cracks`` (int32) and
+    ``mode`` (int32: 1 = tensile, 2 = shear, 3 = mixed).  No event: an empty piece."""
+    import meshio
+
+    path = os.fspath(path)
+    if not path.endswith(".vtu"):
+        raise ValueError(f"write_ae_vtu: path must end with .vtu, got {path!r}")
+    k = len(ae["time"])
+    points = _pad3(np.stack([np.asarray(ae["x"], np.float64), np.asarray(ae["y"], np.float64)], axis=1).reshape(k, 2))
+    codes = {"tensile": 1, "shear": 2, "mixed": 3}
+    data = {"time": np.asarray(ae["time"], np.float64), "end": np.asarray(ae["end"], np.float64),
+            "energy": np.asarray(ae["energy"], np.float64), "moment": np.asarray(ae["moment"], np.float64),
+            "magnitude": np.asarray(ae["magnitude"], np.float64), "cracks": np.asarray(ae["cracks"], np.int32),
+            "mode": np.array([codes[m] for m in np.asarray(ae["mode"]).tolist()], np.int32)}
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    tmp = path + ".tmp"
+    try:
+        if k:
+            mesh = meshio.Mesh(points, [("vertex", np.arange(k, dtype=np.int64).reshape(k, 1))],
+                               point_data=data, cell_data={name: [v] for name, v in data.items()})
+            meshio.write(tmp, mesh, file_format="vtu", binary=binary)
+        else:
             with open(tmp, "w") as fh:
                 fh.write(_EMPTY_VTU)
         os.replace(tmp, path)

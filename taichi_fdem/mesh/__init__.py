@@ -37,6 +37,7 @@ Modules (imports run downwards only, and never into the simulation, scene or ren
 * :mod:`.triangulate` -- the constrained Delaunay triangulator used by :func:`polygon`;
 * :mod:`.generators` -- :func:`rectangle`, :func:`disk`, :func:`annulus`, :func:`polygon`;
 * :mod:`.gmsh_engine` -- ``polygon(..., engine="gmsh")`` (optional: ``pip install "taichi-fdem[mesh]"``);
+* :mod:`.grains` -- :func:`voronoi_grains` (grain-based specimens; needs SciPy);
 * :mod:`.loaders` -- :func:`load`, :func:`load_groups`, :func:`load_tagged`, :func:`scene_from_groups` (meshio).
 """
 from __future__ import annotations
@@ -44,10 +45,11 @@ from __future__ import annotations
 from .lines import Polyline, Segments
 from .generators import annulus, disk, plate_with_hole, polygon, rectangle
 from .loaders import GROUP_KEYS, load, load_groups, load_tagged, scene_from_groups
+from .grains import GrainLabels, voronoi_grains
 from .trimesh import DEGENERACY_TOL, MAX_GENERATED_TRIANGLES, TriMesh, merge
 
 __all__ = ["TriMesh", "rectangle", "disk", "annulus", "polygon", "plate_with_hole", "load", "load_groups", "load_tagged", "scene_from_groups",
-           "merge", "Segments", "Polyline"]
+           "merge", "Segments", "Polyline", "voronoi_grains", "GrainLabels"]
 
 # Pickles (checkpoints hold the scene's meshes) name the class taichi_fdem.mesh.TriMesh, as before
 # the split into modules, so that checkpoints written before and after it load either way.

@@ -125,6 +125,33 @@ class CrackResults:
         os.replace(tmp, path)
         return path
 
+    def ae_events(self, window_distance: float | None = None, window_time: float | None = None,
+                  energy_to_moment: float | None = None) -> dict:
+        """The crack events clustered into acoustic-emission events (:func:`taichi_fdem.sim.ae.ae_events`:
+        time, location, energy [J], seismic moment [N·m], moment magnitude M_w (Hanks & Kanamori
+        1979 with Kanamori's 1977 energy-moment ratio), crack count and mode).
+
+        window_distance : link radius [m] (default: 2 × the mean initial length of the broken joints);
+        window_time : link time [s] (default: ``window_distance`` / the largest plane-strain P-wave speed of
+            the scene's materials: the time a signal needs to cross the window).
+        energy_to_moment : radiated energy / seismic moment (default 5e-5, Kanamori 1977).
+        """
+        from . import ae
+        ev = self.crack_events()
+        if window_distance is None:
+            window_distance = 2.0 * float(ev["length"].mean()) if len(ev["length"]) else 1.0
+        if window_time is None:
+            cp = max(m.p_wave_speed("strain") for m in self.model.materials)
+            window_time = float(window_distance) / cp
+        return ae.ae_events(ev, window_time, window_distance,
+                            ae.ENERGY_TO_MOMENT if energy_to_moment is None else energy_to_moment)
+
+    def write_ae_events(self, path, **windows) -> str:
+        """Write :meth:`ae_events` (``**windows``: its keyword arguments) as CSV; returns the path.
+        Columns: ``event, time_s, end_s, x_m, y_m, energy_J, moment_Nm, magnitude, cracks, mode``."""
+        from . import ae
+        return ae.write_ae_events(path, self.ae_events(**windows))
+
     def crack_segments(self) -> np.ndarray:
         """Current midlines of the broken joints [m], (k, 4) rows (x_a, y_a, x_b, y_b) in the
         order of :meth:`crack_events`: from ½(x_j0 + x_j3) to ½(x_j1 + x_j2)."""

@@ -227,9 +227,9 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     moving = ~np.all(free[tris].reshape(len(tris), 6) == 0.0, axis=1)
     rho_all = np.array([m.density for m in materials])
     cp = np.array([m.p_wave_speed(scene.plane) for m in materials])[tri_mat]
-    pmax = float(used_pairs[..., 0:2].max()) if md.contact else 0.0
+    pmax = _touching_penalty(bodies, tri_mat, moving, pair) if md.contact else 0.0
     rho_min = min(m.density for m in materials)
-    xi_max = used_pairs[..., 3].max() / (4.0 * math.sqrt(pmax * rho_min)) if md.contact_damping else 0.0
+    xi_max = used_pairs[..., 3].max() / (4.0 * math.sqrt(pmax * rho_min)) if md.contact_damping and pmax > 0 else 0.0
     if md.fracture:
         # the node mass a joint moves is set by its triangles' size: use their smallest
         # altitude, not the joint length (the length alone was optimistic on slender meshes)
@@ -527,6 +527,29 @@ def _prestress(scene, bodies, X, tris):
             sl = b.triangles
             out[sl] = sp.stress + (yc[sl, None] - sp.y_ref) * sp.gradient
     return out
+
+
+def _touching_penalty(bodies, tri_mat, moving, pair) -> float:
+    """The largest contact penalty (normal or tangential) [Pa] of the material pairs that can
+    touch and move: a couple takes its pair's penalty (by default the smaller of the two), so a
+    stiff material sets the contact step only where it meets itself.  Pairs counted: the
+    materials of two different bodies of which at least one has a node that is not prescribed,
+    and a body's materials against each other only when it has self-contact (FDEM_SPEC §6.2).
+    Two platens of one steel, both prescribed, never set the limit."""
+    mats, free = [], []
+    for b in bodies:
+        sl = slice(b.tri_start, b.tri_start + b.mesh.triangle_count)
+        mats.append(np.unique(tri_mat[sl]))
+        free.append(bool(np.any(moving[sl])))
+    best = 0.0
+    for i in range(len(bodies)):
+        for j in range(i, len(bodies)):
+            if not (free[i] or free[j]) or (i == j and not bodies[i].self_contact):
+                continue
+            sub = pair[np.ix_(mats[i], mats[j])]
+            if sub.size:
+                best = max(best, float(sub[..., 0:2].max()))
+    return best
 
 
 def _pair_table(scene, materials) -> np.ndarray:

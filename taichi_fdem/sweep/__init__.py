@@ -62,7 +62,8 @@ Modules
 -------
 :mod:`.params` (parameters, :class:`SweepError`, CSV cells), :mod:`.metrics` (:data:`METRICS`),
 :mod:`.worker` (one point in a worker process: :func:`run_point`), :mod:`.table` (the CSV),
-:mod:`.runner` (:class:`Sweep` and its local and Dask runs) and :mod:`.sweepfile` (:func:`load`).
+:mod:`.runner` (:class:`Sweep` and its local and Dask runs), :mod:`.sweepfile` (:func:`load`) and
+:mod:`.calibrate` (``fdem.calibrate``: differential evolution over batches of sweep points).
 Every public name is importable from ``taichi_fdem.sweep``.
 """
 from __future__ import annotations
@@ -71,6 +72,6 @@ from .metrics import METRICS, registry_metrics
 from .params import SOLVER_BUILD_KEYS, STATUS_COLUMNS, SweepError, group_params  # noqa: F401 (constants re-exported)
 from .runner import Sweep
 from .sweepfile import SWEEP_KEYS, load  # noqa: F401
-from .worker import run_point
+from .worker import FunctionPoint, run_point
 
-__all__ = ["Sweep", "SweepError", "METRICS", "group_params", "registry_metrics", "run_point", "load"]
+__all__ = ["Sweep", "SweepError", "METRICS", "group_params", "registry_metrics", "run_point", "load", "FunctionPoint"]

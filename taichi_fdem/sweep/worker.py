@@ -13,7 +13,22 @@ import time
 
 from .params import _plain, group_params
 
-__all__ = ["run_point"]
+__all__ = ["run_point", "FunctionPoint"]
+
+
+class FunctionPoint:
+    """A sweep base that is a plain function ``fn(params) -> dict`` of measured values (it runs
+    its own simulations, e.g. the standard lab tests): the point's metrics are that dict, with
+    no simulation built by the sweep.  ``fn`` must be picklable (a module-level function) for
+    local worker processes."""
+
+    def __init__(self, fn):
+        if not callable(fn):
+            raise TypeError(f"FunctionPoint: fn must be callable, got {fn!r}")
+        self.fn = fn
+
+    def __call__(self, params: dict) -> dict:
+        return self.fn(dict(params))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -70,11 +85,16 @@ def run_point(base, params: dict, metrics, duration=None, init: dict | None = No
     with _LOCK:
         try:
             _ensure_init(init)
-            sim, dur = _build_point(base, params, duration)
-            sim.run(float(dur), progress=False)
-            m = metrics(sim) if metrics is not None else {}
-            if not isinstance(m, dict):
-                raise TypeError(f"metrics(sim) must return a dict, got {type(m).__name__}")
+            if isinstance(base, FunctionPoint):
+                m = base(params)
+                if not isinstance(m, dict):
+                    raise TypeError(f"model(params) must return a dict, got {type(m).__name__}")
+            else:
+                sim, dur = _build_point(base, params, duration)
+                sim.run(float(dur), progress=False)
+                m = metrics(sim) if metrics is not None else {}
+                if not isinstance(m, dict):
+                    raise TypeError(f"metrics(sim) must return a dict, got {type(m).__name__}")
             res["metrics"] = {str(k): _plain(v) for k, v in m.items()}
         except SimulationError as exc:
             res.update(status="unstable", error=f"SimulationError: {exc}")

@@ -189,20 +189,22 @@ def case_lame(resolution: int = 8, safety: float = 0.2, penalty_factor: float = 
 # ------------------------------------------------------------------------------------------------
 def platen_scene(specimen_mesh: TriMesh, material: Material, platen_material: Material | None = None,
                  plane: str = "strain", fracture: bool = False, strain_rate: float = 0.1,
-                 t_ramp: float = 0.0, gravity=(0.0, 0.0)):
+                 t_ramp: float = 0.0, gravity=(0.0, 0.0), groups=None):
     """A specimen (its mesh centred on the origin) between two platens driven towards each other.
 
     The platens (as wide as 1.6 × the specimen, 1/10 of its height thick) have prescribed
     velocities ±v with v = ``strain_rate`` × H/2 [m/s] (nominal axial strain rate [1/s]), started
     by a linear ``Curve`` ramp over ``t_ramp`` seconds.  Contact between specimen and platens
     uses ``platen_material`` (default: the specimen's material with no friction: frictionless
-    platens, a uniform uniaxial stress).  Returns (scene, specimen, top platen, bottom platen).
+    platens, a uniform uniaxial stress).  ``material`` may be a dict of Materials with ``groups``
+    (one label per triangle).  Returns (scene, specimen, top platen, bottom platen).
     """
     x0, y0, x1, y1 = specimen_mesh.bounding_box()
     W, H = x1 - x0, y1 - y0
-    pm = platen_material or material.with_(friction=0.0, name="platen")
+    mats = list(material.values()) if isinstance(material, dict) else [material]
+    pm = platen_material or mats[0].with_(friction=0.0, name="platen")
     scene = Scene(gravity=gravity, plane=plane)
-    spec = scene.add_body(specimen_mesh, material, fracture=fracture, name="specimen")
+    spec = scene.add_body(specimen_mesh, material, fracture=fracture, name="specimen", groups=groups)
     v = strain_rate * 0.5 * H
     t = 0.1 * H
     curve = Curve.ramp(t_ramp) if t_ramp > 0 else None
@@ -211,7 +213,8 @@ def platen_scene(specimen_mesh: TriMesh, material: Material, platen_material: Ma
                          velocity_curve=curve, name="top")
     bot = scene.add_body(pmesh, pm, position=(0.5 * (x0 + x1), y0 - 0.5 * t), prescribed_velocity=(0.0, v),
                          velocity_curve=curve, name="bottom")
-    scene.set_interaction(material, pm, friction=pm.friction)
+    for m in mats:
+        scene.set_interaction(m, pm, friction=pm.friction)
     return scene, spec, top, bot
 
 

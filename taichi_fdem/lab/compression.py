@@ -1,0 +1,182 @@
+"""Compression tests between frictionless platens: unconfined (UCS) and triaxial (FDEM_SPEC §12.6)."""
+from __future__ import annotations
+
+import math
+import time as _time
+import warnings
+
+import numpy as np
+
+from .. import mesh as _mesh
+from ..material import Material
+from ..scene import Curve
+from ..verification.rock import axial_record, jointed_specimen_mesh, mohr_coulomb_peak, platen_scene
+from .results import LabResult, check_rate, elastic_constants, specimen_kinetic, warn_kinetic
+
+
+def _first(material):
+    if isinstance(material, dict):
+        if not material or not all(isinstance(m, Material) for m in material.values()):
+            raise TypeError("lab: material must be a Material or a non-empty dict of Materials")
+        return next(iter(material.values()))
+    if not isinstance(material, Material):
+        raise TypeError(f"lab: material must be a Material or a dict of Materials, got {type(material).__name__}")
+    return material
+
+
+def _positive(where, **values):
+    for k, v in values.items():
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise ValueError(f"{where}: {k} must be a positive length [m], got {v!r}")
+
+
+def video_frames(video, view, size=(320, 480)):
+    """(writer, frame(sim)) for ``video=`` of the lab tests: frames coloured by joint damage; (None, None) without a path."""
+    if not video:
+        return None, None
+    from ..render import RendererImage, VideoWriter
+    renderer = RendererImage(*size, view=view, color_by="damage", vmin=0.0, vmax=1.0)
+    writer = VideoWriter(video, fps=15)
+    return writer, lambda sim: writer.append(renderer.render_sim(sim))
+
+
+def compression(material, width: float, height: float, h: float, confinement: float = 0.0, *,
+                plane: str = "strain", fracture=None, mesh=None, groups=None, platen=None,
+                rate_transits: float = 60.0, settle_transits: float | None = None,
+                max_strain: float | None = None, samples: int = 150, stop_drop: float = 0.8,
+                safety: float = 0.2, quasi_static: bool = True, handover_damage: float | None = None,
+                penalty_factor: float = 10.0, video: str | None = None, history: str | None = None,
+                frame=None, test: str = "triaxial") -> LabResult:
+    """A compression test of a ``width`` × ``height`` [m] specimen (mesh size ``h`` [m]) between
+    frictionless platens, confined by a pressure ``confinement`` = σ3 [Pa] on its sides.
+
+    Phase 1 (``settle_transits`` P-wave transits H/c_p, default 10 when σ3 > 0, else 0): σ3 is
+    ramped with the platens still.  Phase 2: the platens close (their speed ramped over 5
+    transits) at a nominal strain rate that reaches the expected peak strain in
+    ``rate_transits`` transits, until ``max_strain`` or until the axial stress has dropped below
+    ``stop_drop`` × its peak.  The expected peak: Mohr–Coulomb of the joints' c, φ over E/2
+    (the joints' compliance) with fracture; without, ``max_strain`` (default 1e-3) / 2.5.
+
+    ``material``: a Material, or a dict of Materials with ``groups`` (one label per triangle of
+    ``mesh``).  ``fracture``: passed to ``Scene.add_body`` (default: True when the material
+    can fracture).  ``mesh``: the specimen's TriMesh centred on the origin (default: the
+    triangular lattice of ``verification.jointed_specimen_mesh`` with fracture, else
+    ``mesh.rectangle``).  The joint penalty defaults to ``penalty_factor`` × E.
+
+    Quasi-static: ``rate_transits`` < ``lab.results.MIN_TRANSITS`` raises ValueError; the
+    specimen's kinetic/strain energy at half the peak is in the summary (``kinetic_ratio``) and
+    warns above ``MAX_KINETIC_RATIO``.
+
+    Returns a :class:`LabResult` with curve columns time_s, axial_strain, axial_stress_Pa,
+    lateral_strain (compression positive; stress = the platens' mean reaction / width) and
+    summary peak_stress [Pa], peak_strain, young [Pa], poisson (tangent at 50 % of the peak,
+    corrected for the plane condition, see :func:`~taichi_fdem.lab.results.elastic_constants`),
+    plane_modulus E', plane_poisson ν', confinement, peak_mc (joints' Mohr–Coulomb), broken.
+    """
+    where = f"lab.{test}"
+    first = _first(material)
+    _positive(where, width=width, height=height, h=h)
+    if not (math.isfinite(confinement) and confinement >= 0):
+        raise ValueError(f"{where}: confinement must be a pressure >= 0 Pa (compression positive), got {confinement}")
+    check_rate(rate_transits, where)
+    fracture = first.can_fracture if fracture is None else fracture
+    if fracture and first.joint_penalty is None:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            if isinstance(material, dict):
+                material = {k: m if m.joint_penalty is not None else m.with_(joint_penalty=penalty_factor * m.young)
+                            for k, m in material.items()}
+            else:
+                material = material.with_(joint_penalty=penalty_factor * material.young)
+        first = _first(material)
+    if mesh is None:
+        mesh = jointed_specimen_mesh(width, height, h) if fracture else _mesh.rectangle(width, height, h)
+    W, H = width, height
+    cp = first.p_wave_speed(plane)
+    transit = H / cp
+    if fracture:
+        c = first.cohesion if first.cohesion is not None else first.tensile_strength
+        peak_mc = mohr_coulomb_peak(confinement, c, first.friction_angle)
+        eps_peak = peak_mc / (0.5 * first.young)
+        max_strain = 2.5 * eps_peak if max_strain is None else max_strain
+    else:
+        peak_mc = math.nan
+        max_strain = 1e-3 if max_strain is None else max_strain
+        eps_peak = max_strain / 2.5
+    settle = (10.0 if confinement > 0 else 0.0) if settle_transits is None else settle_transits
+    t1 = settle * transit
+    rate = eps_peak / (rate_transits * transit)
+    start = Curve([0.0, t1, t1 + 5 * transit], [0.0, 0.0, 1.0], name="platens") if t1 > 0 else \
+        Curve([0.0, 5 * transit], [0.0, 1.0], name="platens")
+    scene, spec, top, bot = platen_scene(mesh, material, platen_material=platen, plane=plane, fracture=fracture,
+                                         strain_rate=rate, groups=groups)
+    top.velocity_curve = start
+    bot.velocity_curve = start
+    if confinement > 0:
+        tol = 1e-6 * W
+        scene.apply_pressure(lambda x, y: np.abs(x) >= 0.5 * W - tol, confinement, body=spec,
+                             curve=Curve.ramp(max(t1, transit), name="confinement"))
+    t0 = _time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="bodies overlap", category=RuntimeWarning)
+        sim = scene.build(safety=safety, quasi_static=quasi_static, handover_damage=handover_damage)
+    build = _time.perf_counter() - t0
+    writer, draw = video_frames(video, (-0.9 * W, 0.9 * W, -0.68 * H, 0.68 * H))
+    duration = t1 + 5 * transit + max_strain / rate
+    rec, kin = [], []
+    t0 = _time.perf_counter()
+    try:
+        for _ in range(samples):
+            # a specimen at rest has contact-energy round-off the energy guard would call growth:
+            # check once the platens move (or the confinement works)
+            sim.run(duration / samples, history=history, check_energy=confinement > 0 or sim.time > t1 + 5 * transit)
+            rec.append(axial_record(sim, spec, top, bot, H, W) + (sim.time,))
+            en = sim.energies()
+            kin.append(specimen_kinetic(sim, spec) / max(en["strain"], 1e-300))
+            if frame is not None:
+                frame(sim, rec[-1])
+            if draw is not None:
+                draw(sim)
+            s = [r[1] for r in rec]
+            if sim.time > t1 and s[-1] < stop_drop * max(s):
+                break
+    finally:
+        if writer is not None:
+            writer.close()
+    wall = _time.perf_counter() - t0
+    eps, sig, lat, times = (np.array(c) for c in zip(*rec))
+    k = int(np.argmax(sig))
+    young = poisson = e_p = nu_p = math.nan
+    try:
+        young, poisson, e_p, nu_p = elastic_constants(eps, sig, lat, plane)
+    except ValueError as err:
+        warnings.warn(f"{where}: {err}", RuntimeWarning, stacklevel=2)
+    half = int(np.argmin(np.abs(sig[: k + 1] - 0.5 * sig[k])))
+    kinetic_ratio = float(kin[half])
+    warn_kinetic(kinetic_ratio, where)
+    summary = dict(peak_stress=float(sig[k]), peak_strain=float(eps[k]), young=young, poisson=poisson,
+                   plane_modulus=e_p, plane_poisson=nu_p, confinement=float(confinement), peak_mc=peak_mc,
+                   broken=sim.broken_joint_count, kinetic_ratio=kinetic_ratio, rate_transits=float(rate_transits),
+                   strain_rate=float(rate), wall=wall, build=build, steps=sim.step_count, dt=sim.dt)
+    curve = dict(time_s=times, axial_strain=eps, axial_stress_Pa=sig, lateral_strain=lat)
+    return LabResult(test, curve, summary, sim=sim, bodies=(spec, top, bot), material=material)
+
+
+def ucs(material, width: float, height: float, h: float, **kw) -> LabResult:
+    """Unconfined compression (UCS) of a ``width`` × ``height`` [m] specimen, mesh size ``h`` [m].
+
+    ``.peak_stress`` [Pa] (the UCS, or the largest stress reached), ``.young`` [Pa] and
+    ``.poisson`` (tangent at 50 % of the peak, lateral over axial strain, corrected for the
+    plane condition: plane strain by default, E' = E/(1 − ν²), ν' = ν/(1 − ν)), ``.curve``.
+    An elastic specimen (no fracture) returns its material's E and ν.  Keywords: see
+    :func:`compression`.
+    """
+    return compression(material, width, height, h, 0.0, test="ucs", **kw)
+
+
+def triaxial(material, width: float, height: float, h: float, confinement: float, **kw) -> LabResult:
+    """Triaxial (biaxial, in 2D) compression at a lateral pressure ``confinement`` = σ3 [Pa] of a
+    ``width`` × ``height`` [m] specimen, mesh size ``h`` [m].  Summary as :func:`ucs`, plus
+    ``.confinement``.  Feed a list of results to :func:`~taichi_fdem.lab.fit_envelope`.
+    Keywords: see :func:`compression`."""
+    return compression(material, width, height, h, confinement, test="triaxial", **kw)

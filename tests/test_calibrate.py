@@ -1,0 +1,70 @@
+"""fdem.calibrate: differential evolution over batches of sweep points."""
+import math
+
+import numpy as np
+import pytest
+
+import taichi_fdem as fdem
+
+pytest.importorskip("scipy")
+
+
+def analytic(p):
+    """Two measured values of two parameters (u = a b, v = a / b + b); fails for a < 0.3."""
+    a, b = p["a"], p["b"]
+    if a < 0.3:
+        raise RuntimeError("diverged")
+    return {"u": a * b, "v": a / b + b, "unused": math.sin(a)}
+
+
+TRUE = {"a": 1.7, "b": 0.6}
+BOUNDS = {"a": (0.1, 3.0), "b": (0.2, 2.0)}
+
+
+def _targets():
+    t = analytic(TRUE)
+    return {"u": t["u"], "v": (t["v"], 2.0)}
+
+
+@pytest.fixture(scope="module")
+def serial():
+    return fdem.calibrate(analytic, BOUNDS, _targets(), budget=300, seed=3, workers=1)
+
+
+def test_recovers_two_parameters_within_5_percent(serial, tmp_path):
+    for k, v in TRUE.items():
+        assert abs(serial.best[k] - v) / v < 0.05, (k, serial.best)
+    assert serial.evaluations <= 300 and len(serial.history) == serial.evaluations
+    # failures (a < 0.3) are recorded, not fatal
+    failed = [r for r in serial.history if r["status"] != "ok"]
+    assert failed and all(r["a"] < 0.3 and "diverged" in r["error"] for r in failed)
+    assert all(r["score"] == fdem.sweep.calibrate.FAILED_SCORE for r in failed)
+    # the best record's score is the objective of its parameters
+    m = analytic(serial.best)
+    t = _targets()
+    s = ((m["u"] - t["u"]) / t["u"]) ** 2 + 2.0 * ((m["v"] - t["v"][0]) / t["v"][0]) ** 2
+    assert serial.best_score == pytest.approx(s, rel=1e-12)
+    assert min(r["score"] for r in serial.history) == serial.best_score
+    rows = open(serial.to_csv(tmp_path / "h.csv")).read().splitlines()
+    assert len(rows) == serial.evaluations + 1 and rows[0].startswith("evaluation,batch,a,b,u,v,score")
+    serial.plot(tmp_path / "c.png")
+    assert (tmp_path / "c.png").stat().st_size > 0
+
+
+def test_same_seed_same_result_with_two_workers(serial):
+    par = fdem.calibrate(analytic, BOUNDS, _targets(), budget=300, seed=3, workers=2)
+    assert par.best == serial.best
+    assert [r["score"] for r in par.history] == [r["score"] for r in serial.history]
+    other = fdem.calibrate(analytic, BOUNDS, _targets(), budget=60, seed=4, workers=1)
+    assert [r["a"] for r in other.history[:5]] != [r["a"] for r in serial.history[:5]]
+
+
+def test_bad_input_is_named():
+    with pytest.raises(ValueError, match=r"params\['a'\] needs finite low < high"):
+        fdem.calibrate(analytic, {"a": (2.0, 1.0)}, {"u": 1.0})
+    with pytest.raises(ValueError, match="weights for names that are no target"):
+        fdem.calibrate(analytic, BOUNDS, {"u": 1.0}, weights={"x": 1.0})
+    with pytest.raises(ValueError, match="smaller than one generation"):
+        fdem.calibrate(analytic, BOUNDS, {"u": 1.0}, budget=5, popsize=5)
+    with pytest.raises(fdem.sweep.SweepError, match="every one of the"):
+        fdem.calibrate(analytic, {"a": (0.0, 0.2), "b": (1.0, 2.0)}, {"u": 1.0}, budget=20, popsize=5)
