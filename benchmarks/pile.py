@@ -207,7 +207,7 @@ def bench_size(fdem, size: int, strategy: str, steps: int | None, seconds: float
     assert sim.step_count - step0 == n, (sim.step_count, step0, n)
     dets = sim.detection_count - det0
     # steps run by one worker because it timed faster than the team (a busy host;
-    # Simulation._choose_team)
+    # sim.team.TeamScheduler.choose)
     paused = sim.info()["team"]["solo_steps"] - paused0
     x = sim.node_positions()
     if not np.all(np.isfinite(x)):

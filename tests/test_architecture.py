@@ -14,7 +14,7 @@ LAYERS = [
     ("backend", "material", "mesh", "discontinuity"),
     ("engine",),
     ("timestep", "arrays", "model", "state"),
-    ("guards", "energies", "cracks", "ae", "results", "outputs", "profiling", "excavation", "simulation"),
+    ("guards", "energies", "cracks", "ae", "results", "outputs", "profiling", "excavation", "team", "simulation"),
     ("scene",),
     ("render", "io", "cli", "sweep", "verification", "lab", "__init__"),
 ]

@@ -5,9 +5,6 @@ Every tracked text file (``git ls-files``) is read line by line for diary words:
 CHANGELOG.md.  One test per file, so that a failure names the file and its lines.
 
 ``ALLOWED`` lists the legitimate uses by name (pytest's ``scope="session"``, gmsh's session).
-``TOLERATED_UNTIL_REWRITTEN`` lists files being rewritten elsewhere: their test is an expected
-failure (strict, so it turns red as soon as a file is clean, and the entry must go).  The list
-is meant to be emptied.
 """
 from __future__ import annotations
 
@@ -39,9 +36,6 @@ EXEMPT = {
 }
 
 # being rewritten by other work: remove each entry once the file is clean
-TOLERATED_UNTIL_REWRITTEN = {
-    "docs/architecture.md",                # the block assembly and team launch paragraph
-}
 
 TEXT_SUFFIXES = (".py", ".md", ".rst", ".txt", ".toml", ".cfg", ".ini", ".yml", ".yaml", ".csv", ".json")
 TEXT_NAMES = ("Makefile", "LICENSE", "run")
@@ -74,14 +68,8 @@ def diary_lines(path: str) -> list[str]:
 FILES = tracked_text_files()
 
 
-def _param(path):
-    if path in TOLERATED_UNTIL_REWRITTEN:
-        return pytest.param(path, marks=pytest.mark.xfail(strict=True, reason="tolerated until rewritten"))
-    return path
-
-
 @pytest.mark.skipif(not FILES, reason="not a git checkout")
-@pytest.mark.parametrize("path", [_param(f) for f in FILES])
+@pytest.mark.parametrize("path", FILES)
 def test_no_development_diary_in(path):
     hits = diary_lines(path)
     assert not hits, f"{path} narrates the development:\n" + "\n".join(hits)
@@ -100,7 +88,3 @@ def test_the_diary_pattern_catches_what_it_should():
         assert not DIARY.search(text), ok
 
 
-def test_tolerated_files_exist():
-    """An entry of TOLERATED_UNTIL_REWRITTEN names a tracked file (a stale entry is removed)."""
-    if FILES:
-        assert TOLERATED_UNTIL_REWRITTEN <= set(FILES) | EXEMPT

@@ -413,7 +413,8 @@ def test_team_detects_inside_its_launch_with_the_same_bits(monkeypatch):
     couple buffer too small for the new couples ends the launch and the host grows it:
     tests/test_detection.py::test_redetection_while_moving_and_buffer_growth.)"""
     import taichi_fdem.sim.simulation as simmod
-    monkeypatch.setattr(simmod, "TEAM_PROBE_FIRST", 1e9)     # launch counts compared below
+    import taichi_fdem.sim.team as teammod
+    monkeypatch.setattr(teammod, "TEAM_PROBE_FIRST", 1e9)     # launch counts compared below
     runs = {}
     for inside in (True, False):
         monkeypatch.setattr(simmod, "DETECT_SERIAL_TRIS", 10**9 if inside else 0)
@@ -435,7 +436,8 @@ def test_team_steps_stop_at_the_unstable_step(monkeypatch):
     """A time step 4× the stable limit: the team launch stops after the first unstable step,
     as the per-step launches do, and the run ends with a diagnosis."""
     import taichi_fdem.sim.simulation as simmod
-    monkeypatch.setattr(simmod, "TEAM_PROBE_FIRST", 1e9)     # launch counts compared below
+    import taichi_fdem.sim.team as teammod
+    monkeypatch.setattr(teammod, "TEAM_PROBE_FIRST", 1e9)     # launch counts compared below
     steps = {}
     for team in (True, False):
         mat = fdem.Material(density=1000.0, young=1e7, poisson=0.25)
@@ -532,7 +534,7 @@ def test_a_team_stopped_between_stages_resumes_with_the_same_bits(monkeypatch):
     one worker, which claims what is left: here every launch stops after each stage (flag bit
     2 of ``run_steps_blocks``), and the trajectory is the same bits as one launch per step; the
     resumptions are counted in ``sim.info()``."""
-    import taichi_fdem.sim.simulation as simmod
+    import taichi_fdem.sim.team as simmod
     ref = _per_step_reference()
     sim = _loaded_pair()
     launch = sim._launch_cached
@@ -556,8 +558,8 @@ def test_a_team_stopped_between_stages_resumes_with_the_same_bits(monkeypatch):
 
 def test_the_team_and_one_worker_alone_are_timed_and_give_the_same_bits(monkeypatch):
     """Probes time a short launch of one worker against one of the team and the faster runs on
-    (``Simulation._choose_team``); probing at every launch, or running alone, the same bits."""
-    import taichi_fdem.sim.simulation as simmod
+    (``TeamScheduler.choose``); probing at every launch, or running alone, the same bits."""
+    import taichi_fdem.sim.team as simmod
     ref = _per_step_reference()
     monkeypatch.setattr(simmod, "TEAM_PROBE_FIRST", 0.0)
     monkeypatch.setattr(simmod, "TEAM_PROBE_MAX", 0.0)
@@ -566,7 +568,7 @@ def test_the_team_and_one_worker_alone_are_timed_and_give_the_same_bits(monkeypa
     assert sim.info()["team"]["probes"] > 0
     _same_bits(sim, ref)
     sim = _loaded_pair()
-    sim._team_solo = True
+    sim._teams.solo = True
     monkeypatch.setattr(simmod, "TEAM_PROBE_FIRST", 1e9)
     sim.run(0.01, progress=False)
     assert sim.info()["team"]["solo_steps"] == sim.step_count
@@ -661,7 +663,8 @@ def test_team_workers_cap_the_team_and_keep_the_bits(monkeypatch):
     compares a team of one with a team of two in one process): the same bits either way, and a
     bad value is refused by name."""
     import taichi_fdem.sim.simulation as simmod
-    monkeypatch.setattr(simmod, "TEAM_PROBE_FIRST", 1e9)     # launch counts compared below
+    import taichi_fdem.sim.team as teammod
+    monkeypatch.setattr(teammod, "TEAM_PROBE_FIRST", 1e9)     # launch counts compared below
     out = {}
     for workers in (1, None):
         sim = _loaded_pair()

@@ -1,5 +1,5 @@
 """The front-end memos of ``backend._memoise_front_end`` (start-up time) change no value Taichi
-sees, and patch nothing unless ``fdem.init`` applies them (the session's init does, under
+sees, and patch nothing unless ``fdem.init`` applies them (the test process's init does, under
 Taichi ``backend.FRONT_END_TAICHI``)."""
 import ast
 import inspect

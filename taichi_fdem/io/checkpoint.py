@@ -55,7 +55,7 @@ FORMAT_VERSION = 2
 # attributes of the simulation rebuilt by load() rather than stored: the scene (stored on its
 # own), what build() derives from it, the state (stored array by array) and the argpacks
 _REBUILT = frozenset({"scene", "bodies", "thickness", "model", "state", "scratch", "_packs", "_groups",
-                      "_launch_cache"})
+                      "_launch_cache", "_teams"})     # (the team's timings belong to this process)
 
 
 class CheckpointError(ValueError):
@@ -188,7 +188,7 @@ def save(sim, path) -> None:
     for name, value in vars(sim).items():         # step count, strategy, counters, and anything a user added
         if name in _REBUILT:
             continue
-        if not isinstance(value, ti.Ndarray) and type(value).__module__.startswith("taichi"):
+        if not isinstance(value, ti.Ndarray) and type(value).__module__.split(".")[0] == "taichi":
             raise TypeError(f"Simulation.save: attribute {name!r} is a Taichi {type(value).__name__}; "
                             f"only Taichi ndarrays can be checkpointed")
         value = _pack(value)

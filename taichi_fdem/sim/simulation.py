@@ -10,7 +10,7 @@ Execution strategy (:mod:`taichi_fdem.engine.step`): the serial one runs thousan
 launch on one core; the parallel one sums the forces without atomics and, on the CPU, runs
 thousands of steps per launch in a team of worker threads (:mod:`taichi_fdem.engine.team`,
 :attr:`Simulation.team_steps`) whose waits are bounded, sized to the usable cores, and timed
-against one worker on a shared CPU (:meth:`Simulation._choose_team`).  "auto" picks parallel
+against one worker on a shared CPU (:meth:`sim.team.TeamScheduler.choose`).  "auto" picks parallel
 on the CPU from 2 threads and usable cores and :data:`AUTO_PARALLEL_ITEMS` items (triangles +
 joints + couples), and on GPUs.
 """
@@ -31,6 +31,7 @@ from .model import build_model, counter, set_counter
 from .state import allocate_scratch, allocate_state, grow_couples, pack_groups, size_assembly, size_couple_scratch
 from .outputs import RunOutputs
 from .results import SimulationResults
+from .team import TeamScheduler
 from .timestep import CONTACT_LIMIT_FACTOR  # noqa: F401  (re-exported)
 
 __all__ = ["Simulation", "SimulationError", "SERIAL_MAX_STEPS", "SERIAL_TRI_STEPS", "TEAM_TRI_STEPS",
@@ -39,12 +40,6 @@ __all__ = ["Simulation", "SimulationError", "SERIAL_MAX_STEPS", "SERIAL_TRI_STEP
 SERIAL_MAX_STEPS = 2000          # at most this many steps per serial launch
 SERIAL_TRI_STEPS = 2_000_000     # ~50 ms of work per serial launch: responsive progress and Ctrl-C
 TEAM_TRI_STEPS = 10_000_000      # the same for a team launch (Simulation.steps_per_launch)
-TEAM_WAIT_MIN = 2e-3             # a team's wait is bounded by this [s], or by TEAM_WAIT_STEPS of its steps
-TEAM_WAIT_STEPS = 4.0            # (mean step times of the last launch), whichever is longer
-TEAM_SPINS_PER_S = 5e7           # tries of a team's wait per second (an i32 atomic each, ~10-20 ns)
-TEAM_PROBE_FIRST = 0.25          # the team and a worker alone are timed against each other after this [s],
-TEAM_PROBE_MAX = 8.0             # then twice as long after each probe that agrees, up to this [s]
-TEAM_PROBE_STEPS = 8             # a probe launch runs 1/8 of a launch's steps
 AUTO_PARALLEL_ITEMS = 600        # triangles + joints + couples from which "auto" runs parallel on >= 2 CPU threads
 DETECT_SERIAL_TRIS = 15_000      # up to this many contact triangles, detection runs as one serial launch
 
@@ -107,6 +102,7 @@ class Simulation(SimulationResults):
         self.scratch = allocate_scratch(self.model, self.state, parallel=strategy == "parallel",
                                         blocks=self._assembly == "blocks", force_blocks=self._force_blocks)
         self.step_count = 0
+        self._teams = TeamScheduler()
         self.launches: dict[str, int] = {}
         self._stats = {"wall_steps": 0.0, "wall_detect": 0.0}
         self._repack()
@@ -451,124 +447,22 @@ class Simulation(SimulationResults):
         return bool(self.scratch.blocks and backend.arch() == "cpu" and self.team_steps)
 
     def _team(self) -> int:
-        """Workers of a parallel team launch (:func:`engine.step.run_steps_blocks`), 0 for one
-        launch per step: at most the blocks, Taichi's threads and the cores this process may use
-        (:func:`backend.usable_cores`: its affinity set and CPU quota), and :attr:`team_workers`;
-        one while the timing of the team against one worker chose one (:meth:`_choose_team`).
-        The same bits in every case."""
-        if not self._team_launches():
-            return 0
-        return 1 if self._team_solo else self._team_size()
+        """Workers of the next team launch (:class:`~taichi_fdem.sim.team.TeamScheduler`), 0 for one
+        launch per step."""
+        return self._teams.workers(self) if self._team_launches() else 0
 
     def _team_size(self) -> int:
-        """The most workers a team launch may have (:meth:`_team`)."""
+        """The most workers a team launch may have: the blocks, Taichi's threads, the cores this
+        process may use (:func:`backend.usable_cores`: affinity set, CPU quota) and
+        :attr:`team_workers`."""
         return max(1, min(self._force_blocks, backend.cpu_threads(), backend.usable_cores(),
                           self._team_workers or MAX_FORCE_BLOCKS))
-
-    #: Counters of the team launches, for :meth:`info`: waits that ran past their bound, launches
-    #: resumed by one worker after one, probes timing the team against one worker, and the steps
-    #: run by one worker because it was the faster.
-    team_stats: dict = None
-    _team_solo = False     # one worker is the faster on this CPU now (_choose_team)
-    _team_probe_at = 0.0   # perf_counter time of the next probe
-    _team_probe_wait = TEAM_PROBE_FIRST
-
-    def _spin_bound(self) -> int:
-        """The bound of a team's wait, in tries: TEAM_WAIT_MIN, or TEAM_WAIT_STEPS mean step times
-        of the last launch, whichever is longer.  A wait that long means another worker lost its
-        core (a legitimate wait is for a unit another worker runs, a small share of a step)."""
-        step_s = self._team_step_s or 0.0
-        return int(min(2**31 - 1, TEAM_SPINS_PER_S * max(TEAM_WAIT_MIN, TEAM_WAIT_STEPS * step_s)))
-
-    _team_step_s = None    # mean wall time of a step in the last team launch [s]
-
-    def _launch_team(self, nsteps: int, nwork: int, flags: int, switches) -> int:
-        """One team launch of ``nsteps`` steps; a launch that stopped between two units because a
-        wait ran past its bound is resumed by one worker (the same bits).  Returns the kernel's
-        result with the steps of both launches."""
-        stats = self.team_stats
-        t0 = _time.perf_counter()
-        ret = self._launch_cached("run_steps_blocks", kernels.run_steps_blocks, nsteps, nwork, flags,
-                                  self._spin_bound(), *self._groups["team"], *switches)
-        done = 0
-        timed_out = bool(ret & kernels.TIMEOUT_BIT)
-        stats["timeouts"] += timed_out
-        while ret & kernels.ABORT_BIT:
-            stats["resumed"] += 1
-            done += ret & (kernels.UNSTABLE_BIT - 1)
-            ret = self._launch_cached("run_steps_blocks", kernels.run_steps_blocks, nsteps - done, 1, flags | 2,
-                                      self._spin_bound(), *self._groups["team"], *switches)
-        ret = (ret & ~(kernels.UNSTABLE_BIT - 1) & ~kernels.TIMEOUT_BIT) | (done + (ret & (kernels.UNSTABLE_BIT - 1)))
-        steps = ret & (kernels.UNSTABLE_BIT - 1)
-        if steps:
-            self._team_step_s = (_time.perf_counter() - t0) / steps
-        if timed_out and nwork > 1 and self._team_probe_at > t0:
-            self._team_probe_at = t0        # a wait ran past its bound: time the two again now
-        return ret
-
-    def _choose_team(self, nwork: int, chunk: int, flags: int, switches) -> tuple[int, int]:
-        """When a probe is due (TEAM_PROBE_FIRST seconds after the first team launch, then twice as
-        long after each probe that agrees with the choice, up to TEAM_PROBE_MAX; at once after a
-        wait past its bound), time a short launch of one worker and one of the team, and run on
-        with the faster: a team on a CPU shared with another busy process waits for its
-        descheduled workers.  Returns (steps done by the probes, the kernel's last result)."""
-        now = _time.perf_counter()
-        if self._team_probe_at == 0.0:
-            self._team_probe_at = now + TEAM_PROBE_FIRST     # (the first launch compiles)
-            return 0, 0
-        if now < self._team_probe_at or chunk < 2 * TEAM_PROBE_STEPS:
-            return 0, 0
-        steps = max(1, chunk // TEAM_PROBE_STEPS)
-        rates, done, ret = {}, 0, 0
-        for workers in (1, nwork):
-            t0 = _time.perf_counter()
-            ret = self._launch_team(steps, workers, flags, switches)
-            k = ret & (kernels.UNSTABLE_BIT - 1)
-            done += k
-            rates[workers] = k / max(_time.perf_counter() - t0, 1e-9)
-            if ret & (kernels.UNSTABLE_BIT | kernels.DUE_BIT) or k < steps:
-                return done, ret
-        self.team_stats["probes"] += 1
-        solo = rates[1] > rates[nwork]
-        if solo == self._team_solo:
-            self._team_probe_wait = min(TEAM_PROBE_MAX, 2.0 * self._team_probe_wait)
-        else:
-            self._team_probe_wait = TEAM_PROBE_FIRST
-        self._team_solo = solo
-        self._team_probe_at = _time.perf_counter() + self._team_probe_wait
-        return done, ret
 
     def _step_parallel(self, n: int) -> None:
         switches = self._switches()
         due = self._detect_due()
         if self._team_launches():
-            if self.team_stats is None:
-                self.team_stats = {"timeouts": 0, "resumed": 0, "probes": 0, "solo_steps": 0}
-            per_launch = self.steps_per_launch()
-            # small scenes detect inside the team launch (the serial task of _detect), large ones
-            # return to the host for the parallel broad phase
-            flags = int(self._detect_serially())
-            while n > 0:
-                if due:
-                    self._detect()
-                chunk = min(n, per_launch)
-                size = self._team_size()
-                ret = 0
-                if size > 1:
-                    done, ret = self._choose_team(size, chunk, flags, switches)
-                    self.step_count += done
-                    n -= done
-                    chunk -= done
-                if chunk > 0 and not ret & (kernels.UNSTABLE_BIT | kernels.DUE_BIT):
-                    nwork = self._team()
-                    ret = self._launch_team(chunk, nwork, flags, switches)
-                    if nwork == 1:
-                        self.team_stats["solo_steps"] += ret & (kernels.UNSTABLE_BIT - 1)
-                    self.step_count += ret & (kernels.UNSTABLE_BIT - 1)
-                    n -= ret & (kernels.UNSTABLE_BIT - 1)
-                due = bool(self.model.contact and ret & kernels.DUE_BIT)
-                if ret & kernels.UNSTABLE_BIT:
-                    guards.raise_unstable(self)
+            self._teams.run(self, n, due, switches)
             return
         for _ in range(n):
             if due:
@@ -740,7 +634,7 @@ class Simulation(SimulationResults):
                 "precision": backend.precision(),
                 "threads": {"taichi": backend.cpu_threads(), "usable_cores": backend.usable_cores(),
                             "team": self._team_size() if self._team_launches() else 0},
-                "team": dict(self.team_stats or {"timeouts": 0, "resumed": 0, "probes": 0, "solo_steps": 0})}
+                "team": dict(self._teams.stats)}
 
     def save(self, path) -> None:
         """Write a checkpoint of the whole state to ``path`` (one file, written atomically).
