@@ -112,6 +112,8 @@ joined_pairs   —       "joint" or "contact": who resists the overlap of triang
                        an undamaged joint (``Scene.build(joined_pairs=...)``) ["joint"]
 handover_damage —      joint damage in [0, 1] at which contact takes over a joined pair
                        (``Scene.build(handover_damage=...)``) [0]
+quasi_static   —       local non-viscous damping coefficient α in [0, 1) of
+                       ``Scene.build(quasi_static=α)``; 0 = off, 0.7 = ``True`` [0]
 =============  ======  ===================================================================
 
 ``[output]`` (all optional)
@@ -128,6 +130,8 @@ crack_events   —       CSV file of crack events, appended as joints break [non
 vtu            —       folder of a VTU series with a .pvd index (needs taichi_fdem.io.vtu)
 vtu_every      —       write one VTU file every this many frames [1]
 checkpoint     —       file written at the end of the run (needs Simulation.save)
+history        —       CSV of the energy/reaction history (``Simulation.run(history=...)``) [none]
+history_every  —       steps between history rows (``run(history_every=...)``) [the run's default]
 =============  ======  ===================================================================
 
 A top-level ``description`` string is allowed (free text).
@@ -232,6 +236,7 @@ SOLVER_KEYS = {
     "check_overlap": _Key("bool", True),
     "joined_pairs": _Key("choice", "joint", choices=("joint", "contact")),
     "handover_damage": _Key("float", HANDOVER_DAMAGE, lo=0.0, hi=1.0),
+    "quasi_static": _Key("float", 0.0, lo=0.0, hi=0.999),
 }
 COLOR_BY = ("body", "material", "speed", "displacement", "von_mises", "max_principal", "min_principal")
 OUTPUT_KEYS = {
@@ -246,6 +251,8 @@ OUTPUT_KEYS = {
     "vtu": _Key("str"),
     "vtu_every": _Key("int", 1, lo=1),
     "checkpoint": _Key("str"),
+    "history": _Key("str"),
+    "history_every": _Key("int", None, lo=1),
 }
 TOP_KEYS = ("description", "scene", "materials", "bodies", "constraints", "solver", "output")
 
@@ -441,6 +448,8 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
             raise ck.error(("output", "checkpoint"), "checkpoints need Simulation.save, which this version does not have")
     if "cracks" in output_t and output["cracks"] and output["video"] is None:
         raise ck.error(("output", "cracks"), "cracks = true draws the broken joints on the video: it needs video = \"...\"")
+    if "history_every" in output_t and output["history"] is None:
+        raise ck.error(("output", "history_every"), "history_every needs history = \"file.csv\"")
     if "vtu_every" in output_t and output["vtu"] is None:
         raise ck.error(("output", "vtu_every"), "vtu_every needs vtu = \"folder\"")
 

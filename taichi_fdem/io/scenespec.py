@@ -36,6 +36,8 @@ class RunSettings:
     vtu: str | None = None
     vtu_every: int = 1
     checkpoint: str | None = None
+    history: str | None = None
+    history_every: int | None = None
 
     def run(self, sim, progress: bool | None = None, duration: float | None = None) -> None:
         """Run ``sim`` for ``duration`` [s] (default: the file's) with the configured outputs."""
@@ -54,7 +56,8 @@ class RunSettings:
         try:
             sim.run(duration, video=self.video or None, fps=self.fps, frame_dt=self.frame_dt, renderer=renderer,
                     progress=progress, callback=exporter.callback if exporter is not None else None,
-                    crack_events=self.crack_events or None)
+                    crack_events=self.crack_events or None, history=self.history or None,
+                    history_every=self.history_every)
         finally:
             if exporter is not None:
                 exporter.close()
@@ -171,7 +174,8 @@ class SceneSpec:
         try:
             sim = scene.build(dt=s["dt"], safety=s["safety"], force_dt=s["force_dt"], buffer=s["buffer"],
                               strategy=s["strategy"], check_overlap=s["check_overlap"],
-                              joined_pairs=s["joined_pairs"], handover_damage=s["handover_damage"])
+                              joined_pairs=s["joined_pairs"], handover_damage=s["handover_damage"],
+                              quasi_static=s["quasi_static"] or False)
         except ValueError as exc:
             key = "dt" if "dt" in str(exc) else "solver"
             where = self._checker.where(("solver", key)) if self._checker else self.path
@@ -183,7 +187,8 @@ class SceneSpec:
         return RunSettings(duration=self.solver["duration"], video=o["video"], fps=o["fps"], frame_dt=o["frame_dt"],
                            color_by=o["color_by"], width=o["width"], height=o["height"], cracks=o["cracks"],
                            crack_events=o["crack_events"], vtu=o["vtu"],
-                           vtu_every=o["vtu_every"], checkpoint=o["checkpoint"])
+                           vtu_every=o["vtu_every"], checkpoint=o["checkpoint"], history=o["history"],
+                           history_every=o["history_every"])
 
     def __getstate__(self):
         state = dict(self.__dict__)

@@ -336,51 +336,22 @@ def triaxial_test(sigma3: float, resolution: int = 6, safety: float = 0.2, mater
     axial stress has dropped below ``stop_drop`` × its peak.  ``frame(sim, record)`` is called at each of
     the ``samples`` records (for videos).  Returns a dict: strain, stress, lateral strain arrays
     (compression positive; stress = the platens' mean reaction / width), the peak, the MC peak,
-    the simulation and its bodies.
+    the simulation and its bodies; ``lab``: the :class:`~taichi_fdem.lab.LabResult` of
+    :func:`taichi_fdem.lab.compression`, which runs the test (one copy of the set-up).
     """
+    from ..lab.compression import compression
     mp = dict(TRIAXIAL_MATERIAL if material is None else material)
     mp.setdefault("joint_penalty", penalty_factor * mp["young"])
-    mat = Material(**mp)
     W, H = 0.05, 0.1
-    spec_mesh = jointed_specimen_mesh(W, H, W / resolution)
-    cp = mat.p_wave_speed("strain")
-    transit = H / cp
-    phi = mat.friction_angle
-    peak_mc = mohr_coulomb_peak(sigma3, mat.cohesion if mat.cohesion is not None else mat.tensile_strength, phi)
-    # joints add compliance: about E/(1 + κ E/p_f); take the Mohr–Coulomb peak strain of E/2
-    eps_peak = peak_mc / (0.5 * mat.young)
-    t1 = 10.0 * transit
-    rate = eps_peak / (strain_rate_transits * transit)
-    start = Curve([0.0, t1, t1 + 5 * transit], [0.0, 0.0, 1.0], name="platens")
-    scene, spec, top, bot = platen_scene(spec_mesh, mat, fracture=True, strain_rate=rate)
-    top.velocity_curve = start
-    bot.velocity_curve = start
-    if sigma3 > 0:
-        tol = 1e-6 * W
-        scene.apply_pressure(lambda x, y: np.abs(x) >= 0.5 * W - tol, sigma3, body=spec,
-                             curve=Curve.ramp(t1, name="confinement"))
-    sim, build = _build(scene, safety, quasi_static=quasi_static, handover_damage=handover_damage)
-    max_strain = 2.5 * eps_peak if max_strain is None else max_strain
-    duration = t1 + 5 * transit + max_strain / rate
-    rec = []
-    t0 = _time.perf_counter()
-    for i in range(samples):
-        # a jointed specimen at rest has contact-energy round-off of ~1e-11 J, which the run's
-        # energy guard (relative to the energies seen so far, ~0 at rest) would call a growth:
-        # check once the platens move (or the confinement works)
-        sim.run(duration / samples, history=history, check_energy=sigma3 > 0 or sim.time > t1 + 5 * transit)
-        rec.append(axial_record(sim, spec, top, bot, H, W) + (sim.time,))
-        if frame is not None:
-            frame(sim, rec[-1])
-        s = [r[1] for r in rec]
-        if sim.time > t1 and s[-1] < stop_drop * max(s):
-            break
-    wall = _time.perf_counter() - t0
-    eps, sig, lat, times = (np.array(c) for c in zip(*rec))
-    k = int(np.argmax(sig))
-    return dict(sim=sim, bodies=(spec, top, bot), strain=eps, stress=sig, lateral=lat, time=times,
-                peak=float(sig[k]), peak_strain=float(eps[k]), peak_mc=peak_mc, sigma3=sigma3, wall=wall,
-                build=build, broken=sim.broken_joint_count, material=mat)
+    r = compression(Material(**mp), W, H, W / resolution, sigma3, fracture=True, rate_transits=strain_rate_transits,
+                    settle_transits=10.0, max_strain=max_strain, samples=samples, stop_drop=stop_drop, safety=safety,
+                    quasi_static=quasi_static, handover_damage=handover_damage, video=video, history=history,
+                    frame=frame, test="triaxial" if sigma3 > 0 else "ucs")
+    c = r.curve
+    return dict(sim=r.sim, bodies=r.bodies, strain=c["axial_strain"], stress=c["axial_stress_Pa"],
+                lateral=c["lateral_strain"], time=c["time_s"], peak=r.peak_stress, peak_strain=r.peak_strain,
+                peak_mc=r.peak_mc, sigma3=sigma3, wall=r.wall, build=r.build, broken=r.broken, material=r.material,
+                lab=r)
 
 
 def case_triaxial(resolution: int = 6, safety: float = 0.2, penalty_factor: float = 10.0, precision: str = "f64",
