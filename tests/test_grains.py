@@ -7,7 +7,7 @@ from taichi_fdem import mesh
 
 pytest.importorskip("scipy")
 
-ROCK = dict(density=2650.0, young=5e9, poisson=0.25, tensile_strength=1e6, fracture_energy=10.0)
+ROCK = dict(density=2650.0, young=5e9, poisson=0.25, tensile_strength=1e6, cohesion=3e6, fracture_energy=10.0)
 
 
 def test_grain_count_close_to_area_over_grain_size_squared():
@@ -87,7 +87,7 @@ def test_grain_specimen_with_grain_boundary_joints_builds_and_steps():
     m, lab = mesh.voronoi_grains(0.02, 0.02, 0.008, 0.004, seed=1, minerals={"quartz": 0.5, "feldspar": 0.5})
     quartz = fdem.Material(**ROCK, name="quartz")
     feldspar = fdem.Material(**{**ROCK, "young": 3e9}, name="feldspar")
-    weak = fdem.Material(**{**ROCK, "tensile_strength": 2e5}, name="boundary")
+    weak = fdem.Material(**{**ROCK, "tensile_strength": 2e5, "cohesion": 6e5}, name="boundary")
     scene = fdem.Scene(gravity=(0.0, 0.0))
     b = scene.add_body(m, lab.materials({"quartz": quartz, "feldspar": feldspar}), groups=lab, fracture=True,
                        velocity=(0.0, -0.1))
