@@ -171,10 +171,12 @@ def save(sim, path) -> None:
     arrays: dict[str, np.ndarray] = {}
     nd_meta: dict[str, dict] = {}
     state_plain: dict = {}
+    for name, value in sim.state.ndarrays().items():        # the declared arrays (sim.arrays.STATE_ARRAYS)
+        nd_meta[name] = _ndarray_meta(value)
+        arrays["nd." + name] = value.to_numpy()
     for name, value in vars(sim.state).items():
         if isinstance(value, ti.Ndarray):
-            nd_meta[name] = _ndarray_meta(value)
-            arrays["nd." + name] = value.to_numpy()
+            continue
         elif isinstance(value, np.ndarray):
             arrays["np." + name] = value
         else:
