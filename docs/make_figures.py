@@ -25,8 +25,9 @@ sys.path.insert(0, os.path.dirname(HERE))
 RESULTS = os.path.join(HERE, "figures", "verification_results.json")
 
 
-def run_cases(names) -> dict:
-    """{case: {"error", "steps", "seconds"}} for the named cases of ``verification.CASES``."""
+def run_cases(names, save=None) -> dict:
+    """{case: {"error", "steps", "seconds"}} for the named cases of ``verification.CASES``;
+    ``save(results)`` is called after each case, so an interrupted run keeps what it measured."""
     import taichi_fdem as fdem
     from taichi_fdem import verification as V
     fdem.init(arch="cpu", precision="f64")
@@ -37,6 +38,8 @@ def run_cases(names) -> dict:
         out[name] = {"error": float(r["error"]), "steps": int(r.get("steps", 0)),
                      "seconds": round(time.perf_counter() - t0, 1)}
         print(f"{name:16s} error {out[name]['error']:.3g}  ({out[name]['seconds']} s)", flush=True)
+        if save is not None:
+            save(out)
     return out
 
 
@@ -59,7 +62,7 @@ def write_outputs(results: dict) -> None:
     plt.close(fig)
     lines = ["| case | measured relative error | time steps |", "|---|--:|--:|"]
     for n in names:
-        lines.append(f"| `{n}` | {results[n]['error']:.3g} | {results[n]['steps']} |")
+        lines.append(f"| `{n}` | {results[n]['error']:.3g} | {results[n]['steps'] or '—'} |")
     with open(os.path.join(HERE, "verification_results.md"), "w", encoding="utf-8") as f:
         f.write("\n".join(lines) + "\n")
 
@@ -72,12 +75,15 @@ def main(argv=None) -> int:
         print(f"unknown case(s) {unknown}; choose from {list(CASES)}", file=sys.stderr)
         return 2
     old = json.load(open(RESULTS)) if os.path.exists(RESULTS) else {}
-    old.update(run_cases(names))
-    ordered = {n: old[n] for n in CASES if n in old}
     os.makedirs(os.path.dirname(RESULTS), exist_ok=True)
-    with open(RESULTS, "w") as f:
-        json.dump(ordered, f, indent=1)
-    write_outputs(ordered)
+
+    def save(new):
+        merged = {n: {**old, **new}[n] for n in CASES if n in {**old, **new}}
+        with open(RESULTS, "w") as f:
+            json.dump(merged, f, indent=1)
+        write_outputs(merged)
+
+    run_cases(names, save=save)
     return 0
 
 
