@@ -3,12 +3,12 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo demos test test-all bench clean
+.PHONY: demo demos test test-all bench docs gallery figures clean
 
 $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
-	$(BIN)/pip install -q -e ".[test,mesh]"
+	$(BIN)/pip install -q -e ".[test,mesh,docs]"
 	touch $(STAMP)
 
 ## make demo: set everything up and run the default demo (writes out/pile.mp4)
@@ -31,5 +31,18 @@ test-all: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/pile.py
 
+## make docs: build the documentation site into docs/_build/html (warnings are errors)
+docs: $(STAMP)
+	$(BIN)/python -m sphinx -b html -W --keep-going -q docs docs/_build/html
+	@echo "docs: docs/_build/html/index.html"
+
+## make gallery: a still and a short GIF of every demo, in docs/gallery (short runs)
+gallery: $(STAMP)
+	$(BIN)/python docs/make_gallery.py
+
+## make figures: the verification figures of the documentation, in docs/accuracy
+figures: $(STAMP)
+	$(BIN)/python docs/make_figures.py
+
 clean:
-	rm -rf $(VENV) out .pytest_cache
+	rm -rf $(VENV) out .pytest_cache docs/_build
