@@ -10,7 +10,7 @@ import numpy as np
 from .. import mesh as _mesh
 from ..material import Material
 from ..scene import Curve
-from ..verification.rock import axial_record, jointed_specimen_mesh, mohr_coulomb_peak, platen_scene
+from .specimens import axial_record, jointed_specimen_mesh, mohr_coulomb_peak, platen_scene
 from .results import LabResult, check_rate, elastic_constants, specimen_kinetic, warn_kinetic
 
 

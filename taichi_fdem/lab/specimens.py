@@ -1,0 +1,95 @@
+"""Specimens and platens of the compression tests (:mod:`taichi_fdem.lab.compression`, and the
+verification cases of :mod:`taichi_fdem.verification.rock` that run them)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import mesh
+from ..material import Material
+from ..mesh import TriMesh
+from ..scene import Curve, Scene
+
+
+def platen_scene(specimen_mesh: TriMesh, material: Material, platen_material: Material | None = None,
+                 plane: str = "strain", fracture: bool = False, strain_rate: float = 0.1,
+                 t_ramp: float = 0.0, gravity=(0.0, 0.0), groups=None):
+    """A specimen (its mesh centred on the origin) between two platens driven towards each other.
+
+    The platens (as wide as 1.6 × the specimen, 1/10 of its height thick) have prescribed
+    velocities ±v with v = ``strain_rate`` × H/2 [m/s] (nominal axial strain rate [1/s]), started
+    by a linear ``Curve`` ramp over ``t_ramp`` seconds.  Contact between specimen and platens
+    uses ``platen_material`` (default: the specimen's material with no friction: frictionless
+    platens, a uniform uniaxial stress).  ``material`` may be a dict of Materials with ``groups``
+    (one label per triangle).  Returns (scene, specimen, top platen, bottom platen).
+    """
+    x0, y0, x1, y1 = specimen_mesh.bounding_box()
+    W, H = x1 - x0, y1 - y0
+    mats = list(material.values()) if isinstance(material, dict) else [material]
+    pm = platen_material or mats[0].with_(friction=0.0, name="platen")
+    scene = Scene(gravity=gravity, plane=plane)
+    spec = scene.add_body(specimen_mesh, material, fracture=fracture, name="specimen", groups=groups)
+    v = strain_rate * 0.5 * H
+    t = 0.1 * H
+    curve = Curve.ramp(t_ramp) if t_ramp > 0 else None
+    pmesh = mesh.rectangle(1.6 * W, t, t / 2)
+    top = scene.add_body(pmesh, pm, position=(0.5 * (x0 + x1), y1 + 0.5 * t), prescribed_velocity=(0.0, -v),
+                         velocity_curve=curve, name="top")
+    bot = scene.add_body(pmesh, pm, position=(0.5 * (x0 + x1), y0 - 0.5 * t), prescribed_velocity=(0.0, v),
+                         velocity_curve=curve, name="bottom")
+    for m in mats:
+        scene.set_interaction(m, pm, friction=pm.friction)
+    return scene, spec, top, bot
+
+
+def axial_record(sim, spec, top, bot, H: float, W: float):
+    """(axial strain from the specimen's end faces, axial stress = mean platen reaction / W)
+    [–, Pa], compression positive; the lateral strain from the side faces' mean x displacement."""
+    X = sim.model.node_rest[spec.nodes]
+    u = sim.node_displacements(spec)
+    y0, y1 = X[:, 1].min(), X[:, 1].max()
+    x0, x1 = X[:, 0].min(), X[:, 0].max()
+    tol = 1e-6 * H
+    eps = -(u[X[:, 1] >= y1 - tol, 1].mean() - u[X[:, 1] <= y0 + tol, 1].mean()) / H
+    lat = (u[X[:, 0] >= x1 - tol, 0].mean() - u[X[:, 0] <= x0 + tol, 0].mean()) / W
+    f = 0.5 * (sim.reaction(bot)[1] - sim.reaction(top)[1])
+    return float(eps), float(f / W), float(lat)
+
+
+def mohr_coulomb_peak(sigma3: float, cohesion: float, phi_deg: float) -> float:
+    """σ1 at failure [Pa, compression positive] of Mohr–Coulomb with c, φ at confinement σ3
+    (FDEM_SPEC §12.6): σ1 = σ3 (1 + sin φ)/(1 − sin φ) + 2 c cos φ/(1 − sin φ)."""
+    s = math.sin(math.radians(phi_deg))
+    return sigma3 * (1 + s) / (1 - s) + 2 * cohesion * math.cos(math.radians(phi_deg)) / (1 - s)
+
+
+def jointed_specimen_mesh(width: float, height: float, h: float) -> TriMesh:
+    """A ``width`` × ``height`` rectangle (centred on the origin) meshed on a triangular lattice:
+    rows of nodes ``h``·√3/2 apart (adjusted to fit the height), every other row shifted by half
+    a cell, each row ending on the two sides.  The edges (the joints of a ``fracture=True`` body)
+    run at 0° and about ±60° to the x axis, straight from side to side; only half cells at the
+    sides break the pattern."""
+    nx = max(1, int(round(width / h)))
+    ny = max(1, int(round(height / (h * math.sqrt(3.0) / 2.0))))
+    dx, dy = width / nx, height / ny
+    X, Y = 0.5 * width, 0.5 * height
+    rows, pts = [], []
+    for j in range(ny + 1):
+        xs = -X + dx * np.arange(nx + 1) if j % 2 == 0 else np.concatenate([[-X], -X + dx * (np.arange(nx) + 0.5), [X]])
+        rows.append(np.arange(len(pts), len(pts) + len(xs)))
+        pts.extend((x, -Y + dy * j) for x in xs)
+    pts = np.array(pts)
+    tris = []
+    for j in range(ny):
+        a, b = list(rows[j]), list(rows[j + 1])
+        i = k = 0
+        while i < len(a) - 1 or k < len(b) - 1:
+            # advance along the row whose next node lies further left (a CCW triangle either way)
+            if k == len(b) - 1 or (i < len(a) - 1 and pts[a[i + 1], 0] <= pts[b[k + 1], 0]):
+                tris.append((a[i], a[i + 1], b[k]))
+                i += 1
+            else:
+                tris.append((a[i], b[k + 1], b[k]))
+                k += 1
+    return TriMesh(pts, np.array(tris, dtype=np.int32))
