@@ -14,7 +14,8 @@ LAYERS = [
     ("backend", "material", "mesh", "discontinuity"),
     ("engine",),
     ("timestep", "arrays", "model", "state"),
-    ("guards", "energies", "cracks", "ae", "results", "outputs", "profiling", "excavation", "team", "simulation"),
+    ("guards", "energies", "cracks", "ae", "results", "outputs", "settings", "profiling", "excavation", "team",
+     "simulation"),
     ("scene",),
     ("render", "io", "cli", "sweep", "verification", "lab", "__init__"),
 ]
@@ -176,7 +177,7 @@ def test_cycle_search_finds_circles():
     assert _find_cycle({"x": {"y"}, "y": {"y2"}, "y2": {"y"}}) == ["y", "y2", "y"]
 
 
-@pytest.mark.parametrize("where", ["sim/simulation.py", "sim/results.py", "sim/model.py", "sim/state.py"])
+@pytest.mark.parametrize("where", ["sim/simulation.py", "sim/results.py", "sim/settings.py", "sim/model.py", "sim/state.py"])
 def test_no_attribute_forwarding(where):
     """No class of the simulation layer forwards unknown attributes (``__getattr__`` or
     ``__getattribute__``): Simulation, Model and State answer only the names they declare.  (A

@@ -2,9 +2,9 @@
 :class:`~taichi_fdem.sim.model.State`: name, shape, element type and unit of each.
 
 Shapes use N nodes, E triangles, M materials, B bodies, K contact triangles, J joint slots,
-L load rows, P curve points, F fan entries, C couple capacity (``State.couple_max``) and H
-its history slots; an array a scene does not use has one placeholder row (``N|1``: N when the
-feature is present).  ``real`` is the precision chosen at :func:`taichi_fdem.init` (f64 or f32);
+L load rows, P curve points, F fan entries, G fix_nodes groups, nb bonded neighbour pairs, C
+couple capacity (``State.couple_max``); an array a scene does not use has one placeholder row
+(``N|1``: N when the feature is present).  ``real`` is the precision chosen at :func:`taichi_fdem.init` (f64 or f32);
 ``vecK`` a K-vector per row.  Units are SI; "-" marks counts, indices, flags and bit sets.
 Every Taichi array a Model or State holds is declared here and every declared one is allocated
 at build (tests/test_simulation_api.py); checkpoints and the last good state save exactly the
@@ -40,12 +40,13 @@ MODEL_ARRAYS = _specs([
     ("tri_mat", "(E,)", "i32", "-", "material index of each triangle"),
     ("tri_body", "(E,)", "i32", "-", "body index of each triangle"),
     ("tri_visc", "(E|1,)", "real", "Pa·s·m", "viscous damping coefficient of each triangle (FDEM_SPEC §2.3)"),
-    ("tri_origin", "(E,)", "i32 vec3", "-", "the mesh triangle and body each triangle came from"),
+    ("tri_origin", "(E,)", "i32 vec3", "-", "the original (unsplit) nodes of each triangle, numbered apart per body"),
     ("tri_prestress", "(E|1,)", "real vec3", "Pa", "initial stress (σxx, σyy, σxy)"),
     ("tri_fans", "(F,)", "i32", "-", "the triangles around each node (offsets, then lists) for the neighbour links"),
     ("mat_mu", "(M,)", "real", "Pa", "Lamé shear modulus μ of each material"),
     ("mat_lam", "(M,)", "real", "Pa", "Lamé λ of each material (plane strain or stress)"),
-    ("mat_pair", "(M, M)", "real vec4", "Pa, -", "contact penalty, friction, contact damping, ... of each pair"),
+    ("mat_pair", "(M, M)", "real vec4", "Pa, Pa, -, Pa·s/m", "contact penalty, tangential penalty, friction "
+                                                       "coefficient, contact damping coefficient of each pair"),
     ("body_flags", "(B,)", "i32", "-", "bit set per body (fixed, prescribed, contact)"),
     ("contact_tri", "(K|1,)", "i32", "-", "the triangles that take part in contact"),
     ("joint_nodes", "(J|1,)", "i32 vec4", "-", "the four nodes of each joint (two per face)"),
@@ -79,7 +80,7 @@ MODEL_HOST_ARRAYS = _specs([
     ("joint_prop_np", "(J, 6)", "f64", "Pa, J/m², -", "the joints' material properties"),
     ("joint_set_np", "(J,)", "i32", "-", "joint set index of each joint"),
     ("joint_len0_np", "(J,)", "f64", "m", "rest length of each joint"),
-    ("joint_fs0", "(J|1, 3)", "f64", "-", "initial joint face state"),
+    ("joint_fs0", "(J|1, 3)", "f64", "Pa", "initial shear strength c of each joint (three points)"),
     ("nb_pairs_np", "(nb, 2)", "i32", "-", "bonded neighbour triangle pairs"),
 ])
 
@@ -97,14 +98,14 @@ STATE_ARRAYS = _specs([
     ("joint_state", "(J|1,)", "i32", "-", "intact / damaged / broken per joint"),
     ("joint_dmax", "(J|1,)", "real vec3", "m", "largest opening and slip reached"),
     ("joint_zmax", "(J|1,)", "real vec3", "-", "softening factor at the largest opening"),
-    ("joint_fs", "(J|1,)", "real vec3", "-", "joint face state"),
+    ("joint_fs", "(J|1,)", "real vec3", "Pa", "shear strength of each joint (three integration points)"),
     ("joint_work", "(J|1,)", "real", "J/m", "work done on each joint"),
     ("joint_break", "(J|1,)", "real vec3", "s, m, m", "time and position of each joint's break"),
     ("joint_g", "(J|1,)", "real vec4", "J/m²", "energy released per mode"),
     ("couple_start", "(K+1|1,)", "i32", "-", "first couple of each contact triangle (friction history)"),
     ("couple_a", "(C,)", "i32", "-", "first triangle of each contact couple"),
     ("couple_b", "(C,)", "i32", "-", "second triangle of each contact couple"),
-    ("couple_hist", "(H,)", "real", "m", "tangential slip history of the couples"),
+    ("couple_hist", "(6C|1,)", "real", "m", "tangential slip history of the couples (6 slots each, with friction)"),
     ("step_real", "(REAL_COUNTERS,)", "real", "s, J/m, m", "real counters (engine.groups: TIME, DACC, energies)"),
     ("step_int", "(INT_COUNTERS,)", "i32", "-", "integer counters (engine.groups: COUPLES, FOUND, ...)"),
 ])
