@@ -47,7 +47,7 @@ napoleon_numpy_docstring = True
 napoleon_google_docstring = False
 napoleon_use_ivar = True
 # docstrings here are written for readers of the source; their informal parameter lists and
-# cross-references to private helpers are not turned into nitpicky references
+# cross-references to private functions are not turned into nitpicky references
 nitpicky = False
 suppress_warnings = ["autodoc.import_object", "docutils", "ref.python"]
 
