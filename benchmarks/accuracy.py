@@ -181,7 +181,7 @@ def analyse(rows: list, out_dir: str) -> str:
              "`error` = relative error against the analytic value; ★ = on the Pareto front of the case "
              "(no other run both faster and more accurate), by wall time and by work = triangles × steps "
              "(wall times below ~0.3 s are noisy on the shared machine; the work is exact); **bold** = the package defaults "
-             "(safety 0.2, penalty 10·E, f64; Hertz uses 100·E as FDEM_SPEC §8.5 asks).", ""]
+             "(safety 0.2, penalty 10·E, f64; Hertz uses 100·E as docs/verification.md §8.5 asks).", ""]
     summary = ["## Convergence orders (log-log slopes)", "",
                "| case | precision | order in h (measured) | theory | order in Δt (measured) | theory |",
                "|:--|:--|--:|--:|--:|--:|"]

@@ -123,7 +123,7 @@ def main(argv=None):
     for r in a:
         lines.append(f"| {r['variant']} | {r['triangles']} | {r['contact']} | {r['friction']} | {r['couples']} | "
                      f"{r['steps_per_s']:.0f} | {r['relative']:.2f} |")
-    lines += ["", "Feature switches are `ti.static` template arguments (FDEM_SPEC-style kernels are "
+    lines += ["", "Feature switches are `ti.static` template arguments (the kernels are "
               "specialised per combination), so a one-body scene runs a kernel with no contact, friction or "
               "fracture code at all; rendering is only imported by `run(video=...)`.  The residual cost of "
               "contact with no couple is the re-detection bookkeeping (the bounding circles of the far body's "

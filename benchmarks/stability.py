@@ -89,7 +89,7 @@ its default checks: every step non-finite values, inverted elements (J ≤ 0) an
 above 2 c_p; every check interval (adaptive, 20–500 steps) energy growth above 10 % of the
 energy scale and a couple penetration above 50 % of the element size.
 
-Columns: *dt / limit* = the time step over the estimated stable limit (FDEM_SPEC §6.2; the
+Columns: *dt / limit* = the time step over the estimated stable limit (docs/theory/elements.md §6.2; the
 automatic step is 0.2); *result* = stable, or the step at which the run stopped and the check
 that stopped it; *energy drift* = the largest |E_total − E_total(0)| seen, over the energy scale
 (the largest kinetic + strain + contact + dissipated energy; E_total books friction, damping and
@@ -117,7 +117,7 @@ limit h/c_p), with the time step forced to a multiple of the estimated limit:
 
 * **Automatic time step** (safety 0.2): every scenario above ran stable, without inverted
   elements, with the penetration at most a few % of the element size.
-* **Forced time steps**: the estimated limit (FDEM_SPEC §6.2) holds for the curved two-disk
+* **Forced time steps**: the estimated limit (docs/theory/elements.md §6.2) holds for the curved two-disk
   contact and for undamped elements (stable at 1×), but it is **optimistic by up to ~2.2×** in
   two situations found here (see the table above): face-on-face contact of structured meshes
   (two bars: unstable from ~0.45× the estimated contact limit — the corner node of a

@@ -1,4 +1,4 @@
-"""Brazilian disc test: a jointed rock disc split between two stiff platens (FDEM_SPEC §8.8).
+"""Brazilian disc test: a jointed rock disc split between two stiff platens (docs/verification.md §8.8).
 
     python demos/brazilian.py            # writes out/brazilian.mp4 and out/brazilian_load.csv
     python demos/brazilian.py --short    # a quick, coarser version (used by tests/test_demos.py)

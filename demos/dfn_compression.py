@@ -1,4 +1,4 @@
-"""Uniaxial compression of a rock specimen cut by a discrete fracture network (FDEM_SPEC §13.1).
+"""Uniaxial compression of a rock specimen cut by a discrete fracture network (docs/theory/discontinuities.md §13.1).
 
     python demos/dfn_compression.py            # writes out/dfn_compression.mp4, out/dfn_compression_curves.csv
     python demos/dfn_compression.py --short    # a quick, coarser version (used by tests/test_demos_rock.py)

@@ -1,4 +1,4 @@
-"""A jointed rock slope failing under gravity along two joint sets (FDEM_SPEC §13.1–13.2).
+"""A jointed rock slope failing under gravity along two joint sets (docs/theory/discontinuities.md §13.1–13.2).
 
     python demos/slope.py            # writes out/slope.mp4, out/slope_history.csv, out/slope_cracks.csv
     python demos/slope.py --short    # a quick, coarser version (used by tests/test_demos_rock.py)

@@ -1,4 +1,4 @@
-"""Compression tests of a jointed rock specimen: unconfined (UCS) and triaxial (FDEM_SPEC §12.6).
+"""Compression tests of a jointed rock specimen: unconfined (UCS) and triaxial (docs/theory/loads.md §12.6).
 
     python demos/triaxial.py            # UCS + triaxial at σ3 = 0.1 and 0.2 MPa: out/triaxial.mp4, out/triaxial_curves.csv
     python demos/triaxial.py --short    # a quick, coarser version (used by tests/test_demos_rock.py)

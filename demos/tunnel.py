@@ -1,4 +1,4 @@
-"""A tunnel excavated in a stressed, jointed rock mass (FDEM_SPEC §12.4).
+"""A tunnel excavated in a stressed, jointed rock mass (docs/theory/loads.md §12.4).
 
     python demos/tunnel.py            # writes out/tunnel.mp4 and out/tunnel_history.csv
     python demos/tunnel.py --short    # a quick, coarser version (used by tests/test_demos_rock.py)

@@ -1,4 +1,4 @@
-"""Discontinuities and heterogeneity of a body (FDEM_SPEC §13): where its cohesive joints and
+"""Discontinuities and heterogeneity of a body (docs/theory/discontinuities.md §13): where its cohesive joints and
 pre-existing cracks go, the joint properties of each joint (joint sets, interfaces) and their
 statistical spread.
 
@@ -33,7 +33,7 @@ __all__ = ["Weibull", "NormalStrength", "split_body"]
 @dataclass(frozen=True)
 class Weibull:
     """Weibull-distributed joint strength with modulus ``modulus`` (m > 0) and mean 1 × the
-    material's value; ``seed`` makes the draws reproducible (FDEM_SPEC §13.3)."""
+    material's value; ``seed`` makes the draws reproducible (docs/theory/discontinuities.md §13.3)."""
 
     modulus: float
     seed: int = 0
@@ -54,7 +54,7 @@ class Weibull:
 @dataclass(frozen=True)
 class NormalStrength:
     """Normally distributed joint strength: mean 1 × the material's value, coefficient of
-    variation ``cov``, truncated below at ``floor`` (FDEM_SPEC §13.3)."""
+    variation ``cov``, truncated below at ``floor`` (docs/theory/discontinuities.md §13.3)."""
 
     cov: float
     seed: int = 0

@@ -62,11 +62,11 @@ class Material:
     density : kg/m³, > 0.
     young : Young's modulus E [Pa], > 0.
     poisson : Poisson's ratio ν, −1 < ν < 0.5.
-    friction : Coulomb friction coefficient μ_f ≥ 0 of contacts (FDEM_SPEC §5.1).  The
+    friction : Coulomb friction coefficient μ_f ≥ 0 of contacts (docs/theory/contact.md §5.1).  The
         coefficient of a couple of two materials is the smaller of the two unless
         :meth:`Scene.set_interaction` says otherwise.
     damping : viscous damping β in [0, 1], as a fraction of critical damping of the highest
-        element mode: k_s = 2 h β √(E ρ) (FDEM_SPEC §3.4).  0 (default) for wave and impact
+        element mode: k_s = 2 h β √(E ρ) (docs/theory/elements.md §3.4).  0 (default) for wave and impact
         problems, 0.1–1 for quasi-static runs.
     penalty : normal contact penalty p [Pa].  Default ``10 · young``: by the book's estimate
         (p. 79–80) the penetration is then about 1/10 of the element's own elastic
@@ -74,11 +74,11 @@ class Material:
         Raise it (50–100 E) where contact stiffness matters (Hertz contact).
     tangential_penalty : tangential (stick) stiffness k_t of friction [Pa = N/m per metre of
         thickness per metre of slip].  Default: equal to ``penalty``.
-    contact_damping : normal contact damping ratio ξ in [0, 1] (FDEM_SPEC §5.2),
+    contact_damping : normal contact damping ratio ξ in [0, 1] (docs/theory/contact.md §5.2),
         c_n = 4 ξ √(p ρ).  Default 0 (elastic contact).
     name : free label.
 
-    Fracture (cohesive joints between triangles, FDEM_SPEC §7; used by bodies added with
+    Fracture (cohesive joints between triangles, docs/theory/joints.md §7; used by bodies added with
     ``fracture=True``):
 
     tensile_strength : f_t [Pa], > 0.
@@ -178,7 +178,7 @@ class Material:
         """λ_Y of the finite-strain law T = (μ/J)(B−I) + λ_Y (J − 1/J) I [Pa].
 
         Because J − 1/J ≈ 2 tr ε, λ_Y is *half* the usual Lamé λ of the plane problem, so that
-        small strains reproduce Hooke's law with this E and ν (FDEM_SPEC §3.2, the factor-2 caveat).
+        small strains reproduce Hooke's law with this E and ν (docs/theory/elements.md §3.2, the factor-2 caveat).
         """
         E, nu = self.young, self.poisson
         if plane == "stress":
@@ -188,7 +188,7 @@ class Material:
         raise ValueError(f"plane must be 'strain' or 'stress', got {plane!r}")
 
     def p_wave_speed(self, plane: str) -> float:
-        """Dilatational wave speed c_p [m/s] of the plane problem (FDEM_SPEC §6.2)."""
+        """Dilatational wave speed c_p [m/s] of the plane problem (docs/theory/elements.md §6.2)."""
         E, nu, rho = self.young, self.poisson, self.density
         if plane == "stress":
             return math.sqrt(E / (rho * (1.0 - nu * nu)))

@@ -77,7 +77,7 @@ class Body:
     joint_tris: Optional[np.ndarray] = None    # (k, 2) local triangles (A, B) of each joint
     origin_triangles: Optional[np.ndarray] = None  # (m, 3) node indices of source_mesh (when split)
     velocity_curve: Optional["Curve"] = None   # multiplies prescribed_velocity
-    # ---- discontinuities (FDEM_SPEC §13; filled by taichi_fdem.discontinuity.split_body) ----
+    # ---- discontinuities (docs/theory/discontinuities.md §13; filled by taichi_fdem.discontinuity.split_body) ----
     source_mesh: Optional[TriMesh] = None
     materials: Optional[list] = None           # the body's materials (groups, then crack faces)
     group_count: int = 1
@@ -136,7 +136,7 @@ class Body:
 
 
 def explode_for_fracture(mesh: TriMesh):
-    """Private nodes per triangle and a 4-node joint on every interior edge (FDEM_SPEC §7.1).
+    """Private nodes per triangle and a 4-node joint on every interior edge (docs/theory/joints.md §7.1).
 
     Returns (exploded mesh, joint_nodes (k, 4), joint_tris (k, 2)): triangle t of the exploded
     mesh has nodes 3t, 3t+1, 3t+2 (copies of the original, same order); for an interior edge
@@ -282,7 +282,7 @@ class Scene:
         velocity_curve : a :class:`Curve` that multiplies ``prescribed_velocity`` (a ramp, a
             cycle); its reaction is ``sim.reaction(body)``.
         self_contact : let the body's own non-adjacent triangles contact each other (folding).
-        fracture : where the body may crack: cohesive joints (FDEM_SPEC §7) go on the selected
+        fracture : where the body may crack: cohesive joints (docs/theory/joints.md §7) go on the selected
             interior edges, and the mesh is split there only (§13.1).  An edge selector:
             ``True`` (every interior edge: every triangle gets private nodes, §7.1),
             ``False`` (none), a callable ``where(x, y)`` evaluated at the interior-edge
@@ -388,7 +388,7 @@ class Scene:
 
     def add_joint_set(self, name: str, selector, material: Material, body: Body | None = None,
                       strength=None) -> None:
-        """A set of joints with its own properties (FDEM_SPEC §13.2).
+        """A set of joints with its own properties (docs/theory/discontinuities.md §13.2).
 
         Cohesive joints go on the interior edges that ``selector`` picks (any edge selector of
         :meth:`add_body`'s ``fracture``: a callable ``where(x, y)`` on edge midpoints, node
@@ -452,7 +452,7 @@ class Scene:
             raise ValueError("Scene.fix_nodes: velocity (None, None) constrains nothing")
         self._constraints.append(_NodeConstraint(where, body, vel, curve))
 
-    # ---- loads, initial stress and absorbing boundaries (FDEM_SPEC §12) ------------------------
+    # ---- loads, initial stress and absorbing boundaries (docs/theory/loads.md §12) ------------------------
     def _selector(self, where, body, name: str) -> None:
         if not callable(where):
             raise TypeError(f"Scene.{name}: where must be a callable where(x, y) -> bool array (initial coordinates)")
@@ -466,7 +466,7 @@ class Scene:
 
         Positive pushes into the body.  It follows the deformed edge (a follower load): at each
         step the edge i→j of current length L and outward normal n̂ gets f_i = f_j = −A(t) p L n̂/2
-        (consistent nodal forces, FDEM_SPEC §12.1), A the ``curve`` (1 without).  Its work is
+        (consistent nodal forces, docs/theory/loads.md §12.1), A the ``curve`` (1 without).  Its work is
         booked in ``sim.energies()["load_work"]``.  Selecting no boundary edge is an error at build.
         """
         self._selector(where, body, "apply_pressure")
@@ -476,7 +476,7 @@ class Scene:
     def apply_traction(self, where: Callable, traction, body: Body | None = None,
                        curve: Curve | None = None) -> None:
         """A traction (t_x, t_y) [Pa] of fixed direction on the selected boundary edges (a dead load:
-        f_i = f_j = A(t) t⃗ L0/2 with L0 the initial edge length, FDEM_SPEC §12.2).  Selection as
+        f_i = f_j = A(t) t⃗ L0/2 with L0 the initial edge length, docs/theory/loads.md §12.2).  Selection as
         :meth:`apply_pressure`."""
         self._selector(where, body, "apply_traction")
         t = _vec2(traction, "traction", "Scene.apply_traction")
@@ -493,7 +493,7 @@ class Scene:
         """Viscous (Lysmer–Kuhlemeyer) absorbing boundary on the selected boundary edges.
 
         Dashpots of the edge's material: traction −ρ c_p (v·n̂) n̂ − ρ c_s (v·ŝ) ŝ (c_p the P-wave
-        speed of the plane problem, c_s = √(μ/ρ)), lumped L/2 per node (FDEM_SPEC §12.5).  Exact
+        speed of the plane problem, c_s = √(μ/ρ)), lumped L/2 per node (docs/theory/loads.md §12.5).  Exact
         for plane waves at normal incidence.  The work they absorb is booked in
         ``sim.energies()["absorbed"]``.  Selection as :meth:`apply_pressure`.
         """
@@ -503,7 +503,7 @@ class Scene:
     def initial_stress(self, sxx: float, syy: float, sxy: float = 0.0, body: Body | None = None,
                        gradient=None, y_ref: float = 0.0) -> None:
         """An initial (in-situ) stress [Pa, tension positive] of the triangles of ``body`` (all
-        bodies when None), carried by the undeformed mesh (FDEM_SPEC §12.4).
+        bodies when None), carried by the undeformed mesh (docs/theory/loads.md §12.4).
 
         ``gradient`` = (dσxx/dy, dσyy/dy[, dσxy/dy]) [Pa/m]: the stress then varies linearly with
         height, σ(y) = σ + (y − y_ref)·gradient at each triangle's initial centroid (e.g. a
@@ -570,7 +570,7 @@ class Scene:
         Parameters
         ----------
         dt : time step [s].  None (default): ``safety`` × the book's estimate ``sim.model.dt_estimate``
-            (FDEM_SPEC §6.2: elements h/c_p with damping, contact h√(ρ/p), joints L√(ρ/p_f)).
+            (docs/theory/elements.md §6.2: elements h/c_p with damping, contact h√(ρ/p), joints L√(ρ/p_f)).
             A dt above the stable limit ``sim.dt_limit`` (the same with contact and joint terms
             × 0.4 and damping rated on the element size, as measured in the stress tests) raises
             ValueError unless ``force_dt=True``.
@@ -593,7 +593,7 @@ class Scene:
             problems).  It damps all modes alike and does not resist steady motion; its work is
             booked in ``sim.energies()["local_damping"]``.  Not for impacts or waves.
         joined_pairs : how two triangles of a fracturing body joined along an edge by an
-            undamaged joint resist overlap (FDEM_SPEC §7.10).  "joint" (default): the joint
+            undamaged joint resist overlap (docs/theory/joints.md §7.10).  "joint" (default): the joint
             carries the contact's share of the compression, 3p(1/h_A + 1/h_B) per unit overlap,
             and of the frictional strength, μ|σ|; contact is not evaluated for the pair until
             the joint hands that share and its energy over to contact (``handover_damage``;
@@ -601,7 +601,7 @@ class Scene:
             :func:`taichi_fdem.engine.contact.edge_pair_bonded`).  "contact": contact is evaluated for
             such pairs from the start, alongside the joint's own compression law, as in Y2D.
         handover_damage : with ``joined_pairs="joint"``, the damage D in [0, 1] (at any of the
-            joint's three integration points, FDEM_SPEC §7.5) beyond which the joint hands its
+            joint's three integration points, docs/theory/joints.md §7.5) beyond which the joint hands its
             pair over to contact (a broken joint always has).  Default 0: at the first damage.
             A speed option for impacts: most joints an impact damages stay below a few per
             cent, and each one carried longer is a pair contact does not evaluate (0.05: the

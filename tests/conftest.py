@@ -5,7 +5,7 @@ resets every Taichi object, so it must never be called again inside a test.
 
 The functions below are independent NumPy re-implementations of the quantities the tests
 check against (triangle geometry, polygon clipping, the Munjiza potential, brute-force
-contact detection).  They are written from FDEM_SPEC.md, not from the package code.
+contact detection).  They are written from the theory pages (docs/theory/), not from the package code.
 """
 from __future__ import annotations
 
@@ -50,7 +50,7 @@ def mass_centroid(sim, body):
 
 
 # ------------------------------------------------------------------------------------------------
-# triangle geometry (FDEM_SPEC §0, §2.2)
+# triangle geometry (docs/theory/index.md §0, §2.2)
 # ------------------------------------------------------------------------------------------------
 def cross2(a, b):
     a = np.asarray(a, dtype=np.float64)
@@ -160,7 +160,7 @@ def potential_integral(region, T) -> float:
 
 
 # ------------------------------------------------------------------------------------------------
-# brute-force reference of the narrow phase (FDEM_SPEC §2.3.1 steps 7 and 9, quadrature)
+# brute-force reference of the narrow phase (docs/theory/contact.md §2.3.1 steps 7 and 9, quadrature)
 # ------------------------------------------------------------------------------------------------
 def reference_pass(C, T, p, nquad=40001):
     """Nodal forces (gC, gT), 3 × 2 each, of one contact pass (contactor C, target T) per unit
@@ -194,7 +194,7 @@ def reference_couple_forces(A, B, p, nquad=40001):
 
 
 # ------------------------------------------------------------------------------------------------
-# brute-force broad phase (FDEM_SPEC §4.1)
+# brute-force broad phase (docs/theory/contact.md §4.1)
 # ------------------------------------------------------------------------------------------------
 def union_find_roots(n: int, pairs) -> np.ndarray:
     """Brute force: for each of n items linked by ``pairs``, the smallest item of its connected

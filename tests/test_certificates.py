@@ -1,5 +1,5 @@
 """Certificates of separation (``engine.contact.couple_forces``): a couple found apart with a gap
-g is skipped while the displacement bound D_acc (FDEM_SPEC §4.1) grows by less than g.  Every
+g is skipped while the displacement bound D_acc (docs/theory/contact.md §4.1) grows by less than g.  Every
 certificate must hold (checked against brute-force distances between the triangles), and
 skipping must change no bit (checked against runs that never use a certificate: the host drops
 them at every launch, and a launch of one step sets them only after they could be used)."""

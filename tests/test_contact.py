@@ -1,4 +1,4 @@
-"""Narrow phase: the distributed potential contact force (FDEM_SPEC §2, §8.1).
+"""Narrow phase: the distributed potential contact force (docs/theory/contact.md §2, §8.1).
 
 Most tests lay out many independent triangle couples in one scene: every couple is two
 one-triangle bodies that overlap, the couples sit on a grid 10 m apart so that each couple
@@ -277,7 +277,7 @@ def test_shallow_penetration_traction():
     assert sim.energies()["contact"] == pytest.approx(0.5 * expected * d, rel=0.01)
 
 
-# Derivation of the corrected gradient identity used above (FDEM_SPEC §2.1–2.3):
+# Derivation of the corrected gradient identity used above (docs/theory/contact.md §2.1–2.3):
 # E = E_A + E_B with E_X = p∫_{A∩B} φ_X dA.  Moving the nodes of the *other* triangle Y
 # only moves the domain boundary lying on ∂Y, where the integrand φ_X is the contactor-pass
 # load: −∂E_X/∂x_r(Y) = −p∫_{∂Y∩X} φ_X N_r n dΓ, the contactor force of that pass.  Moving

@@ -20,7 +20,7 @@ from taichi_fdem.sim.cracks import CSV_COLUMNS, read_crack_events
 from taichi_fdem.mesh import TriMesh
 from conftest import shared_node_pairs, union_find_roots
 
-Z_INTEGRAL = 0.3863      # ∫₀¹ z(D) dD (FDEM_SPEC §7.5)
+Z_INTEGRAL = 0.3863      # ∫₀¹ z(D) dD (docs/theory/joints.md §7.5)
 EVENT_KEYS = ("index", "time", "x", "y", "mode", "energy", "length", "set")
 
 

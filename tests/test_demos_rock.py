@@ -20,7 +20,7 @@ def _run(name, tmp_path, *extra):
 def test_triaxial_short(tmp_path):
     """Peaks within 15 % of Mohr–Coulomb of the joints (c = 0.1 MPa, φ = 30°: σ1 = 3 σ3 + 2√3 c),
     the confined specimen stronger, the stress falling after the peak, and the pre-peak modulus
-    between 0.8 and 1.0 × E/(1 − ν²) (intact joints add compliance, FDEM_SPEC §7.9)."""
+    between 0.8 and 1.0 × E/(1 − ν²) (intact joints add compliance, docs/theory/joints.md §7.9)."""
     r = _run("triaxial", tmp_path)
     c = 1e5
     for s3, peak in zip(r["confinements"], r["peaks"]):

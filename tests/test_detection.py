@@ -1,4 +1,4 @@
-"""Broad phase: contact couples (FDEM_SPEC §4) against a brute-force O(N²) search.
+"""Broad phase: contact couples (docs/theory/contact.md §4) against a brute-force O(N²) search.
 
 Criterion (§4.1): triangles a, b form a couple when |c_a − c_b| < r_a + r_b + b (centroids,
 bounding-circle radii max_v |x_v − c|, buffer b = sim.buffer), excluding pairs of the same

@@ -1,4 +1,4 @@
-"""Discontinuities and heterogeneity (FDEM_SPEC §13): selective joints, pre-existing cracks,
+"""Discontinuities and heterogeneity (docs/theory/discontinuities.md §13): selective joints, pre-existing cracks,
 joint sets, interfaces, statistical strength, and the verification problems of issue #11."""
 import math
 
@@ -171,7 +171,7 @@ def test_selector_errors_are_clear():
 
 # ---------------------------------------------------------------------------- verification
 def test_block_slides_on_a_preexisting_crack_iff_tan_theta_exceeds_mu():
-    """FDEM_SPEC §13.1 + §8.2: a = g (sin θ − μ cos θ) within 3 % when tan θ > μ; else it sticks."""
+    """docs/theory/discontinuities.md §13.1 + §8.2: a = g (sin θ − μ cos θ) within 3 % when tan θ > μ; else it sticks."""
     r = vd.case_crack_slide(theta_deg=30.0, friction=0.3)
     assert r["slides"] and r["crack_edges"] == 4
     assert r["error"] < 0.03, r
@@ -280,7 +280,7 @@ def test_checkpoint_restart_with_cracks_and_joint_sets_is_exact(tmp_path):
 
 
 def test_heterogeneous_brazilian_mean_and_scatter():
-    """FDEM_SPEC §13.3, issue #11: Weibull joint strength (m = 6, mean f_t) over 5 seeds on a
+    """docs/theory/discontinuities.md §13.3, issue #11: Weibull joint strength (m = 6, mean f_t) over 5 seeds on a
     20-element disc: mean peak 0.85 f_t, standard deviation 0.06 f_t; homogeneous 0.92 f_t on the
     same mesh (σ_t × Hondros / f_t; the README quotes these)."""
     r = vd.heterogeneous_brazilian(seeds=(1, 2, 3, 4, 5), modulus=6.0, elements=20, load_time=40.0)

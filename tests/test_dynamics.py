@@ -1,4 +1,4 @@
-"""Rigid-body and collision dynamics (FDEM_SPEC §6.1, §8.2, §8.4): free fall, elastic impact of
+"""Rigid-body and collision dynamics (docs/theory/elements.md §6.1, §8.2, §8.4): free fall, elastic impact of
 two disks, a block sliding and stopping under Coulomb friction, a block on an incline."""
 
 import numpy as np

@@ -1,4 +1,4 @@
-"""Finite-strain constant-strain triangle (FDEM_SPEC §3, §8.6): objectivity, conservation,
+"""Finite-strain constant-strain triangle (docs/theory/elements.md §3, §8.6): objectivity, conservation,
 patch tests and Hooke's law in plane stress and plane strain."""
 import math
 

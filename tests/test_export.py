@@ -85,7 +85,7 @@ def test_strain_is_green_lagrange():
     Exx, Eyy = 0.5 * (1.01 ** 2 - 1), 0.5 * (0.98 ** 2 - 1)
     np.testing.assert_allclose(f["cell_data"]["strain"], np.tile([Exx, Eyy, 0.0], (sim.tri_count, 1)),
                                rtol=1e-12, atol=1e-15)
-    # Cauchy stress by hand (FDEM_SPEC §3.2, plane strain): T = (μ/J)(B − I) + λ_Y (J − 1/J) I with
+    # Cauchy stress by hand (docs/theory/elements.md §3.2, plane strain): T = (μ/J)(B − I) + λ_Y (J − 1/J) I with
     # μ = E/(2(1+ν)), λ_Y = Eν/(2(1+ν)(1−2ν)) (half the Lamé λ), B = F Fᵀ, J = det F
     E, nu = 1e7, 0.25
     mu, lam_y = E / (2 * (1 + nu)), E * nu / (2 * (1 + nu) * (1 - 2 * nu))

@@ -1,4 +1,4 @@
-"""Cohesive joints and fracture (FDEM_SPEC §7, §8.3, §8.7, §8.8): analytic checks with tolerances.
+"""Cohesive joints and fracture (docs/theory/joints.md §7, §8.3, §8.7, §8.8): analytic checks with tolerances.
 
 Single joint (two triangles forming a unit square, one joint on the diagonal): every node has a
 prescribed velocity, so the joint kinematics are exact and the measured tractions are compared
@@ -233,7 +233,7 @@ def test_friction_energy_balance_while_fragmenting():
 
 
 # ------------------------------------------------------------------------------------------------
-# broken joints need no re-detection (FDEM_SPEC §7.10)
+# broken joints need no re-detection (docs/theory/joints.md §7.10)
 # ------------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("strategy", ["serial", "parallel"])
 def test_overlapping_pairs_are_couples_after_breakage_without_redetection(strategy):

@@ -1,4 +1,4 @@
-"""Pairs of triangles joined along an edge by an intact joint (FDEM_SPEC §7.10, issue 10).
+"""Pairs of triangles joined along an edge by an intact joint (docs/theory/joints.md §7.10, issue 10).
 
 Until the joint's damage exceeds ``handover_damage`` (or it breaks), contact is not evaluated
 for the pair and the joint carries the contact's share of the compression, 3p(1/h_A + 1/h_B)
@@ -152,7 +152,7 @@ def test_carried_pair_shear_strength_includes_the_contact_friction_share():
 
 def _bonded_reference(sim, pairs):
     """Which of ``pairs`` are bonded, in numpy and plain Python, written out again from the rule
-    (FDEM_SPEC §7.10): an edge pair while the joint on its shared edge carries it (the
+    (docs/theory/joints.md §7.10): an edge pair while the joint on its shared edge carries it (the
     tri_intact bits, which the test checks against the joints' damage); a corner pair while its two triangles are connected around their shared
     original node by joints that are undamaged (not broken, no damage at any point) or edges
     left uncut, found by a walk over all of them (brute force, no fan ranks)."""

@@ -1,5 +1,5 @@
 """Loads, curves, reactions, quasi-static damping, initial stress, absorbing boundaries and
-excavation (issue 12, FDEM_SPEC §12).  Each test checks one thing against an independent value."""
+excavation (issue 12, docs/theory/loads.md §12).  Each test checks one thing against an independent value."""
 import csv
 import math
 

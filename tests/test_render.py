@@ -473,7 +473,7 @@ def test_render_sim_speed_extremes_map_to_colormap_ends():
 
 
 def _hooke_finite(E, nu, plane, e):
-    """Hand computation of the Cauchy stress (σxx, σyy) of FDEM_SPEC §3.2 for the uniaxial stretch
+    """Hand computation of the Cauchy stress (σxx, σyy) of docs/theory/elements.md §3.2 for the uniaxial stretch
     F = diag(1 + e, 1), from E and ν only: μ = E/(2(1+ν)), λ_Y = half the plane problem's Lamé λ."""
     mu = E / (2.0 * (1.0 + nu))
     lam_y = E * nu / (2.0 * (1.0 - nu * nu)) if plane == "stress" else E * nu / (2.0 * (1.0 + nu) * (1.0 - 2.0 * nu))
@@ -493,7 +493,7 @@ def _stretched(plane, e):
 
 def test_tri_scalars_uniaxial_stretch_analytic():
     """Plane stress, affine uniaxial stretch x' = (1 + e) x: the kernel's von Mises and principal
-    stresses equal the values computed by hand from E and ν (FDEM_SPEC §3.2); σ_zz = 0 in plane
+    stresses equal the values computed by hand from E and ν (docs/theory/elements.md §3.2); σ_zz = 0 in plane
     stress, so von Mises = √(σxx² − σxx σyy + σyy²)."""
     e = 0.01
     sim, mat, X = _stretched("stress", e)

@@ -1,4 +1,4 @@
-"""Rock-mechanics verification (FDEM_SPEC §12.6) through the public loads API, and quasi-static
+"""Rock-mechanics verification (docs/theory/loads.md §12.6) through the public loads API, and quasi-static
 settling (issue 12).  Tolerances are stated per test; the measured errors are printed (-s)."""
 import math
 

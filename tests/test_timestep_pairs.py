@@ -1,4 +1,4 @@
-"""The contact step limit uses only the material pairs that can touch (FDEM_SPEC §6.2)."""
+"""The contact step limit uses only the material pairs that can touch (docs/theory/elements.md §6.2)."""
 import numpy as np
 
 import taichi_fdem as fdem

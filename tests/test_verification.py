@@ -1,4 +1,4 @@
-"""Verification suite (FDEM_SPEC §8): each case of taichi_fdem.verification at one affordable
+"""Verification suite (docs/verification.md §8): each case of taichi_fdem.verification at one affordable
 setting, against its analytic reference with a stated tolerance.  The sweeps over mesh size,
 time step, penalty and precision are in benchmarks/accuracy.py (docs/accuracy/)."""
 import math

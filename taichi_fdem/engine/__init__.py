@@ -4,7 +4,7 @@
 module             holds
 =================  =============================================================================
 ``groups``         the argpack types: the simulation's arrays grouped by concern
-``elastic``        finite-strain constant-strain triangle (FDEM_SPEC §3)
+``elastic``        finite-strain constant-strain triangle (docs/theory/elements.md §3)
 ``contact``        distributed potential contact force with friction and damping (§2, §5)
 ``detection``      broad phase: hashed grid, counting sort, couple criterion (§4)
 ``joints``         cohesive joints: softening, Mohr–Coulomb, breakage (§7)

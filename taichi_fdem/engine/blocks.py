@@ -1,4 +1,4 @@
-"""The block assembly of the parallel strategy on the CPU (FDEM_SPEC §6.1); the team of worker
+"""The block assembly of the parallel strategy on the CPU (docs/theory/elements.md §6.1); the team of worker
 threads that runs it many steps per launch is :mod:`taichi_fdem.engine.team`.
 
 Each of a fixed number of blocks takes a contiguous range of the triangles and of the joints (by

@@ -1,6 +1,6 @@
 """Narrow phase: the distributed potential contact force between two triangles.
 
-Implements FDEM_SPEC §2.3 (edge-by-edge discretisation of the book's eqs. 2.25–2.29) with
+Implements docs/theory/contact.md §2.3 (edge-by-edge discretisation of the book's eqs. 2.25–2.29) with
 Coulomb friction (§5.1, dimensionally clean variant) and optional normal contact damping
 (§5.2).  A couple (A, B) is resolved in two passes, contactor B against target A and then
 contactor A against target B; every contactor edge is clipped against the target, loaded by
@@ -15,7 +15,7 @@ from .joints import pair_carried
 from .tiutil import mat32_rows, vec2, vec3
 
 
-# Tolerance in barycentric space (values are O(1)), FDEM_SPEC §9.2.  Chosen per precision at
+# Tolerance in barycentric space (values are O(1)), docs/theory/index.md §9.2.  Chosen per precision at
 # compile time: the kernel cache is keyed by the default float type, so this stays consistent.
 EPS = {"f64": 1e-10, "f32": 1e-6}
 
@@ -373,7 +373,7 @@ def shared_vertices(oa, ob):
 @ti.func
 def edge_pair_bonded(A, B, tris: ti.template()):
     """Is the pair (A, B) of a fracturing body two edge neighbours (two original nodes in common)
-    held by their undamaged joint, so that contact is not evaluated for it (FDEM_SPEC §7.10)?
+    held by their undamaged joint, so that contact is not evaluated for it (docs/theory/joints.md §7.10)?
     Read from the ``tri_intact`` bits (set at the end of a step,
     :func:`taichi_fdem.engine.joints.add_joint_work`).  While the joint on the shared edge is
     undamaged (:func:`taichi_fdem.engine.joints.pair_carried`) it adds the contact's compression
@@ -423,7 +423,7 @@ def couple_forces(c, dacc, nodes: ti.template(), tris: ti.template(), mats: ti.t
     ``work``: the work dissipated over the step by friction and contact damping [J/m], which the
     caller books in step_real[WORK_FRICTION], step_real[WORK_CDAMPING].
 
-    Certificates of separation (FDEM_SPEC §4.1's bound, per couple): ``dacc`` is step_real[DACC]
+    Certificates of separation (docs/theory/contact.md §4.1's bound, per couple): ``dacc`` is step_real[DACC]
     at the start of the step, which grows by at least the largest relative displacement of any
     two nodes.  A couple found apart with a gap g (between the boxes along x or y, or along a
     separating edge normal, :func:`separation_certificate`) stays apart while dacc grows by less

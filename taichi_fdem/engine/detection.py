@@ -1,4 +1,4 @@
-"""Broad phase: contact couples by a hashed uniform grid with counting sort (FDEM_SPEC §4).
+"""Broad phase: contact couples by a hashed uniform grid with counting sort (docs/theory/contact.md §4).
 
 Linear in the number of contact-participating triangles.  Each detection:
 

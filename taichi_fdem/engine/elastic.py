@@ -1,4 +1,4 @@
-"""Finite-strain constant-strain triangle (FDEM_SPEC §3), as Taichi functions.
+"""Finite-strain constant-strain triangle (docs/theory/elements.md §3), as Taichi functions.
 
 The functions work on one triangle and take the array groups they read
 (:mod:`taichi_fdem.engine.groups`), so that the same maths runs inside a parallel kernel (large

@@ -11,7 +11,7 @@ group      members
 =========  ====================================================================================
 nodes      x [m], v [m/s], f [N/m] (vec2); mass [kg/m]; free (vec2: 1 free, 0 prescribed per
            component); vbc (vec2, prescribed velocity [m/s]); react (vec2: force [N/m] the velocity
-           constraints exerted at the last step, FDEM_SPEC §12.3); the load table (§12.1–12.2,
+           constraints exerted at the last step, docs/theory/loads.md §12.3); the load table (§12.1–12.2,
            12.5): load_nodes (5 i32: kind, node i, node j or component, curve start, curve
            count), load_vals (vec4: the load's values, see :mod:`taichi_fdem.engine.loads`),
            load_force (vec4: forces on i and j at the last step [N/m]); curve_points (vec2:
@@ -114,7 +114,7 @@ TEAM_MEMBERS = (NODE_MEMBERS + TRI_MEMBERS + MAT_MEMBERS + CONTACT_MEMBERS + DET
                 + STEP_MEMBERS + ("asm_force", "asm_sync", "asm_part"))
 TeamGroup = _group(*TEAM_MEMBERS)
 
-# Block assembly of the parallel strategy on the CPU (FDEM_SPEC §6.1; see engine.step): the items
+# Block assembly of the parallel strategy on the CPU (docs/theory/elements.md §6.1; see engine.step): the items
 # are split into a fixed number of blocks, each a contiguous range (triangles, joints and nodes by
 # count, couples by estimated cost: engine.blocks.rebalance_couples), and each block adds its forces
 # into its own copy of the nodal forces.  Contiguous ranges keep a block's nodes in its core's
@@ -157,7 +157,7 @@ SYNC_LINE = 16            # i32 slots per cache line: the team's counters in asm
 TEAM_CHUNK = 256          # nodes per chunk of the team's gather and integration (engine.team, stage INTEG);
                           # a chunk's partial sums are the chunk's, whoever ran it
 
-# tris.tri_intact of a triangle of a fracturing body (FDEM_SPEC §7.10; engine.joints.pair_carried):
+# tris.tri_intact of a triangle of a fracturing body (docs/theory/joints.md §7.10; engine.joints.pair_carried):
 # INTACT | (EDGE_FREE << e for every edge e without a joint that carries its pair) | (DAMAGED once
 # any of its joints has handed its pair over to contact: damage above step_real[HANDOVER], or
 # broken); 0: a triangle that is not bonded (other bodies, or at a pre-existing crack); −1: removed
@@ -178,7 +178,7 @@ SWITCH_DAMPING = 1        # viscous damping of the triangles
 SWITCH_CDAMPING = 2       # normal contact damping
 SWITCH_BC = 4             # prescribed velocities
 SWITCH_BC_WORK = 8        # non-zero prescribed velocities (their work is booked)
-SWITCH_PRESTRESS = 16     # initial stress of the triangles (tri_prestress, FDEM_SPEC §12.4)
+SWITCH_PRESTRESS = 16     # initial stress of the triangles (tri_prestress, docs/theory/loads.md §12.4)
 
 # Counters kept by the kernels: two short 1-d arrays, step_real and step_int, whose slots are
 # named here.  (Taichi has no struct ndarrays; one 0-d ndarray per counter would spend the

@@ -1,4 +1,4 @@
-"""Explicit central-difference integration of the nodes (FDEM_SPEC §6.1), with prescribed
+"""Explicit central-difference integration of the nodes (docs/theory/elements.md §6.1), with prescribed
 velocities and their reactions (§12.3), the local (quasi-static) damping, the instability checks
 and the re-detection trigger D_acc (§4.1).
 

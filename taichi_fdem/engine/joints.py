@@ -1,4 +1,4 @@
-"""Cohesive joint elements: the combined single and smeared crack model (FDEM_SPEC §7).
+"""Cohesive joint elements: the combined single and smeared crack model (docs/theory/joints.md §7).
 
 A 4-node joint (j0, j1, j2, j3) sits on an interior edge shared by triangles A and B of a
 fracturing body: j0→j1 is A's copy of the edge in A's counter-clockwise order, j3 and j2 are
@@ -20,7 +20,7 @@ Z_A, Z_B, Z_C = 0.63, 1.8, 6.0
 
 #: default of ``Scene.build(handover_damage=...)``: the damage (at any of its three points) beyond
 #: which a joint stops carrying its pair's compression and hands the pair over to contact
-#: (:func:`handed_over`, FDEM_SPEC §7.10): its first damage
+#: (:func:`handed_over`, docs/theory/joints.md §7.10): its first damage
 HANDOVER_DAMAGE = 0.0
 
 # failure modes recorded at breakage (§7.8)
@@ -287,7 +287,7 @@ def handed_over(j, joints: ti.template(), step: ti.template()):
 @ti.func
 def pair_carried(va, ea, vb, eb):
     """Is the pair of triangles A, B joined along their edges ea, eb by a joint that carries its
-    compression alone (FDEM_SPEC §7.10)?  va, vb: their ``tri_intact`` words.  True while both
+    compression alone (docs/theory/joints.md §7.10)?  va, vb: their ``tri_intact`` words.  True while both
     are bonded triangles of a fracturing body and the joint on that edge is undamaged; contact
     is not evaluated for such a pair (engine.contact.edge_pair_bonded), the joint adds the contact's
     share of the compression stiffness instead (:func:`carried_share`)."""
@@ -469,7 +469,7 @@ def add_joint_work(j, joints: ti.template(), tris: ti.template(), mats: ti.templ
     every force of the step, keeps the serial and parallel strategies identical.  If the joint
     carried the pair's compression (:func:`pair_carried`), the energy its carried stiffness
     holds at the new positions is taken off its work: contact, which takes over at the next
-    step with the same overlap, holds it from then on (the handover, FDEM_SPEC §7.10).
+    step with the same overlap, holds it from then on (the handover, docs/theory/joints.md §7.10).
     """
     if damaged_beyond(j, 0.0, joints):
         jt = joints.joint_tris[j]

@@ -1,4 +1,4 @@
-"""Applied loads, absorbing boundaries and load curves (FDEM_SPEC §12.1, §12.2, §12.5).
+"""Applied loads, absorbing boundaries and load curves (docs/theory/loads.md §12.1, §12.2, §12.5).
 
 One table in the nodes group holds every load of a scene, one row per entry:
 

@@ -1,4 +1,4 @@
-"""The time step as Taichi kernels (FDEM_SPEC §1.2, §6.1), in two execution strategies.
+"""The time step as Taichi kernels (docs/theory/index.md §1.2, §6.1), in two execution strategies.
 
 A step is a list of phases, each a ``@ti.func`` made of loops over one kind of entity:
 

@@ -1,5 +1,5 @@
 """The team launch of the block assembly on the CPU (:func:`taichi_fdem.engine.step.run_steps_blocks`,
-FDEM_SPEC §6.1): many steps per launch, run by a team of worker threads.
+docs/theory/elements.md §6.1): many steps per launch, run by a team of worker threads.
 
 A step is a sequence of **stages**, each a set of independent **units**:
 

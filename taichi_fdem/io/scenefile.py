@@ -77,13 +77,13 @@ rotation             rad     rotation about the centroid before placing, counter
 fixed                —       every node held still (floors, walls) [false]
 prescribed_velocity  m/s     [v_x, v_y] every node moves at this velocity (platens) [none]
 self_contact         —       the body's own triangles can contact each other [false]
-fracture             —       a cohesive joint on every interior edge (FDEM_SPEC §7) [false]
+fracture             —       a cohesive joint on every interior edge (docs/theory/joints.md §7) [false]
 cracks               m       pre-existing open cracks: a list of polylines [[[x, y], ...], ...]
                              in the mesh's own coordinates (moved with the body by position and
                              rotation); a ``polygon`` body is meshed with edges along them,
                              other meshes need edges there already [none]
 crack_friction       —       friction coefficient μ ≥ 0 of the crack faces [material's]
-weibull_modulus      —       Weibull modulus m > 0 of the joint strength (FDEM_SPEC §13.3) [none]
+weibull_modulus      —       Weibull modulus m > 0 of the joint strength (docs/theory/discontinuities.md §13.3) [none]
 strength_cov         —       or: coefficient of variation of a normal joint strength [none]
 strength_seed        —       seed of the joint-strength draws, ≥ 0 [0]
 ===================  ======  ==============================================================

@@ -1,4 +1,4 @@
-"""The Brazilian (indirect tensile) test of a disc between flat platens (FDEM_SPEC §8.8)."""
+"""The Brazilian (indirect tensile) test of a disc between flat platens (docs/verification.md §8.8)."""
 from __future__ import annotations
 
 import math

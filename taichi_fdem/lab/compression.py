@@ -1,4 +1,4 @@
-"""Compression tests between frictionless platens: unconfined (UCS) and triaxial (FDEM_SPEC §12.6)."""
+"""Compression tests between frictionless platens: unconfined (UCS) and triaxial (docs/theory/loads.md §12.6)."""
 from __future__ import annotations
 
 import math

@@ -1,4 +1,4 @@
-"""Direct shear of an interface between two blocks (a shear box, FDEM_SPEC §5.1)."""
+"""Direct shear of an interface between two blocks (a shear box, docs/theory/contact.md §5.1)."""
 from __future__ import annotations
 
 import math

@@ -59,7 +59,7 @@ def axial_record(sim, spec, top, bot, H: float, W: float):
 
 def mohr_coulomb_peak(sigma3: float, cohesion: float, phi_deg: float) -> float:
     """σ1 at failure [Pa, compression positive] of Mohr–Coulomb with c, φ at confinement σ3
-    (FDEM_SPEC §12.6): σ1 = σ3 (1 + sin φ)/(1 − sin φ) + 2 c cos φ/(1 − sin φ)."""
+    (docs/theory/loads.md §12.6): σ1 = σ3 (1 + sin φ)/(1 − sin φ) + 2 c cos φ/(1 − sin φ)."""
     s = math.sin(math.radians(phi_deg))
     return sigma3 * (1 + s) / (1 - s) + 2 * cohesion * math.cos(math.radians(phi_deg)) / (1 - s)
 

@@ -519,7 +519,7 @@ def plate_with_hole(width: float, height: float, radius: float, h_hole: float, c
     to the rectangle at radii ``radius (R_k / radius)^(j / m)``, R_k where ray k meets the
     rectangle: cells are near-square at the hole and grow geometrically (log-polar grading,
     ``m`` layers).  Each cell is split along its shorter diagonal.  Built for stress
-    concentration problems (Kirsch, FDEM_SPEC §12.6), where the fine cells are needed at the
+    concentration problems (Kirsch, docs/theory/loads.md §12.6), where the fine cells are needed at the
     hole only.
 
     Raises ValueError for non-positive sizes, a hole that does not fit

@@ -1,5 +1,5 @@
 """Splitting a mesh along chosen edges: selective cohesive joints and pre-existing cracks
-(FDEM_SPEC §13.1, topology-based insertion after Paulino, Celes, Espinha & Zhang 2008).
+(docs/theory/discontinuities.md §13.1, topology-based insertion after Paulino, Celes, Espinha & Zhang 2008).
 
 For each node, the triangles around it form a fan (closed inside the body, open on its
 boundary).  The selected edges cut each fan into sectors and every sector gets its own copy of
@@ -196,7 +196,7 @@ def split_mesh(mesh: TriMesh, cut: np.ndarray, table=None):
 
 
 def explode(mesh: TriMesh):
-    """Every interior edge a joint (FDEM_SPEC §7.1): (exploded mesh, joint_nodes, joint_tris)."""
+    """Every interior edge a joint (docs/theory/joints.md §7.1): (exploded mesh, joint_nodes, joint_tris)."""
     table = interior_edge_table(mesh.triangles)
     out, _, split, jn, jt = split_mesh(mesh, np.ones(len(table[0]), bool), table)
     return out, jn[split], jt[split]

@@ -73,7 +73,7 @@ class RendererImage(_Overlays):
         ``view``).
     follow_width : width of the followed view [m] (default: 4 x the body's initial extent).
     text_size : font height of the labels in pixels (default ~ height / 30, at least 10).
-    cracks : draw the broken joints (FDEM_SPEC §7.8) on top of the triangles, each as its two
+    cracks : draw the broken joints (docs/theory/joints.md §7.8) on top of the triangles, each as its two
         crack faces x_j0 → x_j1 and x_j3 → x_j2 (one line while closed, the cracked edge of each
         fragment once open): the pixels whose centres lie within ``crack_width`` / 2 output
         pixels of them take ``crack_color`` (RGB in [0, 1]).

@@ -39,7 +39,7 @@ MODEL_ARRAYS = _specs([
     ("tri_rest_inv", "(E,)", "real mat2", "1/m", "inverse of the rest edge matrix (F = x-edges · this)"),
     ("tri_mat", "(E,)", "i32", "-", "material index of each triangle"),
     ("tri_body", "(E,)", "i32", "-", "body index of each triangle"),
-    ("tri_visc", "(E|1,)", "real", "Pa·s·m", "viscous damping coefficient of each triangle (FDEM_SPEC §2.3)"),
+    ("tri_visc", "(E|1,)", "real", "Pa·s·m", "viscous damping coefficient of each triangle (docs/theory/contact.md §2.3)"),
     ("tri_origin", "(E,)", "i32 vec3", "-", "the original (unsplit) nodes of each triangle, numbered apart per body"),
     ("tri_prestress", "(E|1,)", "real vec3", "Pa", "initial stress (σxx, σyy, σxy)"),
     ("tri_fans", "(F,)", "i32", "-", "the triangles around each node (offsets, then lists) for the neighbour links"),

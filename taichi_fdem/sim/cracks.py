@@ -1,4 +1,4 @@
-"""Crack and fragment results of a simulation (FDEM_SPEC §7.8–7.10, §13.4): a mixin of
+"""Crack and fragment results of a simulation (docs/theory/joints.md §7.8–7.10, §13.4): a mixin of
 :class:`~taichi_fdem.sim.simulation.Simulation` (through :class:`~taichi_fdem.sim.results.SimulationResults`).
 
 * **Crack events** (:meth:`CrackResults.crack_events`): every broken joint is one event with its
@@ -73,7 +73,7 @@ class CrackResults:
 
     # ---- crack events --------------------------------------------------------------------------
     def crack_events(self) -> dict:
-        """The broken joints as crack events, in time order (FDEM_SPEC §7.8, §13.4).
+        """The broken joints as crack events, in time order (docs/theory/joints.md §7.8, §13.4).
 
         Returns a dict of NumPy arrays, one entry per event:
 
@@ -225,7 +225,7 @@ class CrackResults:
         return tris, label, len(uniq)
 
     def fragments(self, body=None) -> dict:
-        """The fragments now (FDEM_SPEC §7.10): triangles joined by a shared node or an intact
+        """The fragments now (docs/theory/joints.md §7.10): triangles joined by a shared node or an intact
         joint form one fragment.  With ``body``, that body's triangles only.
 
         Returns {``label``: (m,) fragment id of each triangle (of ``body`` if given; −1 for

@@ -1,11 +1,11 @@
-"""The energy account of a simulation [J] (FDEM_SPEC §8; ground rule 6: spurious energy is visible).
+"""The energy account of a simulation [J] (docs/verification.md §8; ground rule 6: spurious energy is visible).
 
 kinetic, strain, contact (penalty potential p∫(φ_c + φ_t)dA plus friction springs), gravity
 (−Σ m g·x), damping / friction / contact_damping (work dissipated so far), boundary_work (work
 done on the system by prescribed velocities), joints (work done on intact joints: stored
 elastically, plus any damage so far) and fracture (work done on joints that have broken:
 dissipated in cracking), load_work (work done on the system by applied pressure, tractions and
-forces, FDEM_SPEC §12), local_damping (work dissipated by the quasi-static damping), absorbed
+forces, docs/theory/loads.md §12), local_damping (work dissipated by the quasi-static damping), absorbed
 (work taken out by absorbing boundaries), excavated (energy the removed triangles took with
 them: strain, kinetic and gravity energy at removal), and
 total = kinetic + strain + contact + gravity + joints + dissipated + excavated − boundary_work

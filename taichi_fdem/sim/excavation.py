@@ -1,6 +1,6 @@
 """Excavation: removing triangles from a running simulation (:meth:`Simulation.remove
 <taichi_fdem.sim.simulation.Simulation.remove>`): their forces stop, their mass leaves their nodes,
-nodes left without a triangle are held, and the energy they held is booked (FDEM_SPEC §12.4).
+nodes left without a triangle are held, and the energy they held is booked (docs/theory/loads.md §12.4).
 """
 from __future__ import annotations
 

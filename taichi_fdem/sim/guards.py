@@ -1,5 +1,5 @@
 """Stability guards: the diagnosis of an unstable step, the run-time checks of energy growth and
-penetration, and the last good state to roll back to (FDEM_SPEC §6.2; issue 5).
+penetration, and the last good state to roll back to (docs/theory/elements.md §6.2; issue 5).
 
 The kernels stop on non-finite values, inverted elements and node speeds above the limit every
 step (:mod:`taichi_fdem.engine.integrate`); :meth:`Simulation.run` adds the checks here on an

@@ -179,7 +179,7 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     # ---- materials and pair table --------------------------------------------------------------
     pair = _pair_table(scene, materials)
 
-    # ---- joints (FDEM_SPEC §7, §13): per-joint properties and joint sets ------------------------
+    # ---- joints (docs/theory/joints.md §7, §13): per-joint properties and joint sets ------------------------
     jn, jt, jp, js = [], [], [], []
     for b in bodies:
         if b.fracture and b.joint_count:
@@ -223,7 +223,7 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     md.damping = bool(np.any(betas > 0))
     beta_t = betas[tri_mat]
 
-    # ---- stable time step (FDEM_SPEC §6.2) ------------------------------------------------------
+    # ---- stable time step (docs/theory/elements.md §6.2) ------------------------------------------------------
     moving = ~np.all(free[tris].reshape(len(tris), 6) == 0.0, axis=1)
     rho_all = np.array([m.density for m in materials])
     cp = np.array([m.p_wave_speed(scene.plane) for m in materials])[tri_mat]
@@ -260,7 +260,7 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     if not (md.speed_limit > 0):
         raise ValueError(f"Scene.build: speed_limit must be > 0 m/s, got {speed_limit}")
 
-    # ---- loads, curves, initial stress, local damping (FDEM_SPEC §12) --------------------------
+    # ---- loads, curves, initial stress, local damping (docs/theory/loads.md §12) --------------------------
     load_nodes, load_vals, md.dashpot_rate = _load_table(scene, bodies, X, mass, md.dt, curves, free, vbc_raw, vcurve)
     md.load_count = len(load_nodes)
     md.loads = md.load_count > 0
@@ -313,7 +313,7 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
         if b.fracture:
             md.tri_fracturing[b.triangles] = b.tri_bonded if b.tri_bonded is not None else True
     md.tri_origin = _ndarray(origin, ti.i32, vec=3)
-    # the per-joint constants of the share of contact a joint carries (FDEM_SPEC §7.10,
+    # the per-joint constants of the share of contact a joint carries (docs/theory/joints.md §7.10,
     # engine.joints.carried_share): k_x / L = 3 p (1/(2A_A) + 1/(2A_B)) from the rest areas, and μ
     mA, mB = tri_mat[joint_tris[:, 0]], tri_mat[joint_tris[:, 1]]
     kx_per_len = 3.0 * pair[mA, mB, 0] * (0.5 / area0[joint_tris[:, 0]] + 0.5 / area0[joint_tris[:, 1]])
@@ -447,7 +447,7 @@ def _boundary_edges(b):
 def _load_table(scene, bodies, X, mass, dt, curves, free, vbc_raw, vcurve):
     """(load_nodes (L, 5) i32, load_vals (L, 4), dashpot rate [1/s]): the load table of
     :mod:`taichi_fdem.engine.loads`, and max over nodes of Σ ρ c_p L/2 / m of the absorbing
-    boundaries' dashpots (0 without), stable while rate · Δt < 1 (FDEM_SPEC §12.5)."""
+    boundaries' dashpots (0 without), stable while rate · Δt < 1 (docs/theory/loads.md §12.5)."""
     rows, vals = [], []
     kinds = {"pressure": LOAD_PRESSURE, "traction": LOAD_TRACTION, "force": LOAD_FORCE, "absorbing": LOAD_ABSORB}
     slices = None
@@ -500,7 +500,7 @@ def _load_table(scene, bodies, X, mass, dt, curves, free, vbc_raw, vcurve):
         ratio = float(np.max(dash * dt / mass))
         if ratio >= 1.0:
             raise ValueError(f"absorbing_boundary: the dashpots are unstable at this time step (ρ c_p L/2 · Δt / m = "
-                             f"{ratio:.3g} >= 1, FDEM_SPEC §12.5); use a smaller dt or safety")
+                             f"{ratio:.3g} >= 1, docs/theory/loads.md §12.5); use a smaller dt or safety")
     # prescribed velocities that follow a curve (one row per node component)
     for i, comp in zip(*np.nonzero((free == 0.0) & (vcurve >= 0))):
         rows.append((LOAD_VELOCITY, int(i), int(comp), int(vcurve[i, comp])))
@@ -534,7 +534,7 @@ def _touching_penalty(bodies, tri_mat, moving, pair) -> float:
     touch and move: a couple takes its pair's penalty (by default the smaller of the two), so a
     stiff material sets the contact step only where it meets itself.  Pairs counted: the
     materials of two different bodies of which at least one has a node that is not prescribed,
-    and a body's materials against each other only when it has self-contact (FDEM_SPEC §6.2).
+    and a body's materials against each other only when it has self-contact (docs/theory/elements.md §6.2).
     Two platens of one steel, both prescribed, never set the limit."""
     mats, free = [], []
     for b in bodies:
@@ -602,7 +602,7 @@ def _warn_joint_parameters(set_names, joint_set, joint_prop, joint_len, young) -
         if pf < 10.0 * E:
             warnings.warn(f"{label}: joint_penalty = {pf / E:.3g}·E; intact joints "
                           f"make a jointed body about {100 * E / pf:.0f} % softer than E "
-                          "(FDEM_SPEC §7.9: use ≥ 10·E)", RuntimeWarning, stacklevel=5)
+                          "(docs/theory/joints.md §7.9: use ≥ 10·E)", RuntimeWarning, stacklevel=5)
         ftr, gIr = joint_prop[rows, 0], joint_prop[rows, 3]
         ratio = (2.0 * joint_len[rows] * ftr / joint_prop[rows, 5]) / (3.0 * gIr / ftr)
         if ratio.max() > 0.2:
@@ -611,7 +611,7 @@ def _warn_joint_parameters(set_names, joint_set, joint_prop, joint_len, young) -
                           f"{2.0 * joint_len[rows][i] * ftr[i] / joint_prop[rows, 5][i]:.3g} m "
                           f"is not small against the softening span 3 G_I/f_t = {3 * gIr[i] / ftr[i]:.3g} m; "
                           "the pre-peak branch will dominate the fracture energy (raise joint_penalty or "
-                          "G_I, FDEM_SPEC §7.9)", RuntimeWarning, stacklevel=5)
+                          "G_I, docs/theory/joints.md §7.9)", RuntimeWarning, stacklevel=5)
 
 
 def _body_materials(b) -> list:

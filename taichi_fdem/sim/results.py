@@ -76,7 +76,7 @@ class SimulationResults(CrackResults):
         I = np.eye(2)
         T = (mu / J[:, None, None]) * (F @ F.transpose(0, 2, 1) - I) + lam * (J - 1.0 / J)[:, None, None] * I
         S0 = self.model.prestress_np
-        if S0 is not None:                  # initial stress: + F S⁰ Fᵀ / J (FDEM_SPEC §12.4)
+        if S0 is not None:                  # initial stress: + F S⁰ Fᵀ / J (docs/theory/loads.md §12.4)
             S = np.stack([np.stack([S0[:, 0], S0[:, 2]], 1), np.stack([S0[:, 2], S0[:, 1]], 1)], 1)
             T = T + F @ S @ F.transpose(0, 2, 1) / J[:, None, None]
         T[self.state.tri_intact.to_numpy() < 0] = 0.0      # removed by an excavation
@@ -85,7 +85,7 @@ class SimulationResults(CrackResults):
         return T[self._body_obj(body).triangles]
 
     # ------------------------------------------------------------------------------------------
-    # loads and reactions (FDEM_SPEC §12)
+    # loads and reactions (docs/theory/loads.md §12)
     # ------------------------------------------------------------------------------------------
     def _node_selection(self, body, where, what: str) -> np.ndarray:
         sel = np.ones(self.model.node_count, bool)
@@ -105,7 +105,7 @@ class SimulationResults(CrackResults):
 
     def reaction(self, body=None, where=None) -> np.ndarray:
         """Total force (2,) [N, i.e. N/m × the thickness] that the velocity constraints exerted
-        on the selected nodes at the last step (FDEM_SPEC §12.3).
+        on the selected nodes at the last step (docs/theory/loads.md §12.3).
 
         Per constrained node component R = m (v_b − v_free)/Δt, v_free the velocity the node
         would have had unconstrained; free components contribute nothing.  Selection: the nodes
@@ -173,7 +173,7 @@ class SimulationResults(CrackResults):
         return counter(self.state.step_int, BROKEN) if self.fracture else 0
 
     def broken_joints(self) -> dict:
-        """The joints broken so far (FDEM_SPEC §7.8); see :meth:`crack_events` for more.
+        """The joints broken so far (docs/theory/joints.md §7.8); see :meth:`crack_events` for more.
 
         Returns {"index": (k,) joint indices, "position": (k, 2) mean of the joint's 4 nodes at
         breakage [m], "time": (k,) [s], "mode": (k,) "I", "II", "I+II" or "mixed"}, in time order.
@@ -202,7 +202,7 @@ class SimulationResults(CrackResults):
 
     def fragment_count(self, body=None) -> int:
         """Number of fragments: groups of triangles connected by shared nodes or intact joints
-        (FDEM_SPEC §7.10; the labelling of :meth:`fragments`).  Triangles removed by
+        (docs/theory/joints.md §7.10; the labelling of :meth:`fragments`).  Triangles removed by
         :meth:`remove` count for nothing.  With ``body``, only that body's.
         """
         return self._fragment_labels(body)[2]

@@ -51,7 +51,7 @@ class ModelValues:
                              "Scene.build(dt=..., force_dt=True) to run above it")
         if md.dashpot_rate * dt >= 1.0:
             raise ValueError(f"sim.dt = {dt:.4g} s: the absorbing boundary's dashpots are unstable at this time "
-                             f"step (rate × dt = {md.dashpot_rate * dt:.3g} >= 1, FDEM_SPEC §12.5); use "
+                             f"step (rate × dt = {md.dashpot_rate * dt:.3g} >= 1, docs/theory/loads.md §12.5); use "
                              f"dt < {1.0 / md.dashpot_rate:.4g} s")
         object.__setattr__(self, "_clock", (self.time, self.step_count))
         md.dt = dt

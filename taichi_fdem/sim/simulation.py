@@ -252,7 +252,7 @@ class Simulation(SimulationResults, ModelValues):
         A removed triangle exerts no more force (elastic, contact, joints) and its mass leaves
         its nodes; nodes left without any triangle are held still.  In a stressed mass the new
         surface is left with the unbalanced initial stress, so the rock relaxes dynamically
-        (FDEM_SPEC §12.4).  The energy the removed triangles held (strain, kinetic, gravity) is
+        (docs/theory/loads.md §12.4).  The energy the removed triangles held (strain, kinetic, gravity) is
         booked in ``energies()["excavated"]`` so that the balance still closes.  Loads on edges
         of removed triangles stay applied.  Selecting no present triangle is an error.
         """

@@ -1,4 +1,4 @@
-"""Stable time-step estimates (FDEM_SPEC §6.2) and the choice of the step at build.
+"""Stable time-step estimates (docs/theory/elements.md §6.2) and the choice of the step at build.
 
 The book's estimates set the default step; the stable limit used to refuse a time step is
 tighter, by factors measured in the stress tests (docs/stability.md): face-on-face contact of

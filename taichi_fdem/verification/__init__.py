@@ -1,4 +1,4 @@
-"""Verification cases with analytic references (FDEM_SPEC §8).
+"""Verification cases with analytic references (docs/verification.md §8).
 
 Each ``case_NAME(resolution=..., safety=0.2, penalty_factor=10.0, precision="f64", **kw)`` builds
 its scene, runs it and returns a dict with at least
@@ -18,7 +18,7 @@ runs each in its own process; ``benchmarks/accuracy.py`` does).
 
 Modules: :mod:`.cases` (wave, two bars, Hertz, cantilever, rotation, incline, disks) and
 :mod:`.fracture` (joint pull, direct tension, Brazilian disc, fragmenting plate) and :mod:`.rock`
-(loads and rock mechanics, FDEM_SPEC §12.6: Kirsch, Lamé, uniaxial compression, triaxial
+(loads and rock mechanics, docs/theory/loads.md §12.6: Kirsch, Lamé, uniaxial compression, triaxial
 strength), sharing :mod:`._common`.
 """
 from ._common import E, NU, RHO, _build, _centroid_velocity, _crossing, _precision, _result  # noqa: F401

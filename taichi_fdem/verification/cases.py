@@ -1,4 +1,4 @@
-"""Verification cases of elasticity, waves, contact and friction (FDEM_SPEC §8.1–8.6)."""
+"""Verification cases of elasticity, waves, contact and friction (docs/verification.md §8.1–8.6)."""
 from __future__ import annotations
 
 import math
@@ -14,7 +14,7 @@ from ._common import E, NU, RHO, _build, _centroid_velocity, _crossing, _precisi
 
 def case_wave(resolution: int = 100, safety: float = 0.2, penalty_factor: float = 10.0, precision: str = "f64",
               plane: str = "strain", lateral: str = "roller") -> dict:
-    """Arrival of a velocity step travelling along a strip (FDEM_SPEC §8.3).
+    """Arrival of a velocity step travelling along a strip (docs/verification.md §8.3).
 
     Strip of length ℓ = 1 m and height 2h, h = ℓ/``resolution``.  The left end is driven at the
     constant velocity v0 = 10⁻⁴ c from t = 0 (a step in particle velocity).  ``lateral="roller"``
@@ -76,7 +76,7 @@ def case_wave(resolution: int = 100, safety: float = 0.2, penalty_factor: float 
 # ------------------------------------------------------------------------------------------------
 def case_two_bars(resolution: int = 40, safety: float = 0.2, penalty_factor: float = 10.0,
                   precision: str = "f64", plane: str = "strain") -> dict:
-    """Two equal bars (length ℓ = 0.5 m, height 2h, h = ℓ/``resolution``) meet at ±v (FDEM_SPEC §8.4).
+    """Two equal bars (length ℓ = 0.5 m, height 2h, h = ℓ/``resolution``) meet at ±v (docs/verification.md §8.4).
 
     Every node's vertical velocity is held at zero (rollers), so the bars are one-dimensional
     with wave speed c = the P-wave speed of the plane problem.  Theory: the contact lasts 2ℓ/c,
@@ -143,7 +143,7 @@ def case_two_bars(resolution: int = 40, safety: float = 0.2, penalty_factor: flo
 # ------------------------------------------------------------------------------------------------
 def case_hertz(resolution: int = 10, safety: float = 0.2, penalty_factor: float = 100.0,
                precision: str = "f64", a_over_r: float = 0.05, load_time: float = 15.0) -> dict:
-    """Elastic cylinder (radius R = 1 m) pressed on a rigid flat, plane strain (FDEM_SPEC §8.5).
+    """Elastic cylinder (radius R = 1 m) pressed on a rigid flat, plane strain (docs/verification.md §8.5).
 
     Only the lower cap of the cylinder is modelled (half-width 5a, height 5a, with a the
     expected contact half-width = ``a_over_r`` R): the contact half-width and pressure depend
@@ -231,7 +231,7 @@ def cantilever_deflection(P: float, length: float, depth: float, plane: str = "s
 def case_cantilever(resolution: int = 8, safety: float = 0.2, penalty_factor: float = 10.0,
                     precision: str = "f64", plane: str = "stress", slenderness: float = 10.0,
                     pattern: str = "crossed") -> dict:
-    """Cantilever (depth d = 0.1 m, length ``slenderness`` d) with a tip load (FDEM_SPEC §8.6).
+    """Cantilever (depth d = 0.1 m, length ``slenderness`` d) with a tip load (docs/verification.md §8.6).
 
     ``resolution`` elements (cells) through the depth.  The root nodes are clamped.  The load is
     applied by displacement control: the tip nodes' vertical velocity is prescribed (their
@@ -322,7 +322,7 @@ def case_rotation(resolution: int = 8, safety: float = 0.2, penalty_factor: floa
 # ------------------------------------------------------------------------------------------------
 def case_incline(resolution: int = 2, safety: float = 0.2, penalty_factor: float = 10.0, precision: str = "f64",
                  theta_deg: float = 30.0, friction: float = 0.3, duration: float = 0.1) -> dict:
-    """A 0.1 × 0.05 m block on a fixed floor, gravity tilted by θ (FDEM_SPEC §8.2).
+    """A 0.1 × 0.05 m block on a fixed floor, gravity tilted by θ (docs/verification.md §8.2).
 
     Mesh size h = 0.05 m / ``resolution``; μ = ``friction``; element damping β = 0.2 and contact
     damping ξ = 0.5 remove the penalty contact's vibrations.  If tan θ > μ the block slides with

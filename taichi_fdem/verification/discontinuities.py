@@ -1,4 +1,4 @@
-"""Verification of discontinuities and heterogeneity (FDEM_SPEC §13): sliding on a pre-existing
+"""Verification of discontinuities and heterogeneity (docs/theory/discontinuities.md §13): sliding on a pre-existing
 crack, fracture confined to a jointed band, a crack growing from a notch, and the scatter of
 a heterogeneous Brazilian test.  Shared by tests/test_discontinuities.py and the docs."""
 from __future__ import annotations
@@ -108,7 +108,7 @@ def first_cracks(sim, count: int = 5, max_steps: int = 200000, chunk: int = 200)
 def heterogeneous_brazilian(seeds=(1, 2, 3, 4, 5), modulus: float = 6.0, elements: int = 20,
                             load_time: float = 40.0, samples: int = 120) -> dict:
     """Brazilian peak (§8.8) of a disc whose joint strengths are Weibull-distributed with modulus
-    ``modulus`` (mean = the material's f_t, FDEM_SPEC §13.3), one run per seed.  Returns the
+    ``modulus`` (mean = the material's f_t, docs/theory/discontinuities.md §13.3), one run per seed.  Returns the
     peaks σ_t·Hondros / f_t per seed, their mean and standard deviation, and the homogeneous
     disc's value on the same mesh."""
     from ..discontinuity import Weibull

@@ -1,4 +1,4 @@
-"""Fracture verification cases and shared fracture scenes: joint pull, direct tension, Brazilian disc, fragmenting plate (FDEM_SPEC §8.7–8.8)."""
+"""Fracture verification cases and shared fracture scenes: joint pull, direct tension, Brazilian disc, fragmenting plate (docs/verification.md §8.7–8.8)."""
 from __future__ import annotations
 
 import math
@@ -167,7 +167,7 @@ def brazilian_scene(elements: int = 40, load_time: float = 100.0, D: float = 0.1
                     safety: float = 0.35, strength=None, material=None, platen=None, groups=None,
                     disc_mesh=None, plane: str = "strain"):
     """A jointed rock disc (diameter D, h = D/``elements``, every interior edge a cohesive joint)
-    between two stiff platens (FDEM_SPEC §8.8).
+    between two stiff platens (docs/verification.md §8.8).
 
     The disc's caps are flattened over ±``alpha_deg`` (nodes clipped to |y| ≤ R cos α) so the
     load spreads over a few elements instead of one node.  The platens approach each other at

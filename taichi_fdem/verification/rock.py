@@ -1,4 +1,4 @@
-"""Verification cases of loads and rock mechanics (FDEM_SPEC §12.6): Kirsch, Lamé, uniaxial
+"""Verification cases of loads and rock mechanics (docs/theory/loads.md §12.6): Kirsch, Lamé, uniaxial
 compression between platens, triaxial strength of a jointed specimen.
 
 All of them load through the public API (``apply_traction`` / ``apply_pressure``, prescribed
@@ -58,7 +58,7 @@ def _wall_value(r, th, values, a, theta0, dtheta, layers):
 
 def kirsch_hoop(sigma: float, a: float, r, theta):
     """Kirsch's hoop stress σ_θθ(r, θ) [Pa] around a hole of radius a in an infinite plate under
-    uniaxial σ along x (FDEM_SPEC §12.6): at the wall 3σ at θ = 90°, −σ at θ = 0."""
+    uniaxial σ along x (docs/theory/loads.md §12.6): at the wall 3σ at θ = 90°, −σ at θ = 0."""
     q = (a / np.asarray(r)) ** 2
     return 0.5 * sigma * (1 + q) - 0.5 * sigma * (1 + 3 * q * q) * np.cos(2 * np.asarray(theta))
 
@@ -66,7 +66,7 @@ def kirsch_hoop(sigma: float, a: float, r, theta):
 def case_kirsch(resolution: int = 32, safety: float = 0.2, penalty_factor: float = 10.0, precision: str = "f64",
                 ratio: float = 40.0, sigma: float = 1.0e5, plane: str = "strain", max_steps: int = 200_000) -> dict:
     """Kirsch: a square plate (width ``ratio`` × the hole radius a = 0.01 m) with a central hole,
-    pulled by a uniaxial traction σ along x (FDEM_SPEC §12.6).  A quarter is modelled (rollers on
+    pulled by a uniaxial traction σ along x (docs/theory/loads.md §12.6).  A quarter is modelled (rollers on
     the symmetry axes), meshed by :func:`~taichi_fdem.mesh.plate_with_hole`; ``resolution`` cells
     along the quarter of the hole (cells ~ π a / (2 resolution) at the wall, graded outwards).
 
@@ -115,7 +115,7 @@ def case_kirsch(resolution: int = 32, safety: float = 0.2, penalty_factor: float
 
 
 def lame(p: float, a: float, b: float, r, plane: str = "strain", young: float = E, poisson: float = NU):
-    """Lamé's thick cylinder a < r < b under internal pressure p (FDEM_SPEC §12.6):
+    """Lamé's thick cylinder a < r < b under internal pressure p (docs/theory/loads.md §12.6):
     (σ_rr, σ_θθ, u_r) at r [Pa, Pa, m]; u_r of plane strain or plane stress (σ_zz free)."""
     r = np.asarray(r, dtype=np.float64)
     k = p * a * a / (b * b - a * a)
@@ -129,7 +129,7 @@ def lame(p: float, a: float, b: float, r, plane: str = "strain", young: float = 
 def case_lame(resolution: int = 8, safety: float = 0.2, penalty_factor: float = 10.0, precision: str = "f64",
               p: float = 1.0e5, ratio: float = 2.0, plane: str = "strain", max_steps: int = 200_000) -> dict:
     """Lamé: a thick-walled cylinder (inner radius a = 0.05 m, outer ``ratio`` a) under an internal
-    pressure p (``apply_pressure`` on the bore, ramped, ``quasi_static=True``), FDEM_SPEC §12.6.
+    pressure p (``apply_pressure`` on the bore, ramped, ``quasi_static=True``), docs/theory/loads.md §12.6.
     ``resolution`` elements through the wall (:func:`~taichi_fdem.mesh.annulus`).  The body is
     free: the pressure is self-balanced, nothing else holds it.
 
@@ -191,7 +191,7 @@ def case_lame(resolution: int = 8, safety: float = 0.2, penalty_factor: float = 
 def case_uniaxial(resolution: int = 8, safety: float = 0.2, penalty_factor: float = 10.0, precision: str = "f64",
                   plane: str = "strain", strain: float = 1e-3) -> dict:
     """Uniaxial compression of an elastic specimen (0.05 × 0.1 m) between frictionless platens
-    (FDEM_SPEC §12.6): the modulus from the stress–strain curve against E/(1 − ν²) (plane
+    (docs/theory/loads.md §12.6): the modulus from the stress–strain curve against E/(1 − ν²) (plane
     strain) or E (plane stress), and Poisson's ratio from the lateral strain against ν/(1 − ν)
     (plane strain) or ν.
 
@@ -276,12 +276,12 @@ def case_triaxial(resolution: int = 6, safety: float = 0.2, penalty_factor: floa
                   confinements=(0.0, 1e5), handover_damage: float | None = None) -> dict:
     """Peak strength of a jointed specimen (``fracture=True``, joints with c = 0.1 MPa, φ = 30°,
     f_t = c) under confinements σ3 (0 and 0.1 MPa by default), against Mohr–Coulomb of the
-    joints' c and φ (FDEM_SPEC §12.6):
+    joints' c and φ (docs/theory/loads.md §12.6):
 
         σ1 = σ3 (1 + sin φ)/(1 − sin φ) + 2 c cos φ/(1 − sin φ)
 
     Reading of the theory.  A joint fails in shear when |τ| = c − σ_n tan φ on its plane
-    (FDEM_SPEC §7.7, compression negative).  Under a uniform stress (σ1 axial, σ3 lateral) the
+    (docs/theory/joints.md §7.7, compression negative).  Under a uniform stress (σ1 axial, σ3 lateral) the
     plane that reaches this first is inclined at 45° + φ/2 to the σ3 direction, and there the
     condition is exactly the formula above.  The specimen is meshed on a hexagonal lattice whose
     edges (the joints) run at 0° and ±60°: for φ = 30° the ±60° lattice lines *are* the critical
