@@ -143,3 +143,18 @@ def test_pile_strain_energy_at_rest_vulkan(vulkan):
     """f32 on Vulkan: the pile at rest has a strain energy ≥ 0 and < 1e-5 J/m (f32 rounding of F)."""
     e32 = run_probe("pile_energy_probe.py", "vulkan", "f32")
     assert 0.0 <= e32["strain0"] < 1e-5
+
+
+def test_arch_gpu_picks_vulkan_and_says_so(vulkan):
+    """Without CUDA, arch="gpu" runs on Vulkan, prints which on stderr, and sim.info() names it."""
+    code = ("import taichi_fdem as fdem; fdem.init(arch='gpu', precision='f32'); "
+            "from taichi_fdem.verification import two_disks_scene; "
+            "sim = two_disks_scene(strategy='auto')[0]; "
+            "print(sim.info()['device'], sim.strategy)")
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600, env=env)
+    assert r.returncode == 0, r.stderr[-2000:]
+    picked = r.stderr.count("taichi_fdem: arch='gpu' runs on ")
+    assert picked == 1
+    device = r.stdout.strip().splitlines()[-1].split()
+    assert device[0] in ("cuda", "vulkan", "metal") and device[1] == "parallel"

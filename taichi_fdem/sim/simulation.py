@@ -666,7 +666,8 @@ class Simulation(SimulationResults):
     # info and checkpoints
     # ------------------------------------------------------------------------------------------
     def info(self) -> dict:
-        """Sizes, features, time step and strategy of this simulation."""
+        """Sizes, features, time step and strategy of this simulation; ``device``: the arch it runs
+        on ("cpu", "cuda", "vulkan", …; see :func:`taichi_fdem.init`)."""
         md = self.model
         return {"nodes": md.node_count, "triangles": md.tri_count, "bodies": len(self.bodies),
                 "contact_triangles": md.ctri_count, "couples": self.couple_count, "dt": md.dt,
@@ -678,7 +679,7 @@ class Simulation(SimulationResults):
                 "joint_sets": {name: int((md.joint_set_np == k).sum())
                                for k, name in enumerate(getattr(md, "joint_set_names", ["default"]))},
                 "crack_edges": sum(getattr(b, "crack_count", 0) for b in self.bodies),
-                "precision": backend.precision()}
+                "precision": backend.precision(), "device": backend.arch()}
 
     def save(self, path) -> None:
         """Write a checkpoint of the whole state to ``path`` (one file, written atomically).
