@@ -158,3 +158,14 @@ def test_arch_gpu_picks_vulkan_and_says_so(vulkan):
     assert picked == 1
     device = r.stdout.strip().splitlines()[-1].split()
     assert device[0] in ("cuda", "vulkan", "metal") and device[1] == "parallel"
+
+
+def test_gpu_benchmark_tiny(vulkan):
+    """benchmarks/gpu.py --tiny runs both scenes on Vulkan and on the CPU (so that it cannot rot)."""
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    r = subprocess.run([sys.executable, os.path.join(ROOT, "benchmarks", "gpu.py"), "--tiny", "--arch", "vulkan",
+                        "--precisions", "f32"], capture_output=True, text=True, timeout=1200, env=env)
+    assert r.returncode == 0, r.stderr[-3000:]
+    rows = [line.split() for line in r.stdout.splitlines() if "steps/s" in line]
+    assert sorted((row[0], row[1]) for row in rows) == [("impact", "cpu"), ("impact", "vulkan"),
+                                                         ("pile", "cpu"), ("pile", "vulkan")]
