@@ -19,13 +19,16 @@ demo: $(STAMP)
 demos: $(STAMP)
 	for d in demos/[!_]*.py; do echo "== $$d"; $(BIN)/python $$d || exit 1; done
 
-## make test: set everything up and run the fast test suite (what CI runs; slow tests deselected)
+## make test: set everything up and run the fast test suite (what CI runs; slow tests deselected),
+## then the Vulkan subset (tests/test_gpu.py; skipped, saying why, without a Vulkan device)
 test: $(STAMP)
-	$(BIN)/python -m pytest -q -m "not slow" tests
+	$(BIN)/python -m pytest -q -m "not slow and not gpu" tests
+	$(BIN)/python -m pytest -q -rxs -m "gpu and not slow" tests/test_gpu.py
 
 ## make test-all: every test, including the slow ones (full demos, README figures; ~1 h)
 test-all: $(STAMP)
-	$(BIN)/python -m pytest -q -m "" tests
+	$(BIN)/python -m pytest -q -m "not gpu" tests
+	$(BIN)/python -m pytest -q -rxs -m gpu tests/test_gpu.py
 
 ## make bench: the performance benchmark (prints a table)
 bench: $(STAMP)

@@ -160,13 +160,16 @@ def taichi_header() -> str:
 
 def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, debug: bool | None = None,
          cpu_max_num_threads: int | None = None, fast_compile: bool | None = None,
-         front_end_shortcuts: bool | None = None) -> None:
+         front_end_shortcuts: bool | None = None, device_memory_GB: float | None = None) -> None:
     """Initialise Taichi for taichi_fdem.
 
     Parameters
     ----------
-    arch : "cpu" (default), "cuda", "gpu", "vulkan", "metal" or "opengl".  Only the CPU
-        backend is tested; GPU back ends are expected to work but are untested.
+    arch : "cpu" (default), "cuda", "gpu", "vulkan", "metal" or "opengl".  "gpu" takes the
+        first of CUDA, Vulkan and Metal that initialises here and prints which on stderr (one
+        line); :func:`arch` then names it.  An explicit GPU arch that does not initialise raises
+        RuntimeError (Taichi itself would fall back to the CPU).  The CPU is tested in full, Vulkan
+        on a software device (tests/test_gpu.py); CUDA, Metal and hardware Vulkan are untested.
     precision : "f64" (default) or "f32", the floating-point type of every real field.
     offline_cache : keep compiled kernels on disk so that a second run starts fast.
     debug : Taichi debug mode (bounds checks on every array access; slow).  None (default): on
@@ -192,6 +195,8 @@ def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, 
         any other version this setting does nothing.  False removes them again.  None
         (default): on unless the environment variable TAICHI_FDEM_FRONT_END_SHORTCUTS is "0".
         Importing taichi_fdem patches nothing.
+    device_memory_GB : memory [GB] Taichi pre-allocates on a CUDA device (Taichi's default
+        otherwise: a fraction of the device memory).  None (default) leaves Taichi's default.
 
     Calling ``init`` again with the same settings does nothing (a notebook cell or a pasted
     example may call it twice).  With other settings it re-initialises Taichi: simulations built
@@ -219,6 +224,10 @@ def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, 
     if int(cpu_max_num_threads) < 1:
         raise ValueError(f"fdem.init: cpu_max_num_threads must be >= 1, got {cpu_max_num_threads!r}")
     kwargs["cpu_max_num_threads"] = int(cpu_max_num_threads)
+    if device_memory_GB is not None:
+        if not (float(device_memory_GB) > 0.0):
+            raise ValueError(f"fdem.init: device_memory_GB must be > 0, got {device_memory_GB!r}")
+        kwargs["device_memory_GB"] = float(device_memory_GB)
     if fast_compile is None:
         fast_compile = os.environ.get("TAICHI_FDEM_FAST_COMPILE", "") == "1"
     if fast_compile:
@@ -228,8 +237,27 @@ def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, 
         kwargs["offline_cache_file_path"] = cache_dir
     if _state["initialised"] and _state.get("kwargs") == kwargs:
         return
-    ti.init(**kwargs)
-    _state.update(initialised=True, arch=arch, precision=precision, kwargs=kwargs, generation=_state["generation"] + 1)
+    picked = _init_on(arch, kwargs)
+    _state.update(initialised=True, arch=picked, precision=precision, kwargs=kwargs, generation=_state["generation"] + 1)
+
+
+GPU_ORDER = ("cuda", "vulkan", "metal")
+
+
+def _init_on(arch: str, kwargs: dict) -> str:
+    """ti.init on ``arch`` ("gpu": the first of :data:`GPU_ORDER` that initialises); the arch
+    name it runs on.  Taichi falls back to the CPU when an arch is unavailable: that raises."""
+    import sys
+    from taichi.lang import impl
+    for cand in (GPU_ORDER if arch == "gpu" else (arch,)):
+        ti.init(**dict(kwargs, arch=getattr(ti, _ARCHS[cand])))
+        if impl.current_cfg().arch == getattr(ti, _ARCHS[cand]):
+            if arch == "gpu":
+                print(f"taichi_fdem: arch='gpu' runs on {cand}", file=sys.stderr)
+            return cand
+    tried = ", ".join(GPU_ORDER) if arch == "gpu" else arch
+    raise RuntimeError(f"fdem.init(arch={arch!r}): no usable device (tried {tried}); Taichi fell back to the CPU. "
+                       "Use arch='cpu', or install the device's driver (software Vulkan: mesa-vulkan-drivers)")
 
 
 def ensure_init() -> None:
@@ -263,6 +291,7 @@ def precision() -> str:
 
 
 def arch() -> str:
+    """The arch Taichi runs on: "cpu", "cuda", "vulkan", "metal" or "opengl" (for "gpu", the one picked)."""
     ensure_init()
     return _state["arch"]
 

@@ -6,6 +6,7 @@ scenes) and inside the serial many-step kernel (small scenes); see :mod:`taichi_
 """
 import taichi as ti
 
+from . import fmath
 from .groups import INVERTED, SWITCH_DAMPING, SWITCH_PRESTRESS
 from .tiutil import mat2_cols, vec2
 
@@ -29,10 +30,25 @@ def cauchy_elastic(F, J, mu, lam):
 
 @ti.func
 def strain_energy_density(F, J, mu, lam):
-    """W per unit initial area [J/m³ · m = Pa]; the potential of :func:`cauchy_elastic` (§3.2)."""
-    lnJ = ti.log(J)
-    trC = F[0, 0] ** 2 + F[0, 1] ** 2 + F[1, 0] ** 2 + F[1, 1] ** 2
-    return 0.5 * mu * (trC - 2.0) - mu * lnJ + lam * (0.5 * J * J - lnJ - 0.5)
+    """W per unit initial area [J/m³ · m = Pa]; the potential of :func:`cauchy_elastic` (§3.2).
+
+    W = ½μ(tr C − 2) − μ ln J + λ(½J² − ln J − ½), evaluated without cancellation near F = I:
+    with H = F − I, d = J − 1 = tr H + det H and g(d) = d − ln(1 + d) ≥ 0
+    (:func:`taichi_fdem.engine.fmath.log1p_minus`),
+    W = μ[½(H₀₀ − H₁₁)² + ½(H₀₁ + H₁₀)² + g(d)] + λ[½d² + g(d)], every term ≥ 0.  (J, the
+    determinant of F, is not used: d from H keeps its small value exact.)
+    """
+    H = F - ti.Matrix.identity(float, 2)
+    d = H[0, 0] + H[1, 1] + (H[0, 0] * H[1, 1] - H[0, 1] * H[1, 0])
+    g = fmath.log1p_minus(d)
+    return mu * (0.5 * (H[0, 0] - H[1, 1]) ** 2 + 0.5 * (H[0, 1] + H[1, 0]) ** 2 + g) + lam * (0.5 * d * d + g)
+
+
+@ti.func
+def green_strain(F):
+    """E = ½(FᵀF − I) = ½(H + Hᵀ + HᵀH), H = F − I (no cancellation for small strains)."""
+    H = F - ti.Matrix.identity(float, 2)
+    return 0.5 * (H + H.transpose() + H.transpose() @ H)
 
 
 @ti.func
@@ -109,6 +125,6 @@ def tri_strain_energy(e, nodes: ti.template(), tris: ti.template(), mats: ti.tem
         W = area0 * strain_energy_density(F, J, mats.mat_mu[m], mats.mat_lam[m])
         if step.step_switches[None] & SWITCH_PRESTRESS:
             S = prestress_matrix(tris.tri_prestress[e])
-            E = 0.5 * (F.transpose() @ F - ti.Matrix.identity(float, 2))
+            E = green_strain(F)
             W += area0 * (S[0, 0] * E[0, 0] + S[1, 1] * E[1, 1] + 2.0 * S[0, 1] * E[0, 1])
     return W

@@ -12,11 +12,12 @@ and the joint breaks for good when two of its three points have failed (§7.8).
 import numpy as np
 import taichi as ti
 
+from . import fmath
 from .groups import BROKEN, DAMAGED, EDGE_FREE, HANDOVER, INTACT, NB_PAIRS, TIME
 from .tiutil import vec2
 
-# Evans & Marathe softening fit (§7.5)
-Z_A, Z_B, Z_C = 0.63, 1.8, 6.0
+# Evans & Marathe softening fit (§7.5); Z_C an integer (z uses the integer power (1 − D)^Z_C)
+Z_A, Z_B, Z_C = 0.63, 1.8, 6
 
 #: default of ``Scene.build(handover_damage=...)``: the damage (at any of its three points) beyond
 #: which a joint stops carrying its pair's compression and hands the pair over to contact
@@ -34,8 +35,8 @@ def softening_z(D):
     a = Z_A
     b = Z_B
     c = Z_C
-    return (1.0 - ((a + b - 1.0) / (a + b)) * ti.exp(D * (a + c * b) / ((a + b) * (1.0 - a - b)))) \
-        * (a * (1.0 - D) + b * ti.pow(1.0 - D, c))
+    return (1.0 - ((a + b - 1.0) / (a + b)) * fmath.exp(D * (a + c * b) / ((a + b) * (1.0 - a - b)))) \
+        * (a * (1.0 - D) + b * fmath.ipow(1.0 - D, ti.static(int(Z_C))))
 
 
 @ti.func

@@ -156,29 +156,30 @@ def phases_forces_integrate(nodes: ti.template(), tris: ti.template(), mats: ti.
 def phase_slots(nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
                 joints: ti.template(), step: ti.template(), asm: ti.template(), contact: ti.template(),
                 friction: ti.template(), fracture: ti.template()):
-    """Phases 2–4 of the parallel strategy as one parallel loop over triangles, joints and couples:
-    each writes its nodal forces into its own slots (triangle t: asm_force[3t + r]; couple c:
-    asm_force[3T + 6c + r], rows of A then B; joint j: joint_g[j]), never adding to a node."""
+    """Phases 2–4 of the parallel strategy as parallel loops over the triangles, the joints and
+    the couples: each writes its nodal forces into its own slots (triangle t: asm_force[3t + r];
+    couple c: asm_force[3T + 6c + r], rows of A then B; joint j: joint_g[j]), never adding to a
+    node.  One loop (one GPU task) per entity, so that no task binds the arrays of all three:
+    a task binds at most 31 storage buffers (Vulkan's per-stage minimum;
+    tests/test_buffer_budget.py counts them in what Taichi compiles)."""
     T, J, C = item_counts(tris, joints, step, contact, fracture)
-    dacc = step.step_real[DACC]
-    for item in range(T + J + C):
-        if item < T:
-            f0, f1, f2 = tri_forces(item, nodes, tris, mats, step)
-            asm.asm_force[3 * item] = f0
-            asm.asm_force[3 * item + 1] = f1
-            asm.asm_force[3 * item + 2] = f2
-        elif item < T + J:
-            if ti.static(fracture):
-                eval_joint(item - T, joints, tris, mats, nodes, step, False)
-        else:
-            if ti.static(contact):
-                c = item - T - J
-                gA, gB, hit, work = couple_forces(c, dacc, nodes, tris, mats, con, step, friction, fracture)
-                book_contact_work(work, step)
-                base = 3 * T + 6 * c
-                for r in ti.static(range(3)):
-                    asm.asm_force[base + r] = vec2(gA[r, 0], gA[r, 1])
-                    asm.asm_force[base + 3 + r] = vec2(gB[r, 0], gB[r, 1])
+    for e in range(T):
+        f0, f1, f2 = tri_forces(e, nodes, tris, mats, step)
+        asm.asm_force[3 * e] = f0
+        asm.asm_force[3 * e + 1] = f1
+        asm.asm_force[3 * e + 2] = f2
+    if ti.static(fracture):
+        for j in range(J):
+            eval_joint(j, joints, tris, mats, nodes, step, False)
+    if ti.static(contact):
+        dacc = step.step_real[DACC]
+        for c in range(C):
+            gA, gB, hit, work = couple_forces(c, dacc, nodes, tris, mats, con, step, friction, fracture)
+            book_contact_work(work, step)
+            base = 3 * T + 6 * c
+            for r in ti.static(range(3)):
+                asm.asm_force[base + r] = vec2(gA[r, 0], gA[r, 1])
+                asm.asm_force[base + 3 + r] = vec2(gB[r, 0], gB[r, 1])
 
 
 @ti.func

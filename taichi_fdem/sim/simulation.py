@@ -555,7 +555,7 @@ class Simulation(SimulationResults, ModelValues):
         """Sizes, features, time step and strategy of this simulation; ``"threads"`` (Taichi's
         CPU threads, the usable cores and the team's largest size) and ``"team"``: the team
         launches' counters (waits past their bound, launches resumed by one worker, probes,
-        steps run by one worker because it was the faster; zeros before any team launch)."""
+        steps run by one worker because it was the faster; zeros before any team launch).  ``device``: the arch it runs on ("cpu", "cuda", "vulkan", ...; see :func:`taichi_fdem.init`)."""
         md = self.model
         return {"nodes": md.node_count, "triangles": md.tri_count, "bodies": len(self.bodies),
                 "contact_triangles": md.ctri_count, "couples": self.couple_count, "dt": md.dt,
@@ -567,7 +567,7 @@ class Simulation(SimulationResults, ModelValues):
                 "joint_sets": {name: int((md.joint_set_np == k).sum())
                                for k, name in enumerate(getattr(md, "joint_set_names", ["default"]))},
                 "crack_edges": sum(getattr(b, "crack_count", 0) for b in self.bodies),
-                "precision": backend.precision(),
+                "precision": backend.precision(), "device": backend.arch(),
                 "threads": {"taichi": backend.cpu_threads(), "usable_cores": backend.usable_cores(),
                             "team": self._team_size() if self._team_launches() else 0},
                 "team": dict(self._teams.stats)}

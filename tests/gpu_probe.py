@@ -1,0 +1,99 @@
+"""Tiny scenes run on one device, for comparing the GPU path (arch="vulkan") with the CPU.
+
+Run as ``python tests/gpu_probe.py ARCH PRECISION``: prints one JSON line, a dict keyed by
+case with the final positions [m], the couples, the broken joints, the energy terms, the
+crack events, the fragments, a rendered frame's mean colour and a checkpoint round trip.
+Every case uses ``strategy="parallel"`` with the slot assembly (the GPU default), so that the
+CPU run is the same algorithm.  A separate process: Taichi is initialised once per process.
+
+Cases (the features each runs):
+
+* ``impact``: a brittle plate (every interior edge a cohesive joint) hit by a disc, friction
+  0.5: contact, friction, detection, fracture, crack events, fragments, energies, renderer,
+  checkpoint.
+* ``rock``: a gravity-loaded block on a fixed floor with an initial stress, Weibull joint
+  strength on a jointed body plus a joint set on a line, a pre-existing crack, a pressure on
+  its top under a ramp curve, an absorbing bottom boundary and local damping, then an
+  excavation (``sim.remove``) half-way: heterogeneity, joint sets, cracks, loads and curves,
+  absorbing boundaries, initial stress, local damping, excavation.
+"""
+import json
+import os
+import sys
+import tempfile
+
+import numpy as np
+
+import taichi_fdem as fdem
+
+STEPS = 120
+
+
+def impact_scene():
+    from taichi_fdem.verification import fragment_plate_scene
+    sim, _ = fragment_plate_scene(h_plate=0.025, h_ball=0.02, friction=0.5)
+    return sim.scene
+
+
+def rock_scene():
+    rock = fdem.Material(density=2500.0, young=1e8, poisson=0.25, friction=0.4, tensile_strength=2e4,
+                         fracture_energy=5.0, name="rock")
+    weak = fdem.Material(density=2500.0, young=1e8, poisson=0.25, friction=0.3, tensile_strength=5e3,
+                         fracture_energy=1.0, name="joint")
+    scene = fdem.Scene(gravity=(0.0, -9.81))
+    scene.add_body(fdem.mesh.rectangle(0.4, 0.04, 0.04), rock, position=(0.0, -0.02), fixed=True, name="floor")
+    block = scene.add_body(fdem.mesh.rectangle(0.2, 0.1, 0.025), rock, position=(-0.1, 0.0501),
+                           fracture=True, strength=fdem.Weibull(4.0, seed=2), name="block")
+    scene.add_joint_set("line", lambda x, y: np.abs(y - 0.0501) < 1e-6, weak, body=block)
+    other = scene.add_body(fdem.mesh.rectangle(0.15, 0.1, 0.025), rock, position=(0.1, 0.0501),
+                           cracks=lambda x, y: np.abs(x - 0.1) < 1e-6, name="cracked")
+    scene.initial_stress(-2e4, -1e4, 0.0, body=other)
+    scene.apply_pressure(lambda x, y: y > 0.1, 2e4, body=block, curve=fdem.Curve.ramp(1e-3))
+    scene.absorbing_boundary(lambda x, y: y < -0.039, body=None)
+    return scene
+
+
+def snapshot(sim, arch):
+    from taichi_fdem.render import RendererImage
+    e = sim.energies()
+    ev = sim.crack_events()
+    fr = sim.fragments()
+    img = RendererImage(width=96, height=64).render_sim(sim)
+    return {"x": sim.node_positions().tolist(), "couples": sorted(map(list, {(int(min(a, b)), int(max(a, b)))
+                                                                          for a, b in sim.couples()})),
+            "broken": int(sim.broken_joint_count), "energies": {k: float(v) for k, v in e.items()},
+            "events": int(len(ev["index"])), "event_joints": sorted(int(i) for i in ev["index"]),
+            "fragments": int(fr["count"]), "image_mean": float(np.asarray(img, dtype=np.float64).mean()),
+            "image_shape": list(np.shape(img)), "device": sim.info().get("device", arch)}
+
+
+def run_case(name, arch):
+    scene = {"impact": impact_scene, "rock": rock_scene}[name]()
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        sim = scene.build(strategy="parallel", quasi_static=(0.3 if name == "rock" else False))
+    sim.assembly = os.environ.get("FDEM_PROBE_ASSEMBLY", "slots")
+    sim.step(STEPS // 2)
+    if name == "rock":
+        sim.remove(where=lambda x, y: (x > 0.12) & (y > 0.06))
+    with tempfile.TemporaryDirectory() as d:
+        path = os.path.join(d, "c.fdem")
+        sim.save(path)
+        sim.step(STEPS // 2)
+        back = fdem.Simulation.load(path)
+        back.assembly = sim.assembly
+        back.step(STEPS // 2)
+        same = bool(np.array_equal(back.node_positions(), sim.node_positions()))
+    out = snapshot(sim, arch)
+    out["checkpoint_same"] = same
+    return out
+
+
+def main(arch, precision, cases):
+    fdem.init(arch=arch, precision=precision)
+    print(json.dumps({c: run_case(c, arch) for c in cases}))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1], sys.argv[2], sys.argv[3].split(",") if len(sys.argv) > 3 else ["impact", "rock"])
