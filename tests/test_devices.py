@@ -1,4 +1,4 @@
-"""Device settings of fdem.init that are checked before Taichi is touched (CPU session)."""
+"""Device settings of fdem.init that are checked before Taichi is touched (the test process runs on the CPU)."""
 import pytest
 
 import taichi_fdem as fdem
@@ -9,7 +9,7 @@ from taichi_fdem import backend
 def test_device_memory_must_be_positive(bad):
     with pytest.raises(ValueError, match="device_memory_GB"):
         fdem.init(arch="cpu", device_memory_GB=bad)
-    assert backend.arch() == "cpu"          # the session's Taichi is untouched
+    assert backend.arch() == "cpu"          # the test process's Taichi is untouched
 
 
 def test_gpu_order_is_cuda_vulkan_metal():
