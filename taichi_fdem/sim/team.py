@@ -9,11 +9,13 @@ from .. import backend
 from ..engine import step as kernels
 from . import guards
 
-TEAM_WAIT_MIN = 2e-3             # a team's wait is bounded by this [s], or by TEAM_WAIT_STEPS of its steps
-TEAM_WAIT_STEPS = 4.0            # (mean step times of the last launch), whichever is longer
+TEAM_WAIT_MIN = 0.02             # a team's wait is bounded by this [s], or by TEAM_WAIT_STEPS of its steps
+TEAM_WAIT_STEPS = 8.0            # (mean step times of the last launch), whichever is longer
 TEAM_SPINS_PER_S = 5e7           # tries of a team's wait per second (an i32 atomic each, ~10-20 ns)
-TEAM_PROBE_FIRST = 0.25          # the team and one worker are timed against each other after this [s],
-TEAM_PROBE_MAX = 8.0             # then twice as long after each probe that agrees, up to this [s]
+TEAM_PROBE_FIRST = 1.0           # the team and one worker are timed against each other after this [s],
+TEAM_PROBE_MAX = 16.0            # then twice as long after each probe that agrees, up to this [s]
+TEAM_CPU_SHARE = 0.85            # ... and at once after a launch whose workers got less than this share of
+                                 # their cores (descheduled: another busy process shares them)
 TEAM_PROBE_STEPS = 8             # a probe launch runs 1/8 of a launch's steps
 
 _STEPS = kernels.UNSTABLE_BIT - 1    # the steps in a launch's result
@@ -48,7 +50,7 @@ class TeamScheduler:
         """One team launch of ``nsteps`` steps; a launch that stopped at a stage boundary because a
         wait ran past its bound is resumed by one worker (the same bits).  Returns the kernel's
         result with the steps of every part."""
-        t0 = _time.perf_counter()
+        t0, c0 = _time.perf_counter(), _time.process_time()
         args = (*sim._groups["team"], *switches)
         ret = sim._launch_cached("run_steps_blocks", kernels.run_steps_blocks, nsteps, nwork, flags,
                                  self.spin_bound(), *args)
@@ -62,16 +64,20 @@ class TeamScheduler:
                                      self.spin_bound(), *args)
         steps = done + (ret & _STEPS)
         ret = (ret & ~_STEPS & ~kernels.TIMEOUT_BIT) | steps
+        wall = _time.perf_counter() - t0
         if steps:
-            self.step_s = (_time.perf_counter() - t0) / steps
-        if timed_out and nwork > 1 and self.probe_at > t0:
-            self.probe_at = t0            # a wait ran past its bound: time the two again now
+            self.step_s = wall / steps
+        # a wait past its bound, or workers that did not get their cores (a spinning worker
+        # counts as busy: only a descheduled one lowers the share): time the two again now
+        starved = wall > 5e-3 and _time.process_time() - c0 < TEAM_CPU_SHARE * nwork * wall
+        if nwork > 1 and (timed_out or starved) and self.probe_at > t0:
+            self.probe_at = t0
         return ret
 
     def choose(self, sim, nwork: int, chunk: int, flags: int, switches) -> tuple[int, int]:
         """When a probe is due (TEAM_PROBE_FIRST seconds after the first team launch, then twice as
         long after each probe that agrees with the choice, up to TEAM_PROBE_MAX; at once after a
-        wait past its bound), time a short launch of one worker and one of the team, and run on
+        wait past its bound or a launch whose workers lacked their cores), time a short launch of one worker and one of the team, and run on
         with the faster: a team on a CPU shared with other busy processes waits for its
         descheduled workers.  Returns (steps the probes ran, the kernel's last result)."""
         now = _time.perf_counter()
