@@ -15,8 +15,8 @@ fewer than ``MIN_TRANSITS`` P-wave transits of the specimen is refused, and the 
 kinetic/strain energy ratio at half the peak is reported (``kinetic_ratio``) and warns above
 ``MAX_KINETIC_RATIO``.
 """
-from .brazilian import brazilian
-from .compression import compression, triaxial, ucs
+from .tensile import brazilian
+from .compressive import compression, triaxial, ucs
 from .results import MAX_KINETIC_RATIO, MIN_TRANSITS, Envelope, LabResult, elastic_constants, fit_envelope
 from .shear import direct_shear
 

@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import mesh as _mesh
 from ..scene import Curve, Scene
-from .compression import _first, _positive, video_frames
+from .compressive import _first, _positive, video_frames
 from .results import LabResult, check_rate, specimen_kinetic, warn_kinetic
 
 

@@ -1,4 +1,4 @@
-"""Specimens and platens of the compression tests (:mod:`taichi_fdem.lab.compression`, and the
+"""Specimens and platens of the compression tests (:mod:`taichi_fdem.lab.compressive`, and the
 verification cases of :mod:`taichi_fdem.verification.rock` that run them)."""
 from __future__ import annotations
 

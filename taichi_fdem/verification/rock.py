@@ -257,7 +257,7 @@ def triaxial_test(sigma3: float, resolution: int = 6, safety: float = 0.2, mater
     the simulation and its bodies; ``lab``: the :class:`~taichi_fdem.lab.LabResult` of
     :func:`taichi_fdem.lab.compression`, which runs the test (one copy of the set-up).
     """
-    from ..lab.compression import compression
+    from ..lab.compressive import compression
     mp = dict(TRIAXIAL_MATERIAL if material is None else material)
     mp.setdefault("joint_penalty", penalty_factor * mp["young"])
     W, H = 0.05, 0.1

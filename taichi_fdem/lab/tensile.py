@@ -5,7 +5,7 @@ import math
 import time as _time
 
 from ..verification.fracture import brazilian_load, brazilian_result, brazilian_scene, hondros_factor
-from .compression import _first, _positive, video_frames
+from .compressive import _first, _positive, video_frames
 from .results import LabResult, check_rate, specimen_kinetic, warn_kinetic
 
 
