@@ -22,6 +22,7 @@ import numpy as np
 
 from ..engine.groups import BROKEN
 from ..engine.joints import MODE_NAMES
+from .ae import _components
 from .model import counter
 
 __all__ = ["CrackResults", "CrackEventLog", "read_crack_events", "CSV_COLUMNS"]
@@ -195,20 +196,7 @@ class CrackResults:
             u.append(jt[keep, 0])
             v.append(jt[keep, 1])
         u, v = np.concatenate(u), np.concatenate(v)
-        parent = np.arange(m)
-        while True:
-            while True:                                  # pointer jumping to the roots
-                p2 = parent[parent]
-                if np.array_equal(p2, parent):
-                    break
-                parent = p2
-            ru, rv = parent[u], parent[v]
-            differ = ru != rv
-            if not differ.any():
-                break
-            u, v = u[differ], v[differ]                  # pairs already joined stay joined
-            lo, hi = np.minimum(ru[differ], rv[differ]), np.maximum(ru[differ], rv[differ])
-            np.minimum.at(parent, hi, lo)                # hook the larger root under the smaller
+        parent = _components(m, u, v)                    # hooking and pointer jumping
         parent[~active] = -1
         return parent
 
