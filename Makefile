@@ -36,6 +36,7 @@ bench: $(STAMP)
 
 ## make docs: build the documentation site into docs/_build/html (warnings are errors)
 docs: $(STAMP)
+	rm -rf docs/api/generated          # autosummary stubs of modules that may have gone
 	$(BIN)/python -m sphinx -b html -W --keep-going -q docs docs/_build/html
 	@echo "docs: docs/_build/html/index.html"
 
