@@ -5,6 +5,8 @@ as ``…``), grouped by module, so the list follows the code.
 """
 from __future__ import annotations
 
+from _pages import write_if_changed
+
 import ast
 import os
 
@@ -70,12 +72,7 @@ def render() -> str:
 
 def _write(app) -> None:
     path = os.path.join(app.srcdir, "reference", "errors.md")
-    text = render()
-    old = open(path, encoding="utf-8").read() if os.path.exists(path) else None
-    if old != text:
-        os.makedirs(os.path.dirname(path), exist_ok=True)
-        with open(path, "w", encoding="utf-8") as f:
-            f.write(text)
+    write_if_changed(path, render())
 
 
 def setup(app):

@@ -5,6 +5,8 @@ still ``gallery/NAME.png`` and its GIF ``gallery/NAME.gif`` when ``make gallery`
 """
 from __future__ import annotations
 
+from _pages import write_if_changed
+
 import ast
 import os
 
@@ -34,11 +36,7 @@ def render(srcdir: str) -> str:
 
 def _write(app) -> None:
     path = os.path.join(app.srcdir, "gallery_items.md")
-    text = render(app.srcdir)
-    old = open(path, encoding="utf-8").read() if os.path.exists(path) else None
-    if old != text:
-        with open(path, "w", encoding="utf-8") as f:
-            f.write(text)
+    write_if_changed(path, render(app.srcdir))
 
 
 def setup(app):

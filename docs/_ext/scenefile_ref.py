@@ -7,6 +7,8 @@ behind the loader.
 """
 from __future__ import annotations
 
+from _pages import write_if_changed
+
 import os
 import re
 
@@ -130,12 +132,7 @@ def render() -> str:
 
 def _write(app) -> None:
     path = os.path.join(app.srcdir, "reference", "scenefile.md")
-    text = render()
-    old = open(path, encoding="utf-8").read() if os.path.exists(path) else None
-    if old != text:
-        os.makedirs(os.path.dirname(path), exist_ok=True)
-        with open(path, "w", encoding="utf-8") as f:
-            f.write(text)
+    write_if_changed(path, render())
 
 
 def setup(app):

@@ -9,6 +9,8 @@ into links); the Sphinx extension rewrites that file at every build.
 """
 from __future__ import annotations
 
+from _pages import write_if_changed
+
 import os
 import re
 
@@ -46,11 +48,7 @@ def spec_map_text() -> str:
 
 def _write(app) -> None:
     path = os.path.join(DOCS, "theory", "spec_map.txt")
-    text = spec_map_text()
-    old = open(path, encoding="utf-8").read() if os.path.exists(path) else None
-    if old != text:
-        with open(path, "w", encoding="utf-8") as f:
-            f.write(text)
+    write_if_changed(path, spec_map_text())
 
 
 def setup(app):
