@@ -46,10 +46,13 @@ autosummary_generate = True
 napoleon_numpy_docstring = True
 napoleon_google_docstring = False
 napoleon_use_ivar = True
-# docstrings here are written for readers of the source; their informal parameter lists and
-# cross-references to private functions are not turned into nitpicky references
+# the slot after "name :" in the package's parameter and return lists often holds a unit or a
+# short description ("x0 : (n, 2) float64 [m]") rather than a class name, so it is shown as
+# text, not resolved word by word into cross-references
+napoleon_use_param = False
+napoleon_use_rtype = False
+# cross-references to names outside the API reference (private functions) stay plain text
 nitpicky = False
-suppress_warnings = ["autodoc.import_object", "docutils", "ref.python"]
 
 
 def _reachable(url: str, timeout: float = 2.0) -> bool:

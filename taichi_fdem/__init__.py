@@ -1,5 +1,7 @@
 """taichi_fdem: the combined finite-discrete element method (FDEM) in 2D, on Taichi.
 
+::
+
     import taichi_fdem as fdem
     fdem.init(arch="cpu", precision="f64")      # optional
     rock = fdem.Material(density=2700.0, young=30e9, poisson=0.25, friction=0.5)

@@ -1,5 +1,7 @@
 """The ``taichi-fdem`` command line.
 
+::
+
     taichi-fdem run SCENE.toml [--duration S] [--video PATH | --no-video] [--vtu DIR] [--from CHECKPOINT]
     taichi-fdem sweep SWEEP.toml [--workers N] [--output CSV] [--scheduler tcp://host:port] [--no-resume]
     taichi-fdem demo [NAME] [demo arguments ...]

@@ -55,43 +55,58 @@ COHESION_WARN_RATIO = 1.0
 
 @dataclass(frozen=True)
 class Material:
-    """A bulk material of the deformable triangles and its contact properties.
+    """A bulk material of the deformable triangles and its contact properties (SI units).
 
-    Parameters (SI units)
-    ---------------------
-    density : kg/m³, > 0.
-    young : Young's modulus E [Pa], > 0.
-    poisson : Poisson's ratio ν, −1 < ν < 0.5.
-    friction : Coulomb friction coefficient μ_f ≥ 0 of contacts (docs/theory/contact.md §5.1).  The
+    Parameters
+    ----------
+    density : float
+        Mass density ρ [kg/m³], > 0.
+    young : float
+        Young's modulus E [Pa], > 0.
+    poisson : float
+        Poisson's ratio ν, −1 < ν < 0.5.
+    friction : float
+        Coulomb friction coefficient μ_f ≥ 0 of contacts (docs/theory/contact.md §5.1).  The
         coefficient of a couple of two materials is the smaller of the two unless
-        :meth:`Scene.set_interaction` says otherwise.
-    damping : viscous damping β in [0, 1], as a fraction of critical damping of the highest
-        element mode: k_s = 2 h β √(E ρ) (docs/theory/elements.md §3.4).  0 (default) for wave and impact
-        problems, 0.1–1 for quasi-static runs.
-    penalty : normal contact penalty p [Pa].  Default ``10 · young``: by the book's estimate
+        :meth:`Scene.set_interaction <taichi_fdem.scene.Scene.set_interaction>` says otherwise.
+    damping : float
+        Viscous damping β in [0, 1], as a fraction of critical damping of the highest
+        element mode: k_s = 2 h β √(E ρ) (docs/theory/elements.md §3.4).  0 (default) for wave
+        and impact problems, 0.1–1 for quasi-static runs.
+    penalty : float or None
+        Normal contact penalty p [Pa].  Default ``10 · young``: by the book's estimate
         (p. 79–80) the penetration is then about 1/10 of the element's own elastic
         deformation, and the contact time-step limit h√(ρ/p) is ~3× below the elastic one.
         Raise it (50–100 E) where contact stiffness matters (Hertz contact).
-    tangential_penalty : tangential (stick) stiffness k_t of friction [Pa = N/m per metre of
-        thickness per metre of slip].  Default: equal to ``penalty``.
-    contact_damping : normal contact damping ratio ξ in [0, 1] (docs/theory/contact.md §5.2),
+    tangential_penalty : float or None
+        Tangential (stick) stiffness k_t of friction [Pa = N/m per metre of thickness per
+        metre of slip].  Default: equal to ``penalty``.
+    contact_damping : float
+        Normal contact damping ratio ξ in [0, 1] (docs/theory/contact.md §5.2),
         c_n = 4 ξ √(p ρ).  Default 0 (elastic contact).
-    name : free label.
+    name : str
+        Free label.
 
-    Fracture (cohesive joints between triangles, docs/theory/joints.md §7; used by bodies added with
-    ``fracture=True``):
-
-    tensile_strength : f_t [Pa], > 0.
-    cohesion : c [Pa] of the Mohr–Coulomb shear strength (default: f_t, with a RuntimeWarning).
+    Other Parameters
+    ----------------
+    tensile_strength : float or None
+        Fracture (cohesive joints between triangles, docs/theory/joints.md §7; used by bodies
+        added with ``fracture=True``): tensile strength f_t [Pa], > 0.
+    cohesion : float or None
+        c [Pa] of the Mohr–Coulomb shear strength (default: f_t, with a RuntimeWarning).
         Rock has c ≈ 2–4 f_t (UCS/BTS ≈ 10–20); with c ≤ f_t compressed joints fail in shear
         first, and a Brazilian test returns about half of f_t (see ``COHESION_WARN_RATIO``).
         ``Material`` warns when c ≤ f_t (given, or by default).
-    friction_angle : internal friction angle φ_i [degrees] (default 30).
-    fracture_energy : G_I, mode I fracture energy [J/m²], > 0.
-    fracture_energy_shear : G_II, mode II fracture energy [J/m²] (default: 5 × G_I).
-    joint_penalty : p_f [Pa] (default ``10 · young``).  Intact joints add compliance L/p_f next
-        to the element's h/E, so the effective modulus is about E/(1 + E/p_f): ~9 % softer at
-        the default; a warning is given below 10·E.
+    friction_angle : float
+        Internal friction angle φ_i of the joints [degrees] (default 30).
+    fracture_energy : float or None
+        G_I, mode I fracture energy [J/m²], > 0.
+    fracture_energy_shear : float or None
+        G_II, mode II fracture energy [J/m²] (default: 5 × G_I).
+    joint_penalty : float or None
+        p_f [Pa] (default ``10 · young``).  Intact joints add compliance L/p_f next to the
+        element's h/E, so the effective modulus is about E/(1 + E/p_f): ~9 % softer at the
+        default; a warning is given below 10·E.
     """
 
     density: float = 2700.0

@@ -588,7 +588,7 @@ class Scene:
             largest P-wave speed of the materials, or 10× the fastest initial speed if larger).
         quasi_static : False (default), True or a coefficient α in (0, 1).  Turns on Cundall's
             local non-viscous damping for reaching static equilibrium: every free node component
-            gets −α |F| sign(v), F the unbalanced force (:mod:`taichi_fdem.engine.integrate`).
+            gets −α ``|F|`` sign(v), F the unbalanced force (:mod:`taichi_fdem.engine.integrate`).
             True uses α = 0.7 (:data:`QUASI_STATIC_ALPHA`, Itasca's default for static
             problems).  It damps all modes alike and does not resist steady motion; its work is
             booked in ``sim.energies()["local_damping"]``.  Not for impacts or waves.

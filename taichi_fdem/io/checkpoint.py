@@ -1,5 +1,7 @@
 """Checkpoints: the whole state of a :class:`~taichi_fdem.sim.simulation.Simulation` in one file.
 
+::
+
     sim.save("run.ckpt")                          # or checkpoint.save(sim, path)
     sim = fdem.Simulation.load("run.ckpt")        # or checkpoint.load(path)
 

@@ -1,5 +1,7 @@
 """Scene files: a whole simulation (materials, bodies, constraints, solver, output) in TOML.
 
+::
+
     spec = fdem.scenefile.load("examples/two_disks.toml")     # every key checked
     sim, settings = spec.build()                                # a Simulation and how to run it
     settings.run(sim)                                           # duration, video, VTU, checkpoint
@@ -37,22 +39,22 @@ thickness      m         out-of-plane thickness, > 0 [1.0]
 
 ``[materials.NAME]`` (one table per material; bodies refer to it by NAME)
 
-==================  ======  ===============================================================
-density             kg/m³   > 0 [2700.0]
-young               Pa      Young's modulus E, > 0 [30e9]
-poisson             —       Poisson's ratio, −1 < ν < 0.5 [0.25]
-friction            —       Coulomb friction coefficient μ ≥ 0 [0.0]
-damping             —       viscous damping β, fraction of critical, in [0, 1] [0.0]
-penalty             Pa      normal contact penalty p > 0 [10 × young]
-tangential_penalty  Pa      tangential (stick) friction stiffness > 0 [penalty]
-contact_damping     —       normal contact damping ratio ξ in [0, 1] [0.0]
-tensile_strength    Pa      joints: tensile strength f_t > 0 (needed by ``fracture``) [none]
-fracture_energy     J/m²    joints: mode I fracture energy G_I > 0 (needed by ``fracture``) [none]
-cohesion            Pa      joints: cohesion c [f_t]
-friction_angle      °       joints: internal friction angle φ_i [30]
-fracture_energy_shear J/m²  joints: mode II fracture energy G_II [5 × G_I]
-joint_penalty       Pa      joints: penalty p_f [10 × young]
-==================  ======  ===============================================================
+=====================  ======  ===============================================================
+density                kg/m³   > 0 [2700.0]
+young                  Pa      Young's modulus E, > 0 [30e9]
+poisson                —       Poisson's ratio, −1 < ν < 0.5 [0.25]
+friction               —       Coulomb friction coefficient μ ≥ 0 [0.0]
+damping                —       viscous damping β, fraction of critical, in [0, 1] [0.0]
+penalty                Pa      normal contact penalty p > 0 [10 × young]
+tangential_penalty     Pa      tangential (stick) friction stiffness > 0 [penalty]
+contact_damping        —       normal contact damping ratio ξ in [0, 1] [0.0]
+tensile_strength       Pa      joints: tensile strength f_t > 0 (needed by ``fracture``) [none]
+fracture_energy        J/m²    joints: mode I fracture energy G_I > 0 (needed by ``fracture``) [none]
+cohesion               Pa      joints: cohesion c [f_t]
+friction_angle         °       joints: internal friction angle φ_i [30]
+fracture_energy_shear  J/m²    joints: mode II fracture energy G_II [5 × G_I]
+joint_penalty          Pa      joints: penalty p_f [10 × young]
+=====================  ======  ===============================================================
 
 ``[[bodies]]`` (one table per body; the mesh is a ``shape`` or a ``file``)
 
@@ -100,21 +102,21 @@ vx, vy            m/s     prescribed velocity component; an absent component sta
 
 ``[solver]``
 
-=============  ======  ===================================================================
-duration       s       simulated time of ``run``, ≥ 0 (required)
-dt             s       time step, > 0 [safety × estimated stable limit]
-safety         —       fraction of the stable limit when dt is not given, in (0, 1] [0.2]
-strategy       —       "auto", "serial" or "parallel" ["auto"]
-buffer         m       contact detection buffer, ≥ 0 [¼ mean edge of contact triangles]
-force_dt       —       accept a dt above the estimated stable limit [false]
-check_overlap  —       warn when bodies overlap at the start [true]
-joined_pairs   —       "joint" or "contact": who resists the overlap of triangles joined by
-                       an undamaged joint (``Scene.build(joined_pairs=...)``) ["joint"]
-handover_damage —      joint damage in [0, 1] at which contact takes over a joined pair
-                       (``Scene.build(handover_damage=...)``) [0]
-quasi_static   —       local non-viscous damping coefficient α in [0, 1) of
-                       ``Scene.build(quasi_static=α)``; 0 = off, 0.7 = ``True`` [0]
-=============  ======  ===================================================================
+===============  ======  ===================================================================
+duration         s       simulated time of ``run``, ≥ 0 (required)
+dt               s       time step, > 0 [safety × estimated stable limit]
+safety           —       fraction of the stable limit when dt is not given, in (0, 1] [0.2]
+strategy         —       "auto", "serial" or "parallel" ["auto"]
+buffer           m       contact detection buffer, ≥ 0 [¼ mean edge of contact triangles]
+force_dt         —       accept a dt above the estimated stable limit [false]
+check_overlap    —       warn when bodies overlap at the start [true]
+joined_pairs     —       "joint" or "contact": who resists the overlap of triangles joined by
+                         an undamaged joint (``Scene.build(joined_pairs=...)``) ["joint"]
+handover_damage  —       joint damage in [0, 1] at which contact takes over a joined pair
+                         (``Scene.build(handover_damage=...)``) [0]
+quasi_static     —       local non-viscous damping coefficient α in [0, 1) of
+                         ``Scene.build(quasi_static=α)``; 0 = off, 0.7 = ``True`` [0]
+===============  ======  ===================================================================
 
 ``[output]`` (all optional)
 

@@ -1,5 +1,7 @@
 """Result export: a VTU series with a ParaView ``.pvd`` index, written as the run goes.
 
+::
+
     exporter = ExporterVtu("out", every=1)
     with exporter:
         exporter.write(sim)                       # the initial state, t = 0

@@ -1,5 +1,7 @@
 """Standard rock-mechanics lab tests as functions (``fdem.lab``).
 
+::
+
     import taichi_fdem as fdem
     rock = fdem.Material(density=2600, young=20e9, poisson=0.2, tensile_strength=8e6,
                          fracture_energy=30, cohesion=24e6, friction_angle=35)

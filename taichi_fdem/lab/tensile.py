@@ -31,7 +31,7 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float = 10.0, l
 
     Curve columns: time_s, approach_m, load_N_per_m (filtered), load_instantaneous_N_per_m,
     broken_joints.  Summary: peak_stress [Pa], centre_stress [Pa], peak_load [N/m], hondros,
-    central_fraction (share of the joints broken by shortly after the peak within |x| < 0.15 D),
+    central_fraction (share of the joints broken by shortly after the peak within ``|x|`` < 0.15 D),
     broken, fragments, kinetic_ratio.
     """
     first = _first(material)

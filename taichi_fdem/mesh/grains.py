@@ -25,7 +25,7 @@ __all__ = ["voronoi_grains", "GrainLabels"]
 
 
 class GrainLabels(np.ndarray):
-    """(m,) int32 grain index of every triangle (``0 .. grain_count - 1``), a NumPy array
+    """(m,) int32 grain index of every triangle (0 to ``grain_count - 1``), a NumPy array
     with the grains' data attached:
 
     * ``grain_mineral`` -- (G,) mineral name of every grain (``None`` without minerals);

@@ -93,12 +93,6 @@ def load(path, cell_block: int | None = None) -> TriMesh:
     """Read a triangle mesh from any file meshio can read (gmsh ``.msh`` 2.2/4.1, ``.vtu``,
     ``.vtk``, ``.xdmf``, ...).
 
-    Parameters
-    ----------
-    path : str or os.PathLike
-    cell_block : index into meshio's ``mesh.cells`` of the one block to use (it must be a
-        "triangle" block).  Default None concatenates every "triangle" block.
-
     The z coordinate is dropped when it is constant (a mesh drawn in a plane z = const);
     a genuinely 3D mesh is refused.  Point and line cells (gmsh boundary elements) are
     ignored; quadratic triangles ("triangle6"), quads, polygons or volume cells are
@@ -106,6 +100,19 @@ def load(path, cell_block: int | None = None) -> TriMesh:
     degenerate ones refused (see :class:`TriMesh`), and points no triangle uses (e.g.
     gmsh geometry points) dropped with :meth:`TriMesh.compact`.  Coordinates are taken
     as metres.  To split a file into one mesh per physical group, use :func:`load_groups`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The mesh file.
+    cell_block : int or None
+        Index into meshio's ``mesh.cells`` of the one block to use (it must be a
+        "triangle" block).  Default None concatenates every "triangle" block.
+
+    Returns
+    -------
+    TriMesh
+        The mesh, counter-clockwise triangles, unused points dropped.
     """
     name, m, pts = _read_planar(path, "load")
     blocks = list(m.cells)

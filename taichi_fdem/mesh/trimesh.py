@@ -20,7 +20,7 @@ import numpy as np
 
 __all__ = ["TriMesh", "merge", "DEGENERACY_TOL", "MAX_GENERATED_TRIANGLES", "MAX_LENGTH", "MIN_LENGTH", "MAX_COORDINATE"]
 
-#: A triangle is degenerate when |2A| <= DEGENERACY_TOL * (longest edge)^2.
+#: A triangle is degenerate when ``|2A|`` <= DEGENERACY_TOL * (longest edge)^2.
 DEGENERACY_TOL = 1e-12
 #: Generators refuse to build more triangles than this (a typo in ``h`` would hang).
 MAX_GENERATED_TRIANGLES = 2_000_000

@@ -39,46 +39,64 @@ class RendererImage(_Overlays):
 
     Parameters
     ----------
-    width, height : image size in pixels.
-    view : ``"fit"`` (fit the bounding box of the nodes every frame, aspect preserved, with
+    width, height : int
+        Image size in pixels.
+    view : str or tuple of float
+        ``"fit"`` (fit the bounding box of the nodes every frame, aspect preserved, with
         ``margin``) or a fixed world box ``(xmin, xmax, ymin, ymax)`` [m], which is expanded in
         one direction (letter-boxed) to match the image aspect ratio.
-    background, edge_color : RGB in [0, 1].
-    edge_width : edge line width in output pixels (0 disables edges).
-    draw_edges : draw triangle edges.
-    supersample : 1..4; rasterise at ``supersample`` times the resolution and box-filter down.
-    margin : fraction of the larger bounding-box extent added on every side in ``"fit"`` mode.
-
-
-    Options of :meth:`render_sim` (drawing a Simulation):
-
-    color_by : ``"body"`` (default; a palette colour per body), ``"material"``, or a scalar
-        per triangle drawn with ``cmap`` (viridis): ``"speed"`` (mean |v| of the 3 nodes,
-        m/s), ``"displacement"`` (mean |x - X| of the 3 nodes, m), ``"von_mises"`` (von Mises
-        of the in-plane elastic Cauchy stress, plane-stress form
-        sqrt(sxx^2 - sxx syy + syy^2 + 3 sxy^2), Pa), ``"max_principal"`` / ``"min_principal"``
-        (principal stresses, Pa).  Scalars are computed by a Taichi kernel from the
-        simulation's arrays; inverted triangles are grey.
-    vmin, vmax : colour range of the scalar modes, in the quantity's unit.  ``None`` (default)
+    background, edge_color : tuple of float
+        RGB in [0, 1].
+    edge_width : float
+        Edge line width in output pixels (0 disables edges).
+    draw_edges : bool
+        Draw triangle edges.
+    supersample : int
+        1..4; rasterise at ``supersample`` times the resolution and box-filter down.
+    margin : float
+        Fraction of the larger bounding-box extent added on every side in ``"fit"`` mode.
+    color_by : str
+        What the colours of :meth:`render_sim` show: ``"body"`` (default; a palette colour per
+        body), ``"material"``, or a scalar per triangle drawn with ``cmap`` (viridis):
+        ``"speed"`` (mean ``|v|`` of the 3 nodes, m/s), ``"displacement"`` (mean ``|x - X|``
+        of the 3 nodes, m), ``"von_mises"`` (von Mises of the in-plane elastic Cauchy stress,
+        plane-stress form sqrt(sxx^2 - sxx syy + syy^2 + 3 sxy^2), Pa), ``"max_principal"`` /
+        ``"min_principal"`` (principal stresses, Pa).  Scalars are computed by a Taichi kernel
+        from the simulation's arrays; inverted triangles are grey.
+    vmin, vmax : float or None
+        Colour range of the scalar modes, in the quantity's unit.  ``None`` (default)
         = automatic, the finite min / max of the current frame (so colours are not comparable
         between frames); give both for videos so that a colour means the same value in every
         frame.  Values outside are clipped to the ends of the colour map.
-    cmap : colour map name (see :data:`COLORMAPS`), default ``"viridis"``.
-    colorbar : draw a vertical colour bar at the right of the image (scalar modes only) with
+    cmap : str
+        Colour map name (see :data:`COLORMAPS`), default ``"viridis"``.
+    colorbar : bool
+        Draw a vertical colour bar at the right of the image (scalar modes only) with
         its max / min labels and a title naming the quantity and its unit.  The view is
         shifted left so that the bar does not hide the mesh.
-    stamp : write ``t = 0.0123 s  step 4567`` at the top-left.
-    follow : a :class:`~taichi_fdem.scene.Body`; the camera is centred on the body's node
+    stamp : bool
+        Write ``t = 0.0123 s  step 4567`` at the top-left.
+    follow : Body or None
+        A :class:`~taichi_fdem.scene.Body`; the camera is centred on the body's node
         centroid every frame and shows ``follow_width`` metres horizontally (overrides
         ``view``).
-    follow_width : width of the followed view [m] (default: 4 x the body's initial extent).
-    text_size : font height of the labels in pixels (default ~ height / 30, at least 10).
-    cracks : draw the broken joints (docs/theory/joints.md §7.8) on top of the triangles, each as its two
-        crack faces x_j0 → x_j1 and x_j3 → x_j2 (one line while closed, the cracked edge of each
-        fragment once open): the pixels whose centres lie within ``crack_width`` / 2 output
-        pixels of them take ``crack_color`` (RGB in [0, 1]).
-        Drawn by a Taichi kernel, one thread per joint, at the output resolution.
+    follow_width : float or None
+        Width of the followed view [m] (default: 4 x the body's initial extent).
+    text_size : int or None
+        Font height of the labels in pixels (default ~ height / 30, at least 10).
+    cracks : bool
+        Draw the broken joints (docs/theory/joints.md §7.8) on top of the triangles, each as
+        its two crack faces x_j0 → x_j1 and x_j3 → x_j2 (one line while closed, the cracked
+        edge of each fragment once open): the pixels whose centres lie within
+        ``crack_width`` / 2 output pixels of them take ``crack_color``.  Drawn by a Taichi
+        kernel, one thread per joint, at the output resolution.
+    crack_color : tuple of float
+        RGB in [0, 1] of the drawn cracks.
+    crack_width : float
+        Width of the drawn cracks in output pixels.
 
+    Notes
+    -----
     ``render(node_x, tri_nodes, tri_color)`` accepts Taichi vector ndarrays (as held by the
     simulation) or NumPy arrays of shape (n, 2), (m, 3) and (m, 3) (``tri_color`` may also be
     a single RGB triple, ``None`` for grey, or uint8 0..255).  The world y axis points up: row 0

@@ -132,10 +132,15 @@ class CrackResults:
         time, location, energy [J], seismic moment [N·m], moment magnitude M_w (Hanks & Kanamori
         1979 with Kanamori's 1977 energy-moment ratio), crack count and mode).
 
-        window_distance : link radius [m] (default: 2 × the mean initial length of the broken joints);
-        window_time : link time [s] (default: ``window_distance`` / the largest plane-strain P-wave speed of
-            the scene's materials: the time a signal needs to cross the window).
-        energy_to_moment : radiated energy / seismic moment (default 5e-5, Kanamori 1977).
+        Parameters
+        ----------
+        window_distance : float or None
+            Link radius [m] (default: 2 × the mean initial length of the broken joints).
+        window_time : float or None
+            Link time [s] (default: ``window_distance`` / the largest plane-strain P-wave
+            speed of the scene's materials: the time a signal needs to cross the window).
+        energy_to_moment : float or None
+            Radiated energy / seismic moment (default 5e-5, Kanamori 1977).
         """
         from . import ae
         ev = self.crack_events()

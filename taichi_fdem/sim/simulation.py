@@ -483,7 +483,7 @@ class Simulation(SimulationResults, ModelValues):
         * ``check_energy``: the total energy of :meth:`energies` (which books the work of
           damping, friction and prescribed velocities) must not rise above its value at the start
           of the run by more than ``energy_tol`` × the energy scale (the largest
-          kinetic + strain + contact + dissipated + |boundary work| seen so far);
+          kinetic + strain + contact + dissipated + ``|boundary work|`` seen so far);
         * ``max_penetration``: no contact couple may overlap by more than this fraction of its
           element size (overlap area / mean edge length, divided by the mean edge length;
           :func:`taichi_fdem.sim.guards.max_couple_penetration`); None switches the check off.

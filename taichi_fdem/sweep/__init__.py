@@ -1,5 +1,7 @@
 """Parameter sweeps: one scene, many parameter values, one CSV row per point.
 
+::
+
     def base(params):                              # builds the scene of one point
         g = fdem.sweep.group_params(params)        # {"material": {...}, "solver": {...}}
         mat = fdem.Material(density=1000.0, young=1e7, **g["material"])

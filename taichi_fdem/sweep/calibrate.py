@@ -1,5 +1,7 @@
 """Calibration: micro-parameters of a model tuned until its measured values match lab targets.
 
+::
+
     def model(p):                                   # module-level: sent to worker processes
         r = fdem.lab.ucs(fdem.Material(young=p["young"], ...), 0.05, 0.1, 0.005)
         return {"E": r.young, "ucs": r.peak_stress}
@@ -224,26 +226,46 @@ def calibrate(model, params: dict, targets: dict, budget: int = 200, seed: int =
 
     Parameters
     ----------
-    model : ``model(params: dict) -> dict`` of measured values (e.g. the summaries of the
+    model : callable
+        ``model(params: dict) -> dict`` of measured values (e.g. the summaries of the
         ``fdem.lab`` tests); a module-level function when ``workers > 1`` (it is pickled).
-    params : {name: (low, high)}: the search box.
-    targets : {measured name: value} or {name: (value, weight)}; ``weights`` = {name: weight}
+    params : dict
+        {name: (low, high)}: the search box.
+    targets : dict
+        {measured name: value} or {name: (value, weight)}; ``weights`` = {name: weight}
         is the other way to weigh them (default weight 1).
-    budget : the largest number of model evaluations.  Differential evolution runs generations
-        of ``popsize × len(params)`` evaluations (the Latin-hypercube initial population is the first)
-        until its convergence test (``tol``, relative spread of the population's objectives)
-        or the budget stops it; the budget must hold the initial population.
-    seed : the optimiser's seed: the same seed gives the same evaluations and result.
-    workers : evaluations run at once (local worker processes of the sweep runner; 1: in this
-        process).  scheduler : a Dask scheduler address or Client instead of local processes.
-    popsize : population multiplier (SciPy's ``popsize``; default 15, or what fits the budget
+    budget : int
+        The largest number of model evaluations.  Differential evolution runs generations
+        of ``popsize × len(params)`` evaluations (the Latin-hypercube initial population is
+        the first) until its convergence test (``tol``, relative spread of the population's
+        objectives) or the budget stops it; the budget must hold the initial population.
+    seed : int
+        The optimiser's seed: the same seed gives the same evaluations and result.
+    workers : int
+        Evaluations run at once (local worker processes of the sweep runner; 1: in this
+        process).
+    weights : dict or None
+        {name: weight} of the targets (default 1 each).
+    popsize : int or None
+        Population multiplier (SciPy's ``popsize``; default 15, or what fits the budget
         with at least 5 generations, at least 5).
-    timeout : wall seconds after which a local evaluation is stopped and recorded as failed.
-    init : keyword arguments of :func:`taichi_fdem.init` in the workers.
-    workdir : folder of the sweep CSVs of each batch (default: a temporary folder).
-    on_batch : ``on_batch(calibration)`` called after every batch (progress).
+    tol : float
+        Convergence tolerance of differential evolution (relative spread of the objectives).
+    scheduler : None, str or dask.distributed.Client
+        A Dask scheduler address or Client instead of local processes.
+    timeout : float or None
+        Wall seconds after which a local evaluation is stopped and recorded as failed.
+    init : dict or None
+        Keyword arguments of :func:`taichi_fdem.init` in the workers.
+    workdir : str or None
+        Folder of the sweep CSVs of each batch (default: a temporary folder).
+    on_batch : callable or None
+        ``on_batch(calibration)`` called after every batch (progress).
 
-    Returns a :class:`Calibration` (``best``, ``history``, ``plot(path)``, ``to_csv(path)``).
+    Returns
+    -------
+    Calibration
+        ``best``, ``history``, ``plot(path)``, ``to_csv(path)``.
     """
     try:
         from scipy.optimize import differential_evolution

@@ -141,21 +141,30 @@ class Sweep:
 
         Parameters
         ----------
-        workers : local worker processes (ignored with ``scheduler``).  Unless ``init`` sets
+        workers : int
+            Local worker processes (ignored with ``scheduler``).  Unless ``init`` sets
             ``cpu_max_num_threads``, each local worker gets the usable cores divided by the
             workers (at least 1), so that workers whose scenes run the parallel strategy do not
             oversubscribe the CPU.
-        output : the CSV path (its folder is created).
-        resume : keep the ``ok`` rows of an existing ``output`` and skip their points;
+        output : str
+            The CSV path (its folder is created).
+        resume : bool
+            Keep the ``ok`` rows of an existing ``output`` and skip their points;
             False overwrites it.
-        scheduler : None (local processes), a Dask scheduler address ``"tcp://host:port"`` or a
+        scheduler : None, str or dask.distributed.Client
+            None (local processes), a Dask scheduler address ``"tcp://host:port"`` or a
             ``dask.distributed.Client``.
-        timeout : wall seconds after which a local point is stopped and recorded as "timeout".
-        on_result : ``on_result(row, done, total)`` called as each point completes (row: the CSV
+        timeout : float or None
+            Wall seconds after which a local point is stopped and recorded as "timeout".
+        on_result : callable or None
+            ``on_result(row, done, total)`` called as each point completes (row: the CSV
             texts of that row).
 
-        Each returned dict holds the point's parameters, its metrics, ``status``, ``error``,
-        ``wall_s`` and ``worker``; values of resumed rows are parsed back from the CSV.
+        Returns
+        -------
+        list of dict
+            Each dict holds the point's parameters, its metrics, ``status``, ``error``,
+            ``wall_s`` and ``worker``; values of resumed rows are parsed back from the CSV.
         """
         if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
             raise SweepError(f"Sweep.run: workers must be an integer >= 1, got {workers!r}")

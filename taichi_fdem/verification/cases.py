@@ -239,7 +239,7 @@ def case_cantilever(resolution: int = 8, safety: float = 0.2, penalty_factor: fl
     δ = 10⁻³ ℓ over three periods of the beam's lowest mode with the tip held (clamped–pinned,
     ω = 15.42 √(EI/(ρAℓ⁴))), then is held for two periods; element damping β = 0.5.
     The tip load P is the reaction on the tip nodes (``forces()``), averaged over the hold.
-    error = |δ − δ_theory(P)|/δ with δ_theory = Pℓ³/(3EI) + Pℓ/(κGd) (plane strain: E/(1−ν²),
+    error = ``|δ − δ_theory(P)|``/δ with δ_theory = Pℓ³/(3EI) + Pℓ/(κGd) (plane strain: E/(1−ν²),
     ν/(1−ν)).  CST elements are stiff in bending: the error falls with the resolution.
     """
     _precision(precision)
@@ -286,7 +286,7 @@ def case_rotation(resolution: int = 8, safety: float = 0.2, penalty_factor: floa
     """Objectivity: the cantilever's mesh rigidly rotated by large angles carries no stress (§8.6).
 
     The nodes are placed at R(θ)X + t for each angle and the elastic stresses and nodal forces
-    are evaluated.  ``error`` = max |σ| / E (round-off: ~1e-16 in f64, ~1e-7 in f32).  Then the
+    are evaluated.  ``error`` = max ``|σ|`` / E (round-off: ~1e-16 in f64, ~1e-7 in f32).  Then the
     beam spins freely at ω for a quarter turn: the stress must be the centrifugal one only
     (bounded by ρ ω² ℓ², reported as ``spin_stress_ratio`` = max|σ| / (ρ ω² ℓ²)).
     """
@@ -326,8 +326,8 @@ def case_incline(resolution: int = 2, safety: float = 0.2, penalty_factor: float
 
     Mesh size h = 0.05 m / ``resolution``; μ = ``friction``; element damping β = 0.2 and contact
     damping ξ = 0.5 remove the penalty contact's vibrations.  If tan θ > μ the block slides with
-    a = g (sin θ − μ cos θ): error = |x − ½ a t²| / (½ a t²) of the centroid after ``duration``.
-    If tan θ ≤ μ it sticks: error = |x| / (½ g sin θ t²) (the elastic creep, relative to a free slide).
+    a = g (sin θ − μ cos θ): error = ``|x − ½ a t²|`` / (½ a t²) of the centroid after ``duration``.
+    If tan θ ≤ μ it sticks: error = ``|x|`` / (½ g sin θ t²) (the elastic creep, relative to a free slide).
     """
     _precision(precision)
     g = 9.81

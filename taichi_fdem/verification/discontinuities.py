@@ -16,7 +16,7 @@ from ._common import _build, _precision, _result
 
 def t_block_mesh(h: float, width: float = 0.6, block: float = 0.1) -> mesh.TriMesh:
     """One mesh of a base (``width`` × ``block``/2, x from −``block``, y from −``block``/2 to 0)
-    and a ``block`` × ``block``/2 block standing on it (|x| < ``block``/2, 0 < y < ``block``/2):
+    and a ``block`` × ``block``/2 block standing on it (``|x|`` < ``block``/2, 0 < y < ``block``/2):
     a T-shaped region cut from a structured rectangle, so mesh edges run along y = 0."""
     r = mesh.rectangle(width, block, h, origin=(-block, -0.5 * block))
     c = r.points[r.triangles].mean(axis=1)
@@ -29,12 +29,12 @@ def case_crack_slide(theta_deg: float = 30.0, friction: float = 0.3, duration: f
     """A block cut from its base by a pre-existing crack, inside ONE mesh (§13.1, §8.2).
 
     The T-shaped mesh of :func:`t_block_mesh` (block 0.1 × 0.05 m on a 0.6 × 0.05 m base, h =
-    0.05 m / ``resolution``) is split along the block's base (y = 0, |x| ≤ 0.05) with
+    0.05 m / ``resolution``) is split along the block's base (y = 0, ``|x|`` ≤ 0.05) with
     ``add_body(cracks=...)``; the base's nodes below y = 0 are fixed and gravity is tilted by θ.
     The crack's faces meet by contact and friction only (μ = ``crack_friction`` if given, else
     the material's ``friction``).  If tan θ > μ the block slides with a = g (sin θ − μ cos θ):
-    ``error`` = |x − ½ a t²| / (½ a t²) of its centroid after ``duration``; otherwise ``error``
-    = |x| / (½ g sin θ t²) (creep relative to a free slide).
+    ``error`` = ``|x − ½ a t²|`` / (½ a t²) of its centroid after ``duration``; otherwise ``error``
+    = ``|x|`` / (½ g sin θ t²) (creep relative to a free slide).
     """
     _precision(precision)
     g = 9.81
@@ -69,7 +69,7 @@ def case_crack_slide(theta_deg: float = 30.0, friction: float = 0.3, duration: f
 
 
 def band_plate_scene(h: float = 0.01, band: float = 0.02, speed: float = 0.5):
-    """A 0.2 × 0.1 m plate with cohesive joints only inside the band |y| < ``band`` (§13.1),
+    """A 0.2 × 0.1 m plate with cohesive joints only inside the band ``|y|`` < ``band`` (§13.1),
     its top and bottom rows pulled apart at ±``speed`` [m/s].  Returns (sim, plate)."""
     mat = Material(density=2000.0, young=1e8, poisson=0.25, tensile_strength=2e5, fracture_energy=10.0,
                    damping=0.1, name="rock")
@@ -84,7 +84,7 @@ def notched_beam_scene(h: float = 0.01, notch: float = 0.03, speed: float = 0.05
     """Three-point bending of a jointed beam (0.4 × 0.1 m, every interior edge a joint) with a
     pre-existing vertical crack (``notch`` deep) at the middle of its bottom edge (§13.1).
 
-    Supports: the bottom nodes at x = ±0.18 m fixed; load: the top nodes at |x| ≤ h move down
+    Supports: the bottom nodes at x = ±0.18 m fixed; load: the top nodes at ``|x|`` ≤ h move down
     at ``speed`` [m/s].  Returns (sim, beam, tip) with tip = (0, −0.05 + notch)."""
     mat = Material(density=2000.0, young=1e9, poisson=0.2, tensile_strength=1e6, fracture_energy=20.0,
                    damping=0.1, name="rock")

@@ -169,7 +169,7 @@ def brazilian_scene(elements: int = 40, load_time: float = 100.0, D: float = 0.1
     """A jointed rock disc (diameter D, h = D/``elements``, every interior edge a cohesive joint)
     between two stiff platens (docs/verification.md §8.8).
 
-    The disc's caps are flattened over ±``alpha_deg`` (nodes clipped to |y| ≤ R cos α) so the
+    The disc's caps are flattened over ±``alpha_deg`` (nodes clipped to ``|y|`` ≤ R cos α) so the
     load spreads over a few elements instead of one node.  The platens approach each other at
     ±v, v chosen so that the approach at the expected peak (≈ 0.28 mm for D = 0.1 m, measured)
     takes ``load_time`` × D/c_p.  ``strength``: a joint-strength distribution (``fdem.Weibull``,
@@ -261,7 +261,7 @@ def brazilian_load(sim, bodies, p, samples: int = 240, frame=None, window: float
 def brazilian_result(sim, bodies, rec, p) -> dict:
     """Numbers of a Brazilian run: the peak of the filtered load, σ_t = 2 P_max/(πD) in units of
     f_t (and × the Hondros factor of the flattened caps), and where the joints broken by shortly
-    after the peak lie (``central_fraction``: share within |x| < 0.15 D of the loaded diameter)."""
+    after the peak lie (``central_fraction``: share within ``|x|`` < 0.15 D of the loaded diameter)."""
     disk = bodies[0]
     D, ft = p["D"], p.get("ft", getattr(p["mat"], "tensile_strength", None))
     i = int(np.argmax(rec["P"]))
@@ -288,7 +288,7 @@ def brazilian_result(sim, bodies, rec, p) -> dict:
 def case_brazilian(resolution: int = 40, safety: float = 0.35, penalty_factor: float = 10.0,
                    precision: str = "f64", load_time: float = 100.0, samples: int = 240) -> dict:
     """Brazilian disc (§8.8): ``resolution`` elements across the diameter.  ``error`` =
-    |σ_t × Hondros factor / f_t − 1| from the peak of the filtered platen load."""
+    ``|σ_t × Hondros factor / f_t − 1|`` from the peak of the filtered platen load."""
     _precision(precision)
     t_start = _time.perf_counter()
     sim, bodies, p = brazilian_scene(elements=resolution, load_time=load_time, safety=safety)

@@ -201,7 +201,7 @@ def case_uniaxial(resolution: int = 8, safety: float = 0.2, penalty_factor: floa
     the relative displacement of the specimen's end faces / height (as a pair of axial gauges:
     the platen travel also holds the contact penetration, ~p⁻¹ of the load).  The modulus is the
     least-squares slope of stress against strain over the second half of the loading.
-    error = |E_measured − E_analytic| / E_analytic.
+    error = ``|E_measured − E_analytic|`` / E_analytic.
     """
     _precision(precision)
     W, H = 0.05, 0.1
@@ -280,7 +280,7 @@ def case_triaxial(resolution: int = 6, safety: float = 0.2, penalty_factor: floa
 
         σ1 = σ3 (1 + sin φ)/(1 − sin φ) + 2 c cos φ/(1 − sin φ)
 
-    Reading of the theory.  A joint fails in shear when |τ| = c − σ_n tan φ on its plane
+    Reading of the theory.  A joint fails in shear when ``|τ|`` = c − σ_n tan φ on its plane
     (docs/theory/joints.md §7.7, compression negative).  Under a uniform stress (σ1 axial, σ3 lateral) the
     plane that reaches this first is inclined at 45° + φ/2 to the σ3 direction, and there the
     condition is exactly the formula above.  The specimen is meshed on a hexagonal lattice whose

@@ -41,7 +41,7 @@ def stress_run(sim, duration: float, samples: int = 100, **run_kw) -> dict:
 
     Returns {"stable", "cause" (None or the error's cause), "kind" (non-finite / inverted / speed /
     energy / penetration), "step", "time", "suggested_dt", "steps", "energy_drift" (largest
-    |E_total − E_total(0)| / energy scale seen, the scale being the largest
+    ``|E_total − E_total(0)|`` / energy scale seen, the scale being the largest
     kinetic + strain + contact + dissipated energy), "max_penetration" (largest couple
     penetration fraction seen), "inverted" (an element with J ≤ 0 at the end or as the cause),
     "wall" [s]}.  ``run_kw`` go to ``run`` (``check_energy``, ``max_penetration``, ...).
