@@ -27,7 +27,7 @@ def _eps():
 
 @ti.func
 def perp(d):
-    """(d_y, −d_x): outward normal of a CCW edge with direction d, |perp(d)| = |d|."""
+    """(d_y, −d_x): outward normal of a CCW edge with direction d, ``|perp(d)| = |d|``."""
     return vec2(d[1], -d[0])
 
 
@@ -291,7 +291,7 @@ def box_gap(a0, a1, a2, b0, b1, b2):
 def separation_certificate(a0, a1, a2, b0, b1, b2, rel):
     """−1 when the two counter-clockwise triangles overlap; else, with g their gap along the
     outward normal of the first of their six edges (A's, then B's) on or beyond whose line the
-    other lies (a lower bound of their distance) and m = rel·|e| a rounding margin relative to
+    other lies (a lower bound of their distance) and m = rel·``|e|`` a rounding margin relative to
     that edge: g − m when g > 2m, else 0.  The separating-axis test over the six edge normals,
     complete for two triangles in 2D (signs of (p − t0)·perp(t1 − t0), no division): apart, no
     contactor edge of either pass has a positive potential integral (a triangle on or beyond an

@@ -2,14 +2,14 @@
 
 Linear in the number of contact-participating triangles.  Each detection:
 
-1. bounding circles (centroid c_e, radius r_e = max |x_v − c_e|), boxes and vertices, and r_max;
-2. cell size d = 2 r_max + b (b = buffer), so that any pair with |c_a − c_b| < r_a + r_b + b
+1. bounding circles (centroid c_e, radius r_e = max ``|x_v − c_e|``), boxes and vertices, and r_max;
+2. cell size d = 2 r_max + b (b = buffer), so that any pair with ``|c_a − c_b|`` < r_a + r_b + b
    lies in the same or an adjacent cell; cells are hashed into a table of fixed size H ≥ 2K,
    so memory stays O(K) however sparse the scene is;
 3. counting sort of the triangles by hashed cell;
 4. for each triangle, scan the 9 neighbouring cells (a hashed bucket is visited once) for
    partners with a larger index, apply the couple criterion (circles within reach,
-   |c_a − c_b| < r_a + r_b + b, boxes less than b apart along both axes, and no edge line of
+   ``|c_a − c_b|`` < r_a + r_b + b, boxes less than b apart along both axes, and no edge line of
    either triangle with the other more than b beyond it) and the exclusions (same
    non-self-contacting body, shared node, both on fully fixed bodies), count, prefix-sum, and
    fill.  Couples are grouped by their first triangle, which gives each triangle's old couples

@@ -6,10 +6,10 @@ using them does not compile in f64 there.  The functions below use only +, −, 
 comparisons, which every back end has in both precisions:
 
 * :func:`log`: x = m·2ᵏ with m in [√½, √2) (exact scaling by powers of two), then
-  log m = 2 atanh s, s = (m − 1)/(m + 1), |s| ≤ 0.1716, by its odd series in s.
+  log m = 2 atanh s, s = (m − 1)/(m + 1), ``|s|`` ≤ 0.1716, by its odd series in s.
 * :func:`log1p_minus` (g(d) = d − log(1 + d), the part of log J that cancels in the strain
   energy): the same series, written so that nothing cancels for J near 1.
-* :func:`exp`: x = k·ln 2 + r (Cody–Waite split of ln 2), |r| ≤ ½ ln 2, exp r by its Taylor
+* :func:`exp`: x = k·ln 2 + r (Cody–Waite split of ln 2), ``|r|`` ≤ ½ ln 2, exp r by its Taylor
   series, times 2ᵏ built from exact powers of two.
 * :func:`ipow`: xⁿ for a compile-time integer n, by repeated squaring.
 * :func:`pow`: exp(y·log x) for x > 0.
@@ -106,7 +106,7 @@ def log1p_minus(d):
     """g(d) = d − log(1 + d) ≥ 0 for d > −1, accurate in relative terms near d = 0 (g ≈ d²/2).
 
     With s = d/(2 + d): log(1 + d) = 2 atanh s, d − 2s = d·s, so
-    g = d·s − 2s³ Σ_{k≥0} s^{2k}/(2k+3), no cancellation for |s| ≤ 1/3 (J in [0.5, 2]); beyond,
+    g = d·s − 2s³ Σ_{k≥0} s^{2k}/(2k+3), no cancellation for ``|s|`` ≤ 1/3 (J in [0.5, 2]); beyond,
     d − log(1 + d) with the rounding of 1 + d corrected (g is then not small against d).
     """
     s = d / (2.0 + d)
@@ -196,5 +196,5 @@ def _bit_above(n, i) -> bool:
 
 @ti.func
 def pow(x, y):
-    """xʸ for x > 0 (exp(y·log x): its relative error grows as |y log x| ulp)."""
+    """xʸ for x > 0 (exp(y·log x): its relative error grows as ``|y log x|`` ulp)."""
     return exp(y * log(x))

@@ -41,7 +41,7 @@ asm        the parallel strategy's assembly (no atomics).  Slots: force (vec2: 3
            6 per couple [N/m]), node_start (N+1) and node_slots (each node's slots, sorted).
            Blocks: force (a copy of the nodal forces per block, then each block's contact work);
            sync (i32: the barrier counter, the result, each block's non-finite flag) and part
-           (3 per block: max |v|², constraint work, local-damping work) of run_steps_blocks
+           (3 per block: max ``|v|²``, constraint work, local-damping work) of run_steps_blocks
 joints     nodes (vec4 i32), tris (ivec2: triangles A, B), prop (vec6: f_t, c, tan φ, G_I, G_II, p_f
            of each joint, §13.2–13.3); state (0 intact, else the failure mode at breakage), dmax
            (vec3), zmax (vec3: the softening factor z(dmax), kept so that an unloading joint needs

@@ -36,7 +36,7 @@ def integrate_node(i, f, nodes: ti.template(), dt, g, bc, bc_work, alpha, local_
     """Central difference for node i under the total force f [N/m]: v += Δt (f/m + g), the local
     damping (compile time ``local_damping``, coefficient α), prescribed velocities and their
     reaction R = (1 − free)(m (v_b − v)/Δt − f − m g) in nodes.node_react[i] (§12.3),
-    x += Δt v, node_f = 0.  Returns (|v|², constraint work, local-damping work [J/m], bad) where
+    x += Δt v, node_f = 0.  Returns (``|v|²``, constraint work, local-damping work [J/m], bad) where
     bad = i + 1 if the new state is not finite."""
     m = nodes.node_mass[i]
     v = nodes.node_v[i] + dt * (f / m + g)
@@ -130,7 +130,7 @@ def book_block_work(N, nblk, asm: ti.template(), step: ti.template(), p):
 def integrate_span(lo, hi, nodes: ti.template(), joints: ti.template(), asm: ti.template(), step: ti.template(), dt,
                    g, bc, bc_work, alpha, gathered: ti.template(), local_damping: ti.template()):
     """Integrate nodes lo..hi-1 (:func:`integrate_node`), each under node_f plus (``gathered``
-    1) its slots or (2) its block copies, which are reset.  Returns the span's (max |v|²,
+    1) its slots or (2) its block copies, which are reset.  Returns the span's (max ``|v|²``,
     largest bad index + 1, constraint work, local-damping work)."""
     N = nodes.node_x.shape[0]
     vmax2 = 0.0
