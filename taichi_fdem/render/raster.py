@@ -61,7 +61,8 @@ class RendererImage(_Overlays):
         ``"speed"`` (mean ``|v|`` of the 3 nodes, m/s), ``"displacement"`` (mean ``|x - X|``
         of the 3 nodes, m), ``"von_mises"`` (von Mises of the in-plane elastic Cauchy stress,
         plane-stress form sqrt(sxx^2 - sxx syy + syy^2 + 3 sxy^2), Pa), ``"max_principal"`` /
-        ``"min_principal"`` (principal stresses, Pa).  Scalars are computed by a Taichi kernel
+        ``"min_principal"`` (principal stresses, Pa), ``"damage"`` (the largest damage of the
+        triangle's joints, 0 to 1).  Scalars are computed by a Taichi kernel
         from the simulation's arrays; inverted triangles are grey.
     vmin, vmax : float or None
         Colour range of the scalar modes, in the quantity's unit.  ``None`` (default)
