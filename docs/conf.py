@@ -26,12 +26,14 @@ extensions = [
     "error_list",
     "gallery_page",
     "spec_labels",
+    "perf_table",
 ]
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
 exclude_patterns = ["_build", "accuracy/README.md", "accuracy/results.md", "accuracy/fracture",
                     "skip.md", "stability.md", "guide/README.md",
-                    "gallery_items.md", "verification_results.md"]
+                    "gallery_items.md", "verification_results.md",
+                    "performance_table.md"]
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "deflist"]
 myst_heading_anchors = 4
 html_theme = "furo"

@@ -17,7 +17,7 @@ DOCS = os.path.join(ROOT, "docs")
 sys.path.insert(0, os.path.join(DOCS, "_ext"))
 
 _FENCE = re.compile(r"^```python[^\n]*\n(.*?)^```\s*$", re.S | re.M)
-_GENERATED = {"reference/scenefile.md", "reference/errors.md", "gallery_items.md"}
+_GENERATED = {"reference/scenefile.md", "reference/errors.md", "gallery_items.md", "performance_table.md"}
 
 
 def _pages():
@@ -125,3 +125,68 @@ def test_error_list_has_the_loader_messages():
     flat = [m for rows in msgs.values() for _, m in rows]
     assert len(flat) > 100
     assert any("unknown key" in m for m in flat)
+
+
+_SHELL_FENCE = re.compile(r"^```(?:bash|sh|text|console)[^\n]*\n(.*?)^```\s*$", re.S | re.M)
+
+
+def _shell_lines():
+    """(page, command) of every line of the shell blocks of the docs pages and the README."""
+    out = []
+    for page in _pages() + ["../README.md", "../benchmarks/README.md"]:
+        for block in _SHELL_FENCE.findall(_read(page)):
+            for line in block.splitlines():
+                cmd = line.split(" #")[0].strip()
+                if cmd:
+                    out.append((page, cmd))
+    return out
+
+
+def test_shell_blocks_name_commands_that_exist():
+    """The commands of the shell blocks (which need a shell, a network or minutes, so they are
+    not run here) are what the repository has: every ``taichi-fdem`` line parses with the
+    command line's own parser and the files it names exist, every ``make`` target is in the
+    Makefile, every ``pip install`` extra is in pyproject.toml, every script run exists."""
+    import contextlib
+    import io
+    import shlex
+    try:
+        import tomllib
+    except ModuleNotFoundError:          # Python 3.10
+        import tomli as tomllib
+    from taichi_fdem import cli
+    makefile = open(os.path.join(ROOT, "Makefile"), encoding="utf-8").read()
+    targets = set(re.findall(r"^([a-z][\w-]*):", makefile, re.M))
+    with open(os.path.join(ROOT, "pyproject.toml"), "rb") as fh:
+        extras = set(tomllib.load(fh)["project"]["optional-dependencies"])
+    demos = {f[:-3] for f in os.listdir(os.path.join(ROOT, "demos")) if f.endswith(".py")}
+    lines, bad, checked = _shell_lines(), [], 0
+    for page, cmd in lines:
+        words = shlex.split(cmd)
+        if words[0] == "taichi-fdem":
+            checked += 1
+            try:
+                with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+                    args = cli.build_parser().parse_args(words[1:])
+            except SystemExit as exc:
+                if exc.code != 0:
+                    bad.append(f"{page}: {cmd}: refused by the parser")
+                continue
+            for attr in ("scene", "sweep_file"):
+                path = getattr(args, attr, None)
+                if path and "SCENE" not in path and "SWEEP" not in path and not os.path.exists(os.path.join(ROOT, path)):
+                    bad.append(f"{page}: {cmd}: no file {path}")
+            if getattr(args, "command", None) == "demo" and args.name and args.name not in demos:
+                bad.append(f"{page}: {cmd}: no demo {args.name}")
+        elif words[0] == "make":
+            checked += 1
+            bad += [f"{page}: {cmd}: no make target {t}" for t in words[1:] if t not in targets]
+        elif words[:3] == ["pip", "install", "-e"]:
+            checked += 1
+            m = re.match(r"\.\[([\w,]+)\]", words[3])
+            bad += [f"{page}: {cmd}: no extra {e}" for e in (m.group(1).split(",") if m else []) if e not in extras]
+        elif words[0].endswith("python") and len(words) > 1 and words[1].endswith(".py"):
+            checked += 1
+            if not os.path.exists(os.path.join(ROOT, words[1])):
+                bad.append(f"{page}: {cmd}: no script {words[1]}")
+    assert checked >= 10 and not bad, "shell lines naming what does not exist:\n" + "\n".join(bad)

@@ -52,3 +52,18 @@ def test_readme_example_runs_as_written(tmp_path, monkeypatch, capsys):
     disk = scope["disk"]
     assert sim.node_velocities(disk).mean(axis=0)[1] > 0.0
     assert sim.node_positions(disk).mean(axis=0)[1] > 0.05
+
+
+def test_readme_links_point_at_files_of_the_repository():
+    """Every relative link and image of the README and of benchmarks/README.md names a file or
+    folder that exists."""
+    bad = []
+    for path in ("README.md", "benchmarks/README.md"):
+        with open(os.path.join(ROOT, path), encoding="utf-8") as fh:
+            text = fh.read()
+        for target in re.findall(r"\]\(([^)\s]+)\)", text):
+            if re.match(r"[a-z]+://", target) or target.startswith("#"):
+                continue
+            if not os.path.exists(os.path.join(ROOT, os.path.dirname(path), target.split("#")[0])):
+                bad.append(f"{path}: {target}")
+    assert not bad, bad
