@@ -190,3 +190,17 @@ def test_shell_blocks_name_commands_that_exist():
             if not os.path.exists(os.path.join(ROOT, words[1])):
                 bad.append(f"{page}: {cmd}: no script {words[1]}")
     assert checked >= 10 and not bad, "shell lines naming what does not exist:\n" + "\n".join(bad)
+
+
+def test_gallery_has_a_still_and_a_small_gif_of_every_demo():
+    """``make gallery`` output is in the repository for every demo that writes a video: a PNG
+    still and a GIF animation, each under 1 MB (the gallery page shows them all)."""
+    sys.path.insert(0, DOCS)
+    import make_gallery
+    names = make_gallery.demo_names()
+    assert {"triaxial", "slope", "dfn_compression", "tunnel"} <= set(names)
+    for name in names:
+        for ext in ("png", "gif"):
+            path = os.path.join(DOCS, "gallery", f"{name}.{ext}")
+            assert os.path.isfile(path), path
+            assert os.path.getsize(path) < 1_000_000, (path, os.path.getsize(path))
