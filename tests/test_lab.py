@@ -84,3 +84,24 @@ def test_envelope_fits_recover_mohr_coulomb_and_hoek_brown():
     assert math.isclose(fdem.lab.fit_envelope(res).friction_angle, phi, rel_tol=1e-9)
     with pytest.raises(ValueError, match="distinct"):
         fdem.lab.fit_envelope(sigma3=[1e6, 1e6], sigma1=[5e6, 6e6])
+
+
+def test_default_cohesion_warns_and_halves_the_brazilian_strength():
+    """The joints' default cohesion is c = f_t (φ = 30°), with a RuntimeWarning: a compressed
+    joint then fails in shear before the disc splits, and the Brazilian peak falls well below
+    f_t; with c = 3 f_t, φ = 35° (c ≈ 2–4 f_t is rock's range, UCS/BTS ≈ 10–20) the same disc
+    splits in its centre near f_t (docs/guide/fracture.md, "Joint cohesion")."""
+    kw = dict(ROCK, damping=1.0, tensile_strength=8e6, fracture_energy=30.0)
+    with pytest.warns(RuntimeWarning, match="compressed joints fail in shear first"):
+        default = fdem.Material(**kw)
+    strong = fdem.Material(**kw, cohesion=24e6, friction_angle=35.0)
+    out = []
+    for m in (default, strong):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            out.append(fdem.lab.brazilian(m, 0.05, 0.05 / 20, load_time=30.0, samples=80))
+    d, s = out
+    assert d.peaked and s.peaked
+    # measured (20 elements across): 0.41 f_t with the defaults, 0.90 f_t with c = 3 f_t
+    assert 0.8 < s.centre_stress / 8e6 < 1.3 and s.central_fraction > 0.5, s
+    assert d.centre_stress < 0.6 * 8e6, d
