@@ -107,3 +107,28 @@ def test_default_cohesion_warns_and_halves_the_brazilian_strength():
     # measured (20 elements across): 0.41 f_t with the defaults, 0.90 f_t with c = 3 f_t
     assert 0.8 < s.centre_stress / 8e6 < 1.3 and s.central_fraction > 0.5, s
     assert d.centre_stress < 0.6 * 8e6, d
+
+
+def test_direct_shear_of_a_cohesive_joint():
+    """A cohesive joint on the shear plane (joint=True): the peak is its Mohr–Coulomb strength
+    c + σn tan φ (μ = 0: the broken faces, and the intact joint's carried share, add no
+    friction; measured 0.93 of it, the joint failing progressively from the box's ends), and
+    once broken the faces slide at μ σn (measured 0.98 μ σn at μ = 0.5; 0.05 σn at μ = 0)."""
+    kw = dict(ROCK, tensile_strength=1e6, fracture_energy=30.0, cohesion=2e6, friction_angle=30.0,
+              fracture_energy_shear=2000.0)
+    sn = 1e6
+    peak = 2e6 + sn * math.tan(math.radians(30.0))
+    out = {}
+    for mu in (0.0, 0.5):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            out[mu] = fdem.lab.direct_shear(fdem.Material(**kw, friction=mu), 0.1, 0.05, 0.0125, sn, samples=60,
+                                            rate_transits=30, joint=True)
+    r0, r5 = out[0.0], out[0.5]
+    assert r0.peak_mc == pytest.approx(peak, rel=1e-12)
+    assert 0.85 < r0.peak_shear / peak < 1.05, r0
+    assert r0.broken > 0 and r0.residual_shear < 0.1 * sn, r0
+    assert r5.broken > 0 and abs(r5.residual_shear / (0.5 * sn) - 1) < 0.05, r5
+    assert r5.peak_shear > r5.residual_shear * 3, r5
+    with pytest.raises(ValueError, match="whole number of cells"):
+        fdem.lab.direct_shear(fdem.Material(**kw), 0.1, 0.05, 0.0167, sn, joint=True)

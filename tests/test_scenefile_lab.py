@@ -82,3 +82,11 @@ def test_lab_section_keys_are_checked(tmp_path):
         scenefile.load(write(tmp_path, base.replace('"ucs"', '"brazilian"').replace("width = 0.05\nheight = 0.1\n",
                                                                                    "diameter = 0.05\n")
                              .replace("rate_transits = 30\n", "")))
+
+
+def test_lab_direct_shear_takes_joint(tmp_path):
+    text = LAB.format(csv="x.csv").replace('"ucs"', '"direct_shear"').replace("h = 0.0125", "h = 0.0125\nnormal_stress = 1e6\njoint = true")
+    spec = scenefile.load(write(tmp_path, text))
+    assert spec.lab["joint"] is True and spec.lab["normal_stress"] == 1e6
+    with pytest.raises(SceneFileError, match="'joint' does not apply to the 'ucs' test"):
+        scenefile.load(write(tmp_path, LAB.format(csv="x.csv") + "joint = true\n"))

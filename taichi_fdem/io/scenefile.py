@@ -148,6 +148,8 @@ normal_stress  Pa      direct_shear: normal stress σn, > 0
 rate_transits  —       ucs, triaxial, direct_shear: P-wave transits of the specimen to the
                        expected peak (``rate_transits=``) [60]
 load_time      —       brazilian: D/c_p transits to the expected peak (``load_time=``) [100]
+joint          —       direct_shear: the shear plane is a cohesive joint of the material
+                       (``joint=True``), not a contact between two blocks [false]
 samples        —       recorded samples of the curve [the test's default]
 plane          —       "strain" or "stress" ["strain"]
 csv            —       CSV file of the test's curve (``LabResult.to_csv``) [none]
@@ -285,6 +287,7 @@ LAB_KEYS = {
     "normal_stress": _POS("Pa", hi=1e12),
     "rate_transits": _Key("float", 60.0, lo=0.0, lo_open=True, hi=1e6),
     "load_time": _Key("float", 100.0, lo=0.0, lo_open=True, hi=1e6),
+    "joint": _Key("bool", False),
     "samples": _Key("int", None, lo=10, hi=100000),
     "plane": _Key("choice", "strain", choices=("strain", "stress")),
     "csv": _Key("str"),
@@ -295,7 +298,7 @@ LAB_TEST_KEYS = {
     "ucs": (("width", "height"), ("rate_transits",)),
     "triaxial": (("width", "height", "confinement"), ("rate_transits",)),
     "brazilian": (("diameter",), ("load_time",)),
-    "direct_shear": (("width", "height", "normal_stress"), ("rate_transits",)),
+    "direct_shear": (("width", "height", "normal_stress"), ("rate_transits", "joint")),
 }
 TOP_KEYS = ("description", "scene", "materials", "bodies", "constraints", "solver", "output", "lab")
 
