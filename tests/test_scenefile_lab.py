@@ -85,7 +85,8 @@ def test_lab_section_keys_are_checked(tmp_path):
 
 
 def test_lab_direct_shear_takes_joint(tmp_path):
-    text = LAB.format(csv="x.csv").replace('"ucs"', '"direct_shear"').replace("h = 0.0125", "h = 0.0125\nnormal_stress = 1e6\njoint = true")
+    text = LAB.format(csv="x.csv").replace('"ucs"', '"direct_shear"')
+    text = text.replace("h = 0.0125", "h = 0.0125\nnormal_stress = 1e6\njoint = true")
     spec = scenefile.load(write(tmp_path, text))
     assert spec.lab["joint"] is True and spec.lab["normal_stress"] == 1e6
     with pytest.raises(SceneFileError, match="'joint' does not apply to the 'ucs' test"):
