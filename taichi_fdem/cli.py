@@ -72,6 +72,8 @@ def _fmt_energy(e: dict) -> str:
 def cmd_run(args) -> int:
     from .io import scenefile
     spec = scenefile.load(args.scene)
+    if spec.lab:
+        return _run_lab(spec, args)
     if args.duration is not None:
         if not (math.isfinite(args.duration) and args.duration >= 0):
             raise _BadInput(f"--duration must be a finite time >= 0 s, got {args.duration}")
@@ -117,6 +119,25 @@ def cmd_run(args) -> int:
                         ("crack events", getattr(settings, "crack_events", None))):
         if path:
             print(f"  wrote {label}: {path}")
+    return EXIT_OK
+
+
+def _run_lab(spec, args) -> int:
+    """``taichi-fdem run`` of a scene file with a ``[lab]`` table: the test and its summary."""
+    for flag, name in (("duration", "--duration"), ("video", "--video"), ("vtu", "--vtu"), ("resume_from", "--from")):
+        if getattr(args, flag, None) is not None:
+            raise _BadInput(f"{name} does not apply to a [lab] scene file (the test sets its own run)")
+    _init(args)
+    lab = spec.lab
+    print(f"{os.path.basename(args.scene)}: lab test {lab['test']!r} of material {lab['material']!r}", flush=True)
+    t0 = time.perf_counter()
+    r = spec.run_lab()
+    wall = time.perf_counter() - t0
+    for k, v in r.summary.items():
+        print(f"  {k:<18} {v:.6g}" if isinstance(v, float) else f"  {k:<18} {v}")
+    print(f"done in {wall:.2f} s wall")
+    if lab.get("csv"):
+        print(f"  wrote curve: {lab['csv']}")
     return EXIT_OK
 
 

@@ -68,3 +68,35 @@ def test_bad_input_is_named():
         fdem.calibrate(analytic, BOUNDS, {"u": 1.0}, budget=5, popsize=5)
     with pytest.raises(fdem.sweep.SweepError, match="every one of the"):
         fdem.calibrate(analytic, {"a": (0.0, 0.2), "b": (1.0, 2.0)}, {"u": 1.0}, budget=20, popsize=5)
+
+
+def elastic_ucs(p):
+    """E and ν measured by fdem.lab.ucs on a coarse elastic specimen (a real FDEM run, ~1 s)."""
+    m = fdem.Material(density=2600.0, young=p["young"], poisson=p["poisson"])
+    r = fdem.lab.ucs(m, 0.05, 0.1, 0.025, samples=20, rate_transits=10, safety=0.4, max_strain=5e-4)
+    return {"E": r.young, "nu": r.poisson}
+
+
+@pytest.mark.slow
+def test_recovers_E_and_nu_of_a_real_fdem_model():
+    """Targets produced by the model itself at E = 30 GPa, ν = 0.25: calibration over
+    E in [15, 60] GPa, ν in [0.1, 0.4] finds both within 5 % (60 evaluations of ~1-2 s)."""
+    true = {"young": 30e9, "poisson": 0.25}
+    t = elastic_ucs(true)
+    cal = fdem.calibrate(elastic_ucs, {"young": (15e9, 60e9), "poisson": (0.1, 0.4)}, {"E": t["E"], "nu": t["nu"]},
+                         budget=60, seed=1, workers=1, popsize=5)
+    for k, v in true.items():
+        assert abs(cal.best[k] / v - 1) < 0.05, (k, cal.best, cal.evaluations)
+    assert all(r["status"] == "ok" for r in cal.history)
+
+
+def test_dask_path_gives_the_serial_result(serial):
+    """The same seed on a Dask scheduler (an in-process LocalCluster) evaluates the same points."""
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None) as lc, \
+            distributed.Client(lc) as client:
+        dk = fdem.calibrate(analytic, BOUNDS, _targets(), budget=300, seed=3, scheduler=client)
+    assert dk.evaluations == serial.evaluations
+    assert [r["score"] for r in dk.history] == pytest.approx([r["score"] for r in serial.history], rel=1e-9)
+    assert dk.best == pytest.approx(serial.best, rel=1e-9)
+    assert [r["status"] for r in dk.history] == [r["status"] for r in serial.history]

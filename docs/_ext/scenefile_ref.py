@@ -19,6 +19,7 @@ SECTIONS = (  # (title, schema attribute, docstring header)
     ("[[constraints]]", "CONSTRAINT_KEYS", "``[[constraints]]``"),
     ("[solver]", "SOLVER_KEYS", "``[solver]``"),
     ("[output]", "OUTPUT_KEYS", "``[output]``"),
+    ("[lab]", "LAB_KEYS", "``[lab]``"),
 )
 _ROW = re.compile(r"^([^\s,]+(?:, [^\s,]+)*)\s+(\S+)\s{2,}(.*)$")
 

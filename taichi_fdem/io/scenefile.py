@@ -136,6 +136,28 @@ history        —       CSV of the energy/reaction history (``Simulation.run(hi
 history_every  —       steps between history rows (``run(history_every=...)``) [the run's default]
 =============  ======  ===================================================================
 
+``[lab]`` (a standard lab test instead of ``[[bodies]]``, ``[[constraints]]``, ``[solver]`` and
+``[output]``: ``taichi-fdem run`` runs the test of ``fdem.lab`` and prints its summary)
+
+=============  ======  ===================================================================
+test           —       "ucs", "triaxial", "brazilian" or "direct_shear" (required)
+material       —       a NAME of ``[materials]`` (required)
+width, height  m       ucs, triaxial, direct_shear: specimen size, > 0
+diameter       m       brazilian: disc diameter, > 0
+h              m       element size, > 0 (required)
+confinement    Pa      triaxial: lateral pressure σ3, > 0
+normal_stress  Pa      direct_shear: normal stress σn, > 0
+rate_transits  —       ucs, triaxial, direct_shear: P-wave transits of the specimen to the
+                       expected peak (``rate_transits=``) [60]
+load_time      —       brazilian: D/c_p transits to the expected peak (``load_time=``) [100]
+joint          —       direct_shear: the shear plane is a cohesive joint of the material
+                       (``joint=True``), not a contact between two blocks [false]
+samples        —       recorded samples of the curve [the test's default]
+plane          —       "strain" or "stress" ["strain"]
+csv            —       CSV file of the test's curve (``LabResult.to_csv``) [none]
+video          —       video of the test coloured by joint damage [none]
+=============  ======  ===================================================================
+
 A top-level ``description`` string is allowed (free text).
 
 Sanity bounds (a value beyond them is refused as a typo; products of it would overflow):
@@ -256,7 +278,31 @@ OUTPUT_KEYS = {
     "history": _Key("str"),
     "history_every": _Key("int", None, lo=1),
 }
-TOP_KEYS = ("description", "scene", "materials", "bodies", "constraints", "solver", "output")
+LAB_KEYS = {
+    "test": _Key("choice", choices=("ucs", "triaxial", "brazilian", "direct_shear"), required=True),
+    "material": _Key("str", required=True),
+    "width": _POS("m", hi=_LEN),
+    "height": _POS("m", hi=_LEN),
+    "diameter": _POS("m", hi=_LEN),
+    "h": _POS("m", hi=_LEN, required=True),
+    "confinement": _POS("Pa", hi=1e12),
+    "normal_stress": _POS("Pa", hi=1e12),
+    "rate_transits": _Key("float", 60.0, lo=0.0, lo_open=True, hi=1e6),
+    "load_time": _Key("float", 100.0, lo=0.0, lo_open=True, hi=1e6),
+    "joint": _Key("bool", False),
+    "samples": _Key("int", None, lo=10, hi=100000),
+    "plane": _Key("choice", "strain", choices=("strain", "stress")),
+    "csv": _Key("str"),
+    "video": _Key("str"),
+}
+#: keys of each lab test: (required, optional) besides test, material, h, samples, plane, csv, video
+LAB_TEST_KEYS = {
+    "ucs": (("width", "height"), ("rate_transits",)),
+    "triaxial": (("width", "height", "confinement"), ("rate_transits",)),
+    "brazilian": (("diameter",), ("load_time",)),
+    "direct_shear": (("width", "height", "normal_stress"), ("rate_transits", "joint")),
+}
+TOP_KEYS = ("description", "scene", "materials", "bodies", "constraints", "solver", "output", "lab")
 
 # ----------------------------------------------------------------------------------------------
 # overrides (sweeps)
@@ -356,6 +402,10 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
         except (ValueError, TypeError) as exc:
             bad = next((k for k in MATERIAL_KEYS if re.search(rf"\b{k}\b", str(exc)) and k in mt), None)
             raise ck.error(mp + ((bad,) if bad else ()), str(exc), table=mp) from None
+
+    if "lab" in data:
+        return SceneSpec(path=path, scene=scene, materials=materials, bodies=[], constraints=[], solver={},
+                         output={}, description=description, lab=_lab_table(ck, data, materials), _checker=ck)
 
     # bodies
     bodies_t = data.get("bodies", [])
@@ -457,3 +507,34 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
 
     return SceneSpec(path=path, scene=scene, materials=materials, bodies=bodies, constraints=constraints,
                      solver=solver, output=output, description=description, _checker=ck)
+
+
+def _lab_table(ck, data: dict, materials: dict) -> dict:
+    """The checked ``[lab]`` table: the test's keys resolved, the others refused."""
+    for other in ("bodies", "constraints", "solver", "output"):
+        if other in data:
+            raise ck.error((other,), f"a scene file with [lab] runs a standard test: it has no [{other}] "
+                           "(the test builds its specimen, loading and run)", table=())
+    lab_t = ck.table(data["lab"], ("lab",), "test, material, h, ...")
+    ck.keys(lab_t, LAB_KEYS, ("lab",))
+    for k in ("test", "material"):
+        if k not in lab_t:
+            raise ck.error(("lab",), f"[lab] needs {k!r}", table=("lab",))
+    lab = ck.values(lab_t, LAB_KEYS, ("lab",))
+    if lab["material"] not in materials:
+        raise ck.error(("lab", "material"), f"unknown material {lab['material']!r}"
+                       f"{_suggest(lab['material'], materials)}; defined: {', '.join(materials)}")
+    required, optional = LAB_TEST_KEYS[lab["test"]]
+    specific = {k for req, opt in LAB_TEST_KEYS.values() for k in req + opt}
+    for k in specific & set(lab_t):
+        if k not in required + optional:
+            raise ck.error(("lab", k), f"key {k!r} does not apply to the {lab['test']!r} test; its keys are: "
+                           f"{', '.join(required + optional)}")
+    for k in required:
+        if k not in lab_t:
+            raise ck.error(("lab",), f"the {lab['test']!r} test needs {k!r} [{LAB_KEYS[k].unit}]", table=("lab",))
+    if lab["test"] == "brazilian" and not materials[lab["material"]].can_fracture:
+        raise ck.error(("lab", "material"), f"the brazilian test needs tensile_strength and fracture_energy in "
+                       f"[materials.{lab['material']}]")
+    return {k: v for k, v in lab.items() if k in ("test", "material", "h", "samples", "plane", "csv", "video")
+            or k in required + optional}

@@ -80,6 +80,8 @@ class SceneSpec:
     constraints : one dict per ``[[constraints]]``.
     solver : the ``[solver]`` table (``duration`` [s], ``dt`` [s] or None, ``safety``, ...).
     output : the ``[output]`` table.
+    lab : the ``[lab]`` table (a standard test, :meth:`run_lab`), or None; a lab file has no
+        bodies, constraints, solver or output.
     """
 
     path: str
@@ -90,7 +92,31 @@ class SceneSpec:
     solver: dict
     output: dict
     description: str = ""
+    lab: dict | None = None
     _checker: Any = field(default=None, repr=False)
+
+    def run_lab(self):
+        """Run the ``[lab]`` test of the file with :mod:`taichi_fdem.lab` (and write its ``csv``);
+        returns the :class:`~taichi_fdem.lab.LabResult`.  ValueError when the file has no [lab]."""
+        if not self.lab:
+            raise ValueError(f"{self.path}: no [lab] table: build() and run it as a scene")
+        from .. import lab as _lab
+        p = dict(self.lab)
+        test, mat, h, csv = p.pop("test"), self.materials[p.pop("material")], p.pop("h"), p.pop("csv", None)
+        kw = {k: v for k, v in p.items() if v is not None}
+        if test == "brazilian":
+            r = _lab.brazilian(mat, kw.pop("diameter"), h, **kw)
+        elif test == "ucs":
+            r = _lab.ucs(mat, kw.pop("width"), kw.pop("height"), h, **kw)
+        elif test == "triaxial":
+            r = _lab.triaxial(mat, kw.pop("width"), kw.pop("height"), h, kw.pop("confinement"), **kw)
+        else:
+            r = _lab.direct_shear(mat, kw.pop("width"), kw.pop("height"), h, kw.pop("normal_stress"), **kw)
+        if csv:
+            folder = os.path.dirname(os.path.abspath(csv))
+            os.makedirs(folder, exist_ok=True)
+            r.to_csv(csv)
+        return r
 
     @property
     def body_names(self) -> list[str]:
@@ -169,6 +195,8 @@ class SceneSpec:
 
     def build(self):
         """(:class:`~taichi_fdem.sim.simulation.Simulation`, :class:`RunSettings`)."""
+        if self.lab:
+            raise ValueError(f"{self.path}: a [lab] file runs a standard test: use run_lab() (taichi-fdem run)")
         scene, _ = self.build_scene()
         s = self.solver
         try:

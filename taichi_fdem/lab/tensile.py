@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 import time as _time
+import warnings
 
 from ..verification.fracture import brazilian_load, brazilian_result, brazilian_scene, hondros_factor
 from .compressive import _first, _positive, video_frames
@@ -11,7 +12,7 @@ from .results import LabResult, check_rate, specimen_kinetic, warn_kinetic
 
 def brazilian(material, diameter: float, h: float, *, alpha_deg: float = 10.0, load_time: float = 100.0,
               samples: int = 240, safety: float = 0.35, platen=None, strength=None, groups=None, mesh=None,
-              plane: str = "strain", video: str | None = None) -> LabResult:
+              plane: str = "strain", max_time: float = 3.0, video: str | None = None) -> LabResult:
     """Brazilian test of a disc of ``diameter`` D [m], mesh size ``h`` [m], every interior edge
     a cohesive joint, between two platens closing at ±v.
 
@@ -27,18 +28,27 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float = 10.0, l
     ``mesh``, a disc centred on the origin).  ``platen``: the platens' Material (default:
     10 × stiffer, penalty 3 × the disc's E).  ``load_time``: the loading to the expected peak
     (approach 5.6 D f_t/E) lasts this many D/c_p; below ``MIN_TRANSITS`` it is refused.  The test
-    stops when the load has dropped below 30 % of its peak.
+    stops when the load has dropped below 30 % of its peak (``peaked`` True), or after
+    ``max_time`` × the loading time (``peaked`` False, with a RuntimeWarning: the peak is then
+    the last load reached, not the strength).
+
+    Similarity: the result depends on the dimensionless groups f_t/E, l_ch/D = E G_I/(f_t² D),
+    c/f_t, φ, G_II/G_I, ν, p_f/E, the platens' E and penalty over the disc's E, h/D, α, β and
+    ``load_time``; with all of them fixed, ``.peak_stress`` is proportional to f_t
+    (tests/test_lab.py checks it to 1e-6).
 
     Curve columns: time_s, approach_m, load_N_per_m (filtered), load_instantaneous_N_per_m,
     broken_joints.  Summary: peak_stress [Pa], centre_stress [Pa], peak_load [N/m], hondros,
     central_fraction (share of the joints broken by shortly after the peak within ``|x|`` < 0.15 D),
-    broken, fragments, kinetic_ratio.
+    broken, fragments, kinetic_ratio, peaked.
     """
     first = _first(material)
     _positive("lab.brazilian", diameter=diameter, h=h)
     if not first.can_fracture:
         raise ValueError("lab.brazilian: the disc's material needs tensile_strength [Pa] and fracture_energy [J/m²]")
     check_rate(load_time, "lab.brazilian")
+    if not (math.isfinite(max_time) and max_time >= 1.0):
+        raise ValueError(f"lab.brazilian: max_time must be >= 1 (loading times), got {max_time!r}")
     elements = max(2, int(round(diameter / h)))
     t0 = _time.perf_counter()
     sim, bodies, p = brazilian_scene(elements=elements, load_time=load_time, D=diameter, alpha_deg=alpha_deg,
@@ -56,7 +66,7 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float = 10.0, l
             draw(s)
     t0 = _time.perf_counter()
     try:
-        rec = brazilian_load(sim, bodies, p, samples=samples, frame=frame)
+        rec = brazilian_load(sim, bodies, p, samples=samples, frame=frame, duration=max_time)
     finally:
         if writer is not None:
             writer.close()
@@ -66,11 +76,15 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float = 10.0, l
     half = int(abs(rec["P"][: i + 1] - 0.5 * rec["P"][i]).argmin())
     kinetic_ratio = float(kin[max(0, half - 1)]) if kin else math.nan
     warn_kinetic(kinetic_ratio, "lab.brazilian")
+    peaked = bool(rec["broken"][-1] > 0 and rec["P"][-1] < 0.3 * rec["P"].max())
+    if not peaked:
+        warnings.warn(f"lab.brazilian: the load had not dropped after {max_time:g} loading times: the peak is the "
+                      "last load reached, not the strength (raise max_time)", RuntimeWarning, stacklevel=2)
     sigma = 2.0 * out["P_max_N_per_m"] / (math.pi * diameter)
     hf = hondros_factor(alpha_deg)
     summary = dict(peak_stress=sigma, centre_stress=sigma * hf, peak_load=out["P_max_N_per_m"], hondros=hf,
                    central_fraction=out["central_fraction"], broken=out["broken_total"], fragments=out["fragments"],
-                   kinetic_ratio=kinetic_ratio, load_time=float(load_time), elements=elements, wall=wall,
+                   kinetic_ratio=kinetic_ratio, peaked=peaked, load_time=float(load_time), elements=elements, wall=wall,
                    build=build, steps=sim.step_count, dt=sim.dt, platen_speed=p["v"])
     curve = dict(time_s=rec["t_P"], approach_m=rec["approach_P"], load_N_per_m=rec["P"],
                  load_instantaneous_N_per_m=rec["P_inst"], broken_joints=rec["broken"])

@@ -210,8 +210,10 @@ def brazilian_scene(elements: int = 40, load_time: float = 100.0, D: float = 0.1
                                        elements=elements)
 
 
-def brazilian_load(sim, bodies, p, samples: int = 240, frame=None, window: float = 1.0) -> dict:
-    """Load the disc of :func:`brazilian_scene` until the load falls below 30 % of its peak.
+def brazilian_load(sim, bodies, p, samples: int = 240, frame=None, window: float = 1.0,
+                   duration: float = 1.3) -> dict:
+    """Load the disc of :func:`brazilian_scene` until the load falls below 30 % of its peak, or
+    for at most ``duration`` × the loading time (``p["load_time"]`` × D/c_p).
 
     The platen speed is ramped up over the first tenth of the loading time.  Every sample
     records the time, the instantaneous load on the top platen ``P_inst`` (sum of the forces on
@@ -226,8 +228,8 @@ def brazilian_load(sim, bodies, p, samples: int = 240, frame=None, window: float
     disk, top, bot = bodies
     D, cp = p["D"], p["cp"]
     t_load = p["load_time"] * D / cp
-    n_total = int(1.3 * t_load / sim.dt)
-    k = max(1, n_total // samples)
+    n_total = int(duration * t_load / sim.dt)
+    k = max(1, int(1.3 * t_load / sim.dt) // samples)
     vbc0 = sim.state.node_vbc.to_numpy()
     t_ramp = 0.1 * t_load
     yt0, yb0 = sim.node_positions(top)[:, 1].mean(), sim.node_positions(bot)[:, 1].mean()
