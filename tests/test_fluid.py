@@ -15,6 +15,7 @@ MU = 1e-3            # water [Pa·s]
 W0 = 1e-4            # residual aperture [m]
 P_IN = 1e5           # inlet pressure [Pa]
 LENGTH = 1.0         # crack length [m]
+RATE = 2e-2          # injection rate of the fracturing block [m²/s]
 
 
 def cubic_law_scene():
@@ -29,15 +30,15 @@ def cubic_law_scene():
     return scene
 
 
-def fracture_scene(strategy="serial"):
+def fracture_scene(strategy="serial", conduct="broken"):
     """A free jointed block with a 0.1 m crack at its centre, fed at the crack's centre at a
     constant rate: the fluid opens the crack and the joints ahead of its tips break."""
     rock = fdem.Material(**ROCK, tensile_strength=3e5, cohesion=9e5, fracture_energy=1.0)
     scene = fdem.Scene(gravity=(0.0, 0.0))
     scene.add_body(fdem.mesh.rectangle(0.4, 0.4, 0.05), rock, fracture=True,
                    cracks=lambda x, y: (np.abs(y) < 1e-9) & (np.abs(x) < 0.06))
-    scene.set_fluid(fdem.Fluid(bulk_modulus=1e8), aperture_min=1e-5)
-    scene.inject(lambda x, y: (np.abs(x) < 1e-9) & (np.abs(y) < 1e-9), rate=2e-3)
+    scene.set_fluid(fdem.Fluid(bulk_modulus=1e8), aperture_min=1e-5, conduct=conduct)
+    scene.inject(lambda x, y: (np.abs(x) < 1e-9) & (np.abs(y) < 1e-9), rate=RATE)
     return scene.build(strategy=strategy)
 
 
@@ -158,10 +159,27 @@ def test_mass_balance_through_fracture_growth(growing):
     sim, v0, _, _ = growing
     assert sim.broken_joint_count > 0
     conducting = int((sim.state.fluid_edge_val.to_numpy()[:, 0] > 0).sum())
-    assert conducting > 2                               # the crack's 2 edges, and broken joints
+    assert conducting > 10                              # the crack's 2 edges, and broken joints
     injected = sim.injected_volumes()[0]
-    assert injected == pytest.approx(2e-3 * sim.time, rel=1e-9)
+    assert injected == pytest.approx(RATE * sim.time, rel=1e-9)
     assert abs(sim.fluid_volume() - v0 - injected) <= 1e-6 * injected
+
+
+def conducting_edges(sim) -> int:
+    return int((sim.state.fluid_edge_val.to_numpy()[:, 0] > 0).sum())
+
+
+def test_which_joints_conduct(growing):
+    """conduct="broken": the crack edges and the broken joints conduct; "damaged": also every
+    joint with damage past its peak."""
+    sim = growing[0]
+    cracks = 2
+    assert conducting_edges(sim) == cracks + sim.broken_joint_count
+    other = fracture_scene("serial", conduct="damaged")
+    other.step(400)
+    damaged = int((other.joint_damage() > 0).sum())
+    assert damaged > other.broken_joint_count
+    assert conducting_edges(other) == cracks + damaged
 
 
 def test_energy_balance_books_the_fluid_work(growing):
@@ -193,3 +211,86 @@ def test_fluid_results_need_a_fluid():
     with pytest.raises(ValueError, match="no fluid"):
         sim.injection_rates()
     assert "fluid_work" not in sim.energies()
+
+
+def test_checkpoint_round_trip_continues_exactly(cubic, tmp_path):
+    """A checkpoint keeps the fluid (contents, sources, counters): the loaded run goes on with
+    the same bits as the original."""
+    sim, _ = cubic
+    path = tmp_path / "c.npz"
+    sim.save(path)
+    other = fdem.Simulation.load(path)
+    sim.step(3)
+    other.step(3)
+    assert np.array_equal(sim.fluid_pressures()[1], other.fluid_pressures()[1])
+    assert np.array_equal(sim.injected_volumes(), other.injected_volumes())
+
+
+# ---- scene files ------------------------------------------------------------------------------------
+SCENE_FILE = """
+[scene]
+gravity = [0.0, 0.0]
+[materials.rock]
+density = 2700.0
+young = 10e9
+[[bodies]]
+material = "rock"
+shape = "rectangle"
+width = 1.0
+height = 0.2
+h = 0.1
+position = [0.5, 0.0]
+fixed = true
+cracks = [[[-0.5, 0.0], [0.5, 0.0]]]
+[fluid]
+viscosity = 1e-3
+aperture_min = 1e-4
+[[inject]]
+xmax = 1e-9
+pressure = 1e5
+[[inject]]
+xmin = 0.999999
+pressure = 0.0
+[solver]
+duration = 0.006
+strategy = "serial"
+"""
+
+
+def test_scene_file_expresses_the_fluid(tmp_path):
+    """[fluid] and [[inject]]: the cubic-law channel from a scene file."""
+    path = tmp_path / "s.toml"
+    path.write_text(SCENE_FILE)
+    sim, settings = fdem.scenefile.load(str(path)).build()
+    settings.run(sim, progress=False)
+    q = W0 ** 3 * P_IN / (12.0 * MU * LENGTH)
+    rates = sim.injection_rates()
+    assert len(rates) == 2 and abs(rates[0] - q) <= 0.02 * q
+    bad = SCENE_FILE.replace("[fluid]\nviscosity = 1e-3\naperture_min = 1e-4\n", "")
+    path.write_text(bad)
+    with pytest.raises(fdem.scenefile.SceneFileError, match="needs a \\[fluid\\] table"):
+        fdem.scenefile.load(str(path))
+    path.write_text(SCENE_FILE.replace("pressure = 0.0", "pressure = 0.0\nrate = 1e-3"))
+    with pytest.raises(fdem.scenefile.SceneFileError, match="exactly one of rate"):
+        fdem.scenefile.load(str(path))
+    path.write_text(SCENE_FILE.replace("aperture_min = 1e-4", "aperture_min = 1e-4\nsprite = 1"))
+    with pytest.raises(fdem.scenefile.SceneFileError, match="sprite"):
+        fdem.scenefile.load(str(path))
+
+
+def test_vtu_has_the_fluid_pressure(cubic):
+    from taichi_fdem.io.vtu import frame_fields
+    sim, _ = cubic
+    f = frame_fields(sim)["point_data"]["fluid_pressure"]
+    assert f.shape == (sim.node_count,)
+    x = sim.node_positions()
+    on = np.abs(x[:, 1]) < 1e-9                       # the crack's face nodes (both copies)
+    assert np.allclose(f[on], P_IN * (1.0 - x[on, 0] / LENGTH), atol=0.02 * P_IN)
+    assert np.all(f[~on] == 0.0)
+
+
+def test_a_flow_too_fast_for_the_step_stops_with_a_diagnosis():
+    """A step that would need more than SUBSTEPS_MAX flow substeps stops the run, naming why."""
+    sim = cubic_law_scene().build(strategy="serial", dt=1.0, force_dt=True)    # needs ~7e5 substeps
+    with pytest.raises(fdem.SimulationError, match="substeps"):
+        sim.step(1)
