@@ -98,8 +98,7 @@ vx, vy            m/s     prescribed velocity component; an absent component sta
                           (a roller); at least one is required
 ================  ======  =================================================================
 
-``[fluid]`` (optional: a fluid in the fracture network, ``Scene.set_fluid``; the bodies need
-``cracks`` or ``fracture``)
+``[fluid]`` (optional: a fluid in the cracks and broken joints, ``Scene.set_fluid``)
 
 ================  ======  =================================================================
 density           kg/m³   reference density ρ > 0 [1000.0]
