@@ -294,3 +294,19 @@ def test_a_flow_too_fast_for_the_step_stops_with_a_diagnosis():
     sim = cubic_law_scene().build(strategy="serial", dt=1.0, force_dt=True)    # needs ~7e5 substeps
     with pytest.raises(fdem.SimulationError, match="substeps"):
         sim.step(1)
+
+
+def test_initial_pressure_and_curves():
+    """A closed channel filled at initial_pressure stays at it; a source's curve scales its
+    pressure (a ramp: half-way up at half the ramp time)."""
+    scene = fdem.Scene(gravity=(0.0, 0.0))
+    scene.add_body(fdem.mesh.rectangle(LENGTH, 0.2, 0.1), fdem.Material(**ROCK), position=(0.5, 0.0), fixed=True,
+                   cracks=lambda x, y: np.abs(y) < 1e-9)
+    scene.set_fluid(fdem.Fluid(viscosity=MU), aperture_min=W0, initial_pressure=3e4)
+    sim = scene.build(strategy="serial")
+    sim.step(5)
+    assert np.allclose(sim.fluid_pressures()[1], 3e4, rtol=1e-9)
+    scene.inject(lambda x, y: x < 1e-9, pressure=P_IN, curve=fdem.Curve.ramp(1e-3))
+    sim = scene.build(strategy="serial", dt=1e-4)
+    sim.step(5)                                      # t = 5e-4 s at the end; the last step started at 4e-4
+    assert sim.injection_pressure() == pytest.approx(0.5 * P_IN, rel=1e-9)

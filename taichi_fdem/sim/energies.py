@@ -27,7 +27,9 @@ from ..engine.groups import WORK_ABSORB, WORK_BOUNDARY, WORK_CDAMPING, WORK_FRIC
 # the terms of ``total`` and their signs (work done on the system enters with −1)
 TOTAL_TERMS = (("kinetic", 1), ("strain", 1), ("contact", 1), ("gravity", 1), ("joints", 1), ("damping", 1),
                ("friction", 1), ("contact_damping", 1), ("fracture", 1), ("local_damping", 1), ("absorbed", 1),
-               ("excavated", 1), ("boundary_work", -1), ("load_work", -1), ("fluid_work", -1))
+               ("excavated", 1), ("boundary_work", -1), ("load_work", -1))
+# terms of ``total`` present only when the scene has the feature (a fluid: scene.set_fluid)
+OPTIONAL_TERMS = (("fluid_work", -1),)
 
 
 def compute_energies(sim) -> dict:
@@ -55,5 +57,5 @@ def compute_energies(sim) -> dict:
         e["fracture"] = float(work[broken].sum()) * t
     if getattr(md, "fluid", False):
         e["fluid_work"] = float(st.fluid_real[F_WORK]) * t
-    e["total"] = sum(sign * e[k] for k, sign in TOTAL_TERMS if k in e)
+    e["total"] = sum(sign * e[k] for k, sign in TOTAL_TERMS + OPTIONAL_TERMS if k in e)
     return e
