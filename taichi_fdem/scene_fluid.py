@@ -47,7 +47,9 @@ class FluidScene:
         faces, clamped to [aperture_min, aperture_max]; the pressure follows dp = K dV/V from
         the fluid's mass and the node's volume Σ L w / 2, and acts on both faces of every
         conducting edge as a follower pressure.  Edges that start to conduct take their fluid
-        from their neighbours (mass is kept).
+        from their neighbours (mass is kept).  The network is closed: fluid leaves it only
+        through pressure sources (no leak-off into the rock matrix, no outflow where a crack
+        meets the body's surface).
 
         Parameters
         ----------
