@@ -310,3 +310,13 @@ def test_initial_pressure_and_curves():
     sim = scene.build(strategy="serial", dt=1e-4)
     sim.step(5)                                      # t = 5e-4 s at the end; the last step started at 4e-4
     assert sim.injection_pressure() == pytest.approx(0.5 * P_IN, rel=1e-9)
+
+
+def test_a_source_off_the_cracks_warns():
+    rock = fdem.Material(**ROCK, tensile_strength=3e5, cohesion=9e5, fracture_energy=1.0)
+    scene = fdem.Scene(gravity=(0.0, 0.0))
+    scene.add_body(fdem.mesh.rectangle(0.2, 0.2, 0.05), rock, fracture=True)
+    scene.set_fluid(fdem.Fluid(), aperture_min=1e-5)
+    scene.inject(lambda x, y: (np.abs(x) < 1e-9) & (np.abs(y) < 1e-9), rate=1e-3)
+    with pytest.warns(RuntimeWarning, match="inject #0: none of its 1 network node"):
+        scene.build()

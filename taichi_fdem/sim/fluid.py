@@ -11,6 +11,7 @@ scene builder that sits above it.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -148,6 +149,12 @@ def install_fluid(md, scene, net: FluidNetwork, curves) -> None:
         if not sel.any():
             raise ValueError(f"Scene.inject #{k}: the predicate selects no node of the fracture network "
                              f"({F} nodes on cracks and joints; initial coordinates)")
+        wet = np.zeros(F, bool)
+        wet[e[net.crack, 4]] = wet[e[net.crack, 5]] = True
+        if not wet[sel].any():
+            warnings.warn(f"Scene.inject #{k}: none of its {int(sel.sum())} network node(s) is on a crack edge: "
+                          "nothing enters until a joint at one of them conducts (start from a crack, "
+                          "add_body(cracks=))", RuntimeWarning, stacklevel=5)
         c = curves.add(inj.curve)
         rows.append((SRC_RATE if inj.rate is not None else SRC_PRESSURE, c,
                      float(inj.rate if inj.rate is not None else inj.pressure)))
