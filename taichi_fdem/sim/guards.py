@@ -117,11 +117,11 @@ def restore(sim, snap: dict) -> None:
 # ---- run-time checks -----------------------------------------------------------------------------
 def energy_scale(e: dict) -> float:
     """The energy scale of an energy account [J]: kinetic + |strain| + |contact| + dissipated + |boundary work|
-    + |load work| + |fluid work|."""
+    + |load work|."""
     return (e["kinetic"] + abs(e["strain"]) + abs(e["contact"]) + e["damping"] + e["friction"]
             + e["contact_damping"] + abs(e["boundary_work"]) + abs(e.get("load_work", 0.0))
-            + abs(e.get("fluid_work", 0.0))
-            + e.get("local_damping", 0.0) + e.get("absorbed", 0.0) + abs(e.get("excavated", 0.0)))
+            + e.get("local_damping", 0.0) + e.get("absorbed", 0.0) + abs(e.get("excavated", 0.0))
+            + abs(e.get("fluid_work", 0.0)))        # (and |fluid work| with a fluid)
 
 
 class RunGuard:
