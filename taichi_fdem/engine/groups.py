@@ -51,6 +51,10 @@ step       parameters set by the host: dt [s], gravity (vec2 [m/s²]), buffer [m
            counters kept by the kernels: real (time [s], dacc [m], rmax [m], vmax [m/s], work
            terms [J/m]; slots :data:`TIME`, :data:`DACC`, ...) and int (couples, found, nonfinite,
            inverted, detections, broken, neighbour pairs; slots :data:`COUPLES`, ...)
+fluid      the fluid in the fracture network (:mod:`taichi_fdem.engine.fluid`): edge (vec8 i32:
+           node copies, fluid nodes, joint), edge_val (vec8: aperture, length, conductance,
+           flux, face forces), node_val (vec4: content, volume, pressure, rate), index (the
+           header and index lists), real (parameters, counters, sources)
 =========  ====================================================================================
 
 Adding an array: declare it in the group below and allocate it in

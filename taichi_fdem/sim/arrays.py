@@ -85,6 +85,10 @@ MODEL_HOST_ARRAYS = _specs([
     ("joint_len0_np", "(J,)", "f64", "m", "rest length of each joint"),
     ("joint_fs0", "(J|1, 3)", "f64", "Pa", "initial shear strength c of each joint (three points)"),
     ("nb_pairs_np", "(nb, 2)", "i32", "-", "bonded neighbour triangle pairs"),
+    ("fluid_real0", "(R,)", "f64", "Pa, Pa·s, m, m²/s", "the fluid's parameters and sources at the start"),
+    ("fluid_content0", "(W|1,)", "f64", "m²", "initial fluid content of each network node"),
+    ("fluid_node_rest", "(W, 2)", "f64", "m", "initial positions of the network nodes"),
+    ("fluid_copies", "(k, 2)", "i32", "-", "(network node, node copy) pairs of the network's edge faces"),
 ])
 
 #: Taichi arrays of the State (what a step changes; all saved by checkpoints).

@@ -127,6 +127,8 @@ def install_fluid(md, scene, net: FluidNetwork, curves) -> None:
         md.fluid_index.fill(0)
         md.fluid_real0 = np.zeros(F_HEAD)
         md.fluid_content0 = np.zeros(1)
+        md.fluid_node_rest = np.zeros((0, 2))
+        md.fluid_copies = np.zeros((0, 2), np.int32)
         md.fluid_edge_count = md.fluid_node_count = 0
         md.fluid_sources = []
         return
@@ -209,7 +211,8 @@ def install_fluid(md, scene, net: FluidNetwork, curves) -> None:
     md.fluid_spec = spec
     # (fluid node, node copy) pairs: a fluid node's current position is the mean of its copies
     md.fluid_copies = np.unique(np.stack([np.concatenate([e[:, 4], e[:, 4], e[:, 5], e[:, 5]]),
-                                          np.concatenate([e[:, 0], e[:, 3], e[:, 1], e[:, 2]])], axis=1), axis=0)
+                                          np.concatenate([e[:, 0], e[:, 3], e[:, 1], e[:, 2]])], axis=1),
+                                axis=0).astype(np.int32)
 
 
 def allocate_fluid_state(md, st) -> None:
@@ -293,6 +296,16 @@ class FluidResults:
         np.add.at(cnt, md.fluid_copies[:, 0], 1.0)
         p = self.state.fluid_node_val.to_numpy().astype(np.float64)[:F, 2]
         return pos / cnt[:, None], p
+
+    def node_fluid_pressures(self) -> np.ndarray:
+        """(N,) the fluid pressure [Pa] on every node of the mesh: on a face node of a network
+        edge, the pressure of its network node (the copies of one vertex agree); 0 elsewhere."""
+        self._fluid_check("node_fluid_pressures")
+        md = self.model
+        p = self.state.fluid_node_val.to_numpy().astype(np.float64)[:, 2]
+        out = np.zeros(md.node_count)
+        out[md.fluid_copies[:, 1]] = p[md.fluid_copies[:, 0]]
+        return out
 
     def fluid_volume(self) -> float:
         """The fluid stored in the network [m² per unit thickness, at the reference density]."""
