@@ -17,7 +17,7 @@ from ..material import Material
 from ..mesh import TriMesh
 from ..scene import Curve, Scene
 from ._common import _build, _precision, _result
-from .hydro import kgd_toughness, kgd_viscosity, plane_modulus, sneddon_opening
+from .hydro import GAMMA_M0, PI_M0_WELL, kgd_toughness, kgd_viscosity, plane_modulus, sneddon_opening
 
 
 def _graded_axis(inner: float, outer: float, h: float, growth: float) -> np.ndarray:
@@ -150,7 +150,8 @@ def case_sneddon(resolution: int = 16, safety: float = 0.2, penalty_factor: floa
 _Z_AREA = 0.3863          # ∫_0^1 z(D) dD of the softening curve (docs/theory/joints.md §7.5)
 
 
-def joint_fracture_energy(tensile_strength: float, fracture_energy: float, length: float, joint_penalty: float) -> float:
+def joint_fracture_energy(tensile_strength: float, fracture_energy: float, length: float,
+                          joint_penalty: float) -> float:
     """The work per unit area [J/m²] that opens a joint of length ``length`` [m] fully in mode I,
     f_t (2 δ_p/3 + 0.3863 Δ_n) with δ_p = 2 L f_t/p_f, Δ_n = max(2 δ_p, 3 G_I/f_t)
     (docs/theory/joints.md §7.9): the fracture energy of the equivalent LEFM crack."""
@@ -172,7 +173,8 @@ def _fracture_energy_for(g_eff: float, ft: float, length: float, joint_penalty: 
 def kgd_scene(regime: str = "toughness", resolution: int = 16, ratio: float = 10.0, kappa: float | None = None,
               seed: float = 0.25, path: float = 2.0, length_end: float = 1.5, transits: float = 10.0,
               strain: float = 1.0e-3, process_cells: float = 2.0, bulk_modulus: float = 1.0e9,
-              aperture_min: float = 1.0e-4, conduct: str = "damaged", confinement: float = 0.0):
+              aperture_min: float = 1.0e-4, conduct: str = "damaged", confinement: float = 0.0,
+              penalty_factor: float = 10.0):
     """The KGD scene (docs/theory/hydro.md §14.2): a plate ``ratio`` × ``path`` wide (free edges,
     plane strain, E = 10 GPa, ν = 0.25), a pre-existing crack |x| ≤ ``seed`` on y = 0, cohesive
     joints along y = 0 out to |x| = ``path`` [m], and a rate source at the centre node (the well).
@@ -193,8 +195,10 @@ def kgd_scene(regime: str = "toughness", resolution: int = 16, ratio: float = 10
     into the joints past their peak, so that it reaches the process zone as it reaches the tip of
     the LEFM crack of the solution (no lag).  ``confinement`` σ0 [Pa]: a pressure on the plate's
     outer edges, ramped over 2 transits before the injection starts (info["start"]); it closes
-    the dry part of the fracture ahead of the fluid, and the net pressure is p − σ0.  Returns (scene, body, info dict with the
-    parameters: rate, viscosity, toughness, plane_modulus, duration, kappa, h, ...).
+    the dry part of the fracture ahead of the fluid, and the net pressure is p − σ0.
+    ``penalty_factor``: the contact penalty of the crack faces in units of E.
+    Returns (scene, body, info dict with the parameters: rate, viscosity, toughness,
+    plane_modulus, duration, kappa, h, ...).
     """
     where = "kgd_scene"
     if regime not in ("toughness", "viscosity"):
@@ -214,7 +218,6 @@ def kgd_scene(regime: str = "toughness", resolution: int = 16, ratio: float = 10
         mu = kp ** 4 / (ep ** 3 * q0 * kappa ** 4) / 12.0
     else:
         kappa = 0.25 if kappa is None else float(kappa)
-        from .hydro import GAMMA_M0, PI_M0_WELL
         mup = (strain * ep / PI_M0_WELL) ** 3 * duration / ep ** 2
         q0 = ((length_end / GAMMA_M0) ** 6 * mup / (ep * duration ** 4)) ** (1.0 / 3.0)
         mu = mup / 12.0
@@ -223,7 +226,7 @@ def kgd_scene(regime: str = "toughness", resolution: int = 16, ratio: float = 10
     pf = 10.0 * young
     gi = _fracture_energy_for(kic * kic / ep, ft, h, pf)
     mat = Material(density=rho, young=young, poisson=nu, tensile_strength=ft, cohesion=3.0 * ft,
-                   fracture_energy=gi, joint_penalty=pf)
+                   fracture_energy=gi, joint_penalty=pf, penalty=penalty_factor * young)
     tol = 1e-6 * h
     on_line = lambda x, y: np.abs(y) < tol                                           # noqa: E731
     crack = lambda x, y: on_line(x, y) & (np.abs(x) < seed + tol)                  # noqa: E731
@@ -266,16 +269,21 @@ def case_kgd(regime: str = "toughness", resolution: int = 16, safety: float = 0.
              precision: str = "f64", samples: int = 8, strategy: str = "serial", quasi_static=True,
              **scene_kw) -> dict:
     """KGD (docs/theory/hydro.md §14.2), the scene of :func:`kgd_scene`, run for its duration with
-    ``samples`` records of the half-length ℓ (the equivalent LEFM one of :func:`_half_lengths`), the opening at the well and the well pressure, each against the ``regime``'s vertex solution
+    ``samples`` records of the half-length ℓ of the equivalent LEFM crack (the seed, half the
+    broken joints' length and a quarter of the softening ones': the LEFM tip lies about halfway
+    into the cohesive zone),
+    the opening at the well and the well pressure, each against the ``regime``'s vertex solution
     (:func:`~taichi_fdem.verification.hydro.kgd_toughness` or
     :func:`~taichi_fdem.verification.hydro.kgd_viscosity`) at the same time.
 
     The relative errors are taken over the records with an analytic ℓ of at least twice the seed
-    (the fracture then has grown over tens of cells); ``error`` is the largest of the three.
-    ``penalty_factor`` is unused (no contact is asked for beyond the crack faces' own).
+    (the fracture has then at least doubled its seed); ``error`` is the largest of the three.
+    The result also holds the broken and the wet half-lengths (network nodes at a net pressure
+    above 1 % of the well's) of each record.
+    ``scene_kw`` go to :func:`kgd_scene`.
     """
     _precision(precision)
-    scene, body, info = kgd_scene(regime, resolution, **scene_kw)
+    scene, body, info = kgd_scene(regime, resolution, penalty_factor=penalty_factor, **scene_kw)
     sim, build = _build(scene, safety, quasi_static=quasi_static, strategy=strategy)
     t0 = _time.perf_counter()
     ref = kgd_toughness if regime == "toughness" else kgd_viscosity
