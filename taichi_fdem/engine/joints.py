@@ -7,7 +7,9 @@ integrated by Simpson's rule at the two ends and the mid-point (§7.3); the norm
 follows the pre-peak parabola and the z(D) softening curve (§7.5–7.6), the shear strength is
 Mohr–Coulomb with a one-step lag stored per point (§7.7), damage is irreversible (the maximum
 D is stored per point and unloading is linear towards the origin, the Y-Geo option of §7.8),
-and the joint breaks for good when two of its three points have failed (§7.8).
+and the joint breaks for good when two of its three points have failed (§7.8).  A joint of a
+prestressed body starts at the opening and slip of its law that carry the initial traction
+σ⁰·n̂ (§7.11, :func:`prestress_offsets`).
 """
 import numpy as np
 import taichi as ti
@@ -381,6 +383,11 @@ def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(
 
     The nodal forces g0 (on the pair j0/j3) and g1 (on j1/j2) are kept in joints.joint_g[j] so that
     :func:`add_joint_work` can book their work over the step with the new velocities.
+
+    When joint_prop has the PRESTRESS_COL offsets (a prestressed body, §7.11; a compile-time
+    branch on the vector's width), the law, its damage and the failure mode see the faces'
+    opening and slip plus the offsets (o⁰, s⁰) of each point; the carried contact share sees the
+    faces' overlap alone.
     """
     jt0 = joints.joint_tris[j]
     if joints.joint_state[j] == 0 and tris.tri_intact[jt0[0]] >= 0 and tris.tri_intact[jt0[1]] >= 0:
