@@ -81,7 +81,8 @@ MODEL_HOST_ARRAYS = _specs([
     ("joint_prop_np", "(J, 6)", "f64", "Pa, J/m², -", "the joints' material properties"),
     ("joint_set_np", "(J,)", "i32", "-", "joint set index of each joint"),
     ("joint_len0_np", "(J,)", "f64", "m", "rest length of each joint"),
-    ("joint_fs0", "(J|1, 3)", "f64", "Pa", "initial shear strength of each joint (three points): c, or Mohr–Coulomb at σ⁰"),
+    ("joint_fs0", "(J|1, 3)", "f64", "Pa", "initial shear strength of each joint (three points): c, or "
+                                           "c − σ⁰ tan φ under an initial compression σ⁰"),
     ("nb_pairs_np", "(nb, 2)", "i32", "-", "bonded neighbour triangle pairs"),
 ])
 
