@@ -12,9 +12,9 @@ thousands of steps per launch in a team of worker threads (:mod:`taichi_fdem.eng
 :attr:`Simulation.team_steps`) whose waits are bounded, sized to the usable cores, and timed
 against one worker on a shared CPU (:meth:`sim.team.TeamScheduler.choose`).  A scene with a fluid
 (``scene.set_fluid``) runs no team launch: its parallel strategy runs one step per launch
-(:func:`taichi_fdem.engine.step.step_parallel_fluid`).  "auto" picks parallel
-on the CPU from 2 threads and usable cores and :data:`AUTO_PARALLEL_ITEMS` items (triangles +
-joints + couples), and on GPUs.
+(:func:`taichi_fdem.engine.step.step_parallel_fluid`), so "auto" runs it serial on the CPU.
+Otherwise "auto" picks parallel on the CPU from 2 threads and usable cores and
+:data:`AUTO_PARALLEL_ITEMS` items (triangles + joints + couples), and on GPUs.
 """
 from __future__ import annotations
 
@@ -116,7 +116,11 @@ class Simulation(SimulationResults, ModelValues):
 
     def _parallel_pays(self) -> bool:
         """Whether the parallel strategy beats the serial one on this CPU (module docstring): at
-        least two threads and two usable cores (affinity set, CPU quota), and enough items."""
+        least two threads and two usable cores (affinity set, CPU quota), and enough items.  Never
+        with a fluid: its parallel strategy launches every step (no team), which costs more on
+        the CPU than the serial launch of many steps."""
+        if self.model.fluid:
+            return False
         cores = min(backend.cpu_threads(), backend.usable_cores())
         return cores >= 2 and self._items() >= AUTO_PARALLEL_ITEMS
 
