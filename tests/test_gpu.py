@@ -11,7 +11,7 @@ contact, friction, detection, fracture, crack events, fragments, energies, rende
 checkpoints → ``test_vulkan_runs_every_feature[*-impact]``; heterogeneity (Weibull strength),
 joint sets, pre-existing cracks, loads and curves, absorbing boundaries, initial stress, local
 damping, excavation → ``test_vulkan_runs_every_feature[*-rock]``; the agreement with the CPU
-→ ``test_vulkan_matches_cpu`` (expected to fail: see its marker); the portable log / exp / pow →
+→ ``test_vulkan_matches_cpu``; the portable log / exp / pow →
 ``test_fmath_on_vulkan``; strain energy at rest → ``test_pile_strain_energy_at_rest_vulkan``;
 the buffer budget → ``test_storage_buffer_budget``.
 """
@@ -104,9 +104,6 @@ def test_vulkan_runs_every_feature(vulkan, precision, case):
     assert gpu["fragments"] >= 1 and len(gpu["x"]) == len(cpu["x"])
 
 
-@pytest.mark.xfail(reason="open: on Vulkan a fracturing / self-contact scene keeps fewer couples than the CPU "
-                          "(impact: 8 against 732 after one step) and its checkpoint round trip is not exact",
-                   strict=False)
 @pytest.mark.parametrize("precision", ["f64", "f32"])
 @pytest.mark.parametrize("case", ["impact", "rock"])
 def test_vulkan_matches_cpu(vulkan, precision, case):

@@ -17,6 +17,7 @@ import taichi as ti
 from .. import backend
 from ..engine.diagnostics import couple_penetrations, overlap_areas
 from ..engine.groups import INVERTED, NONFINITE, VMAX
+from .model import host_write
 
 
 class SimulationError(RuntimeError):
@@ -106,7 +107,7 @@ def restore(sim, snap: dict) -> None:
     sim.step_count = snap["step_count"]
     sim._clock = snap["clock"]
     sim.model.dt = snap["dt"]
-    sim.model.step_dt[None] = snap["dt"]
+    host_write(sim.model.step_dt, None, snap["dt"])
     sim._after_restore()
 
 
