@@ -7,9 +7,15 @@ a GPU and on the CPU in the same run.
 
 Each (device, scene, size, precision) runs in its own subprocess of this script (Taichi is
 initialised once per process) and prints one row: triangles, steps/s, triangle-steps/s, the
-compile time (first step minus a later step), the device and its memory setting
-(``device_memory_GB``, CUDA only).  This is a benchmark, not a test: it asserts only that the
-runs finish and stay stable.
+compile time (first step minus a later step), the device and its memory:
+
+* ``arrays``: the bytes of every Taichi ndarray the simulation allocated (its model, state and
+  scratch arrays, :func:`array_bytes`), on every backend: what the scene needs on the device;
+* ``pool``: on CUDA, the memory Taichi pre-allocates, the ``device_memory_GB`` setting
+  (``--device-memory-GB``) or, without it, Taichi's default (``device_memory_fraction`` of the
+  device); other backends allocate per array and have no pool (``-``).
+
+This is a benchmark, not a test: it asserts only that the runs finish and stay stable.
 """
 from __future__ import annotations
 
@@ -22,6 +28,26 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
+
+
+def ndarray_bytes(arr) -> int:
+    """Bytes of one Taichi ndarray: its entries × the components of an entry × their size."""
+    import numpy as np
+    from taichi.lang.util import to_numpy_type
+    comps = int(getattr(arr, "n", None) or 1) * int(getattr(arr, "m", None) or 1)     # vector n, matrix n × m
+    return int(np.prod(arr.shape, dtype=np.int64)) * comps * np.dtype(to_numpy_type(arr.dtype)).itemsize
+
+
+def array_bytes(sim) -> int:
+    """Bytes of the Taichi ndarrays of ``sim.model``, ``sim.state`` and ``sim.scratch``."""
+    import taichi as ti
+    seen, total = set(), 0
+    for holder in (sim.model, sim.state, sim.scratch):
+        for v in vars(holder).values():
+            if isinstance(v, ti.lang._ndarray.Ndarray) and id(v) not in seen:
+                seen.add(id(v))
+                total += ndarray_bytes(v)
+    return total
 
 
 def worker(a) -> dict:
@@ -46,8 +72,11 @@ def worker(a) -> dict:
     t3 = time.perf_counter()
     sps = a.steps / (t3 - t2)
     return {"device": sim.info()["device"], "scene": a.scene, "precision": a.precision, "triangles": sim.tri_count,
-            "steps_per_s": sps, "tri_steps_per_s": sps * sim.tri_count, "compile_s": (t1 - t0) - (t2 - t1),
-            "device_memory_GB": a.device_memory_GB, "broken": int(getattr(sim, "broken_joint_count", 0))}
+            "steps_per_s": sps, "tri_steps_per_s": sps * sim.tri_count, "compile_s": max(0.0, (t1 - t0) - (t2 - t1)),
+            "device_memory_GB": a.device_memory_GB, "array_bytes": array_bytes(sim),
+            "pool": (f"{a.device_memory_GB} GB" if a.device_memory_GB else "default fraction")
+            if sim.info()["device"] == "cuda" else "-",
+            "broken": int(getattr(sim, "broken_joint_count", 0))}
 
 
 def main(argv=None):
@@ -87,7 +116,7 @@ def main(argv=None):
                     rows.append(row)
                     print(f"{row['scene']:7s} {row['device']:7s} {row['precision']} {row['triangles']:>9d} tri  "
                           f"{row['steps_per_s']:9.1f} steps/s  {row['tri_steps_per_s']:.3g} tri-steps/s  "
-                          f"compile {row['compile_s']:.1f} s  memory {row['device_memory_GB'] or 'default'}",
+                          f"compile {row['compile_s']:.1f} s  arrays {row['array_bytes'] / 1e6:.3f} MB  pool {row['pool']}",
                           flush=True)
     return rows
 

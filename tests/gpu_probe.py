@@ -2,7 +2,9 @@
 
 Run as ``python tests/gpu_probe.py ARCH PRECISION``: prints one JSON line, a dict keyed by
 case with the final positions [m], the couples, the broken joints, the energy terms, the
-crack events, the fragments, a rendered frame's mean colour and a checkpoint round trip.
+crack events, the fragments, a rendered frame's mean colour, three frames (body with cracks,
+damage, and the supersampled speed of a velocity field set from the rest positions) and a checkpoint round trip (the state arrays as loaded, and the
+positions after stepping on).
 Every case uses ``strategy="parallel"`` with the slot assembly (the GPU default), so that the
 CPU run is the same algorithm.  A separate process: Taichi is initialised once per process.
 
@@ -75,12 +77,31 @@ def snapshot(sim, arch):
     ev = sim.crack_events()
     fr = sim.fragments()
     img = RendererImage(width=96, height=64).render_sim(sim)
-    return {"x": sim.node_positions().tolist(), "couples": sorted(map(list, {(int(min(a, b)), int(max(a, b)))
-                                                                          for a, b in sim.couples()})),
-            "broken": int(sim.broken_joint_count), "energies": {k: float(v) for k, v in e.items()},
-            "events": int(len(ev["index"])), "event_joints": sorted(int(i) for i in ev["index"]),
-            "fragments": int(fr["count"]), "image_mean": float(np.asarray(img, dtype=np.float64).mean()),
-            "image_shape": list(np.shape(img)), "device": sim.info().get("device", arch)}
+    frames = {"body_cracks": RendererImage(width=96, height=64, cracks=True).render_sim(sim),
+              "damage": RendererImage(width=96, height=64, color_by="damage").render_sim(sim)}
+    out = {"x": sim.node_positions().tolist(), "couples": sorted(map(list, {(int(min(a, b)), int(max(a, b)))
+                                                                         for a, b in sim.couples()})),
+           "broken": int(sim.broken_joint_count), "energies": {k: float(v) for k, v in e.items()},
+           "events": int(len(ev["index"])), "event_joints": sorted(int(i) for i in ev["index"]),
+           "fragments": int(fr["count"]), "image_mean": float(np.asarray(img, dtype=np.float64).mean()),
+           "image_shape": list(np.shape(img)), "device": sim.info().get("device", arch),
+           "frames": {k: np.asarray(v).tolist() for k, v in frames.items()}}
+    # the speed colours of a velocity field set from the rest positions (the same on every device,
+    # unlike the f32 velocities of the run), through the supersampled path: the device's colour map
+    X = np.asarray(sim.model.node_rest, dtype=np.float64)
+    sim.set_node_velocities(np.stack([4.0 * (X[:, 0] - X[:, 0].min()), -2.0 * (X[:, 1] - X[:, 1].min())], axis=1))
+    out["frames"]["speed_ss2"] = RendererImage(width=96, height=64, color_by="speed", supersample=2, vmin=0.0,
+                                               vmax=2.0, colorbar=False).render_sim(sim).tolist()
+    return out
+
+
+def state_arrays(sim) -> dict:
+    """Every Taichi array of the state, as NumPy (step_int without its REBALANCE slot, which a
+    load resets to redo the block split)."""
+    from taichi_fdem.engine.groups import REBALANCE
+    out = {k: v.to_numpy() for k, v in vars(sim.state).items() if hasattr(v, "to_numpy")}
+    out["step_int"][REBALANCE] = 0
+    return out
 
 
 def run_case(name, arch):
@@ -96,8 +117,12 @@ def run_case(name, arch):
     with tempfile.TemporaryDirectory() as d:
         path = os.path.join(d, "c.fdem")
         sim.save(path)
+        saved = state_arrays(sim)
         sim.step(STEPS // 2)
         back = fdem.Simulation.load(path)
+        loaded = state_arrays(back)
+        state_same = sorted(saved) == sorted(loaded) and all(
+            saved[k].shape == loaded[k].shape and np.array_equal(saved[k], loaded[k]) for k in saved)
         back.assembly = sim.assembly
         back.step(STEPS // 2)
         same = bool(np.array_equal(back.node_positions(), sim.node_positions()))
@@ -106,6 +131,7 @@ def run_case(name, arch):
     if name == "fluid":
         out["fluid_pressures"] = sim.fluid_pressures()[1].tolist()
         out["injected"] = sim.injected_volumes().tolist()
+    out["checkpoint_state_same"] = bool(state_same)
     return out
 
 

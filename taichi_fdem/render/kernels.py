@@ -9,7 +9,10 @@
   (speed, displacement, von Mises and principal stresses), the latter with their finite range;
 * :func:`_cracks_u8_kernel` -- the broken joints of a simulation as their two crack faces (crack
   overlay), one thread per joint, straight into a uint8 image;
-* :func:`_bbox_kernel`, :func:`_centroid_kernel`, :func:`_clear_u8_kernel` -- bounding box, centroids, clearing.
+* :func:`_bbox_kernel`, :func:`_centroid_kernel`, :func:`_clear_u8_kernel` -- bounding box, centroids, clearing;
+* :func:`_drawn_tris_kernel`, :func:`_tri_damage_kernel`, :func:`_colormap_kernel` -- the
+  triangles left by an excavation, the per-triangle damage and the colours of the scalars, from
+  the simulation's device arrays (a frame copies only its image to the host).
 
 All kernels take ``ti.types.ndarray()`` arguments, so a new scene or image size never causes
 a recompilation (kernels are compiled once per dtype / dimensionality).
@@ -423,3 +426,41 @@ def _cracks_u8_kernel(x: ti.types.ndarray(), jn: ti.types.ndarray(), js: ti.type
                             if (pc - (a + t * ab)).norm() <= half_w:
                                 for k in ti.static(range(3)):
                                     img[r, q, k] = c8[k]
+
+
+@ti.kernel
+def _drawn_tris_kernel(tri: ti.types.ndarray(), intact: ti.types.ndarray(), out: ti.types.ndarray()):
+    """out[t] = tri[t], or (−1, −1, −1) for a triangle removed by an excavation (intact[t] < 0),
+    which the raster kernels skip: the simulation's own arrays, on the device."""
+    for t in range(tri.shape[0]):
+        v = tri[t]
+        if intact[t] < 0:
+            v = ti.Vector([-1, -1, -1], dt=ti.i32)
+        out[t] = v
+
+
+@ti.kernel
+def _tri_damage_kernel(start: ti.types.ndarray(), joints: ti.types.ndarray(), dmax: ti.types.ndarray(),
+                       state: ti.types.ndarray(), out: ti.types.ndarray()):
+    """Per-triangle damage (as ``Simulation.tri_damage``): the largest damage of the triangle's
+    joints joints[start[t]:start[t + 1]], a joint's damage being the largest of its dmax, 1 once
+    broken (state != 0); 0 for a triangle without joints.  One thread per triangle, no atomics."""
+    for t in range(out.shape[0]):
+        d = out[t] * 0.0
+        for q in range(start[t], start[t + 1]):
+            j = joints[q]
+            dj = ti.max(dmax[j][0], ti.max(dmax[j][1], dmax[j][2]))
+            if state[j] != 0:
+                dj = 1.0
+            d = ti.max(d, dj)
+        out[t] = d
+
+
+@ti.kernel
+def _colormap_kernel(scal: ti.types.ndarray(), rng: ti.types.ndarray(), cpos: ti.types.ndarray(),
+                     ctab: ti.types.ndarray(), out: ti.types.ndarray()):
+    """out[t] = the colour of scal[t] through the colour map table cpos / ctab over
+    [rng[0], rng[1]] (:func:`_cmap`, as the supersample-1 raster colours its triangles)."""
+    K = cpos.shape[0]
+    for t in range(scal.shape[0]):
+        out[t] = _cmap(scal[t], rng[0], rng[1], cpos, ctab, K)

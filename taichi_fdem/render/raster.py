@@ -17,10 +17,10 @@ from taichi_fdem import backend
 
 from ._util import (_check_color, _check_pos_int, _check_range, _check_real, _check_view, _is_ndarray,
                     _np_dtype, _to_np)
-from .colors import COLOR_MODES, COLORMAPS, _check_color_by, body_colors, colormap
-from .kernels import (_bbox_kernel, _centroid_kernel, _clear_kernel, _clear_u8_kernel, _cracks_u8_kernel,
-                      _raster_kernel, _raster_u8_kernel, _resolve_kernel, _sim_scalar_kernel, _to_pixels_kernel,
-                      _tri_scalar_kernel, _vec3f)
+from .colors import COLOR_MODES, COLORMAPS, _check_color_by, body_colors
+from .kernels import (_bbox_kernel, _centroid_kernel, _clear_kernel, _clear_u8_kernel, _colormap_kernel,
+                      _cracks_u8_kernel, _drawn_tris_kernel, _raster_kernel, _raster_u8_kernel, _resolve_kernel,
+                      _sim_scalar_kernel, _to_pixels_kernel, _tri_damage_kernel, _tri_scalar_kernel, _vec3f)
 from .labels import _Overlays
 
 __all__ = ["RendererImage"]
@@ -145,7 +145,7 @@ class RendererImage(_Overlays):
         self._last_scal_nd = None  # ... or the ndarray holding them (converted on access)
         self._sprites = {}         # (text, anchor, font px) -> label sprite (see _label_sprite)
         self._grad = {}            # (rows, cmap) -> colour-bar gradient (rows, 3) u8
-        self._bg_frame = None      # ((H, W, background), (H, W, 3) u8 background image)
+        self._u8_frame = None      # ((H, W), (H, W, 3) u8 image on the device, supersample 1)
         self._np_small = {}        # purpose -> small NumPy array handed to kernels (no copies)
         self.last_range = None    # (vmin, vmax) used by the last scalar frame
         self._sim_ref = None      # weakref to the simulation whose constant arrays are cached
@@ -305,13 +305,12 @@ class RendererImage(_Overlays):
         x_nd, t_nd, c_nd = self._prepare(node_x, tri_nodes, tri_color)
         return self._draw(x_nd, t_nd, c_nd, self._world_box(x_nd))
 
-    def _background(self):
-        key = (self.height, self.width, self.background)
-        if self._bg_frame is None or self._bg_frame[0] != key:
-            bg = np.empty((self.height, self.width, 3), dtype=np.uint8)
-            _clear_u8_kernel(bg, ti.Vector(self.background, dt=ti.f32))
-            self._bg_frame = (key, bg)
-        return self._bg_frame[1]
+    def _u8_image(self):
+        """The (H, W, 3) u8 image on the device (supersample 1), reused while the size holds."""
+        key = (self.height, self.width)
+        if self._u8_frame is None or self._u8_frame[0] != key:
+            self._u8_frame = (key, ti.ndarray(dtype=ti.u8, shape=(self.height, self.width, 3)))
+        return self._u8_frame[1]
 
     def _cmap_nd(self, name):
         """The colour map table (positions, RGB) as ndarrays of the real dtype, uploaded once."""
@@ -327,14 +326,17 @@ class RendererImage(_Overlays):
             tab = self._small[key] = (cpos, ctab)
         return tab
 
-    def _draw(self, x_nd, t_nd, c_nd, box, reserve_right=0, scal=None, rng=None) -> np.ndarray:
+    def _draw(self, x_nd, t_nd, c_nd, box, reserve_right=0, scal=None, rng=None, cracks_of=None) -> np.ndarray:
         """Rasterise; colours are c_nd, or (supersample 1 only) the scalars scal mapped through
-        the colour map over rng = (vmin, vmax) inside the raster kernel."""
+        the colour map over rng = (vmin, vmax) inside the raster kernel; then the cracks of the
+        simulation ``cracks_of`` (if given).  The image is drawn on the device and is the one
+        array copied to the host."""
         s = self.supersample
         view, scale = self._letterbox(box, reserve_right)
         self.last_view = view
-        if s == 1:  # one launch straight into a u8 NumPy image: no float image, no copies
-            img = self._background().copy()
+        if s == 1:  # one launch straight into a u8 image: no float image
+            img = self._u8_image()
+            _clear_u8_kernel(img, ti.Vector(self.background, dt=ti.f32))
             if x_nd is not None and t_nd is not None:
                 vmin, vmax = rng if rng is not None else (0.0, 1.0)
                 params = np.array([view[0], view[3], scale, vmin, vmax], dtype=_np_dtype(x_nd.dtype))
@@ -348,7 +350,9 @@ class RendererImage(_Overlays):
                 _raster_u8_kernel(x_nd, t_nd, c_nd, scal, use_scal,
                                   cpos, ctab, params, img, ti.Vector(self.edge_color, dt=ti.f32),
                                   float(0.5 * self.edge_width), int(draw))
-            return img
+            if cracks_of is not None:
+                self._draw_cracks(cracks_of, img)
+            return img.to_numpy()
         img, out = self._buffers()
 
         _clear_kernel(img, ti.Vector(self.background, dt=ti.f32))
@@ -366,6 +370,8 @@ class RendererImage(_Overlays):
             _raster_kernel(p_nd, t_nd, c_nd, img, ti.Vector(self.edge_color, dt=ti.f32),
                            float(0.5 * self.edge_width * s), int(draw))
         _resolve_kernel(img, out, s)
+        if cracks_of is not None:
+            self._draw_cracks(cracks_of, out)
         return out.to_numpy()
 
     __call__ = render
@@ -411,22 +417,34 @@ class RendererImage(_Overlays):
 
     def _drawn_triangles(self, sim, consts):
         """The simulation's triangles, those removed by an excavation given index −1 (the raster
-        kernels skip them); cached per number of removed triangles."""
-        active = getattr(sim, "active_triangles", None)
-        if not callable(active):
+        kernels skip them), written on the device from ``state.tri_intact`` every frame."""
+        intact = getattr(getattr(sim, "state", None), "tri_intact", None)
+        if intact is None:
             return sim.model.tri_nodes
-        keep = np.asarray(active(), dtype=bool)
-        if keep.all():
-            return sim.model.tri_nodes
-        key = ("drawn_triangles", int((~keep).sum()))
-        nd = consts.get(key)
+        nd = consts.get("drawn_triangles")
         if nd is None:
-            t = np.array(sim.model.tri_nodes_np, dtype=np.int32)
-            t[~keep] = -1
-            nd = ti.Vector.ndarray(3, ti.i32, shape=(len(t),))
-            nd.from_numpy(t)
-            consts[key] = nd
+            nd = consts["drawn_triangles"] = ti.Vector.ndarray(3, ti.i32, shape=(sim.tri_count,))
+        _drawn_tris_kernel(sim.model.tri_nodes, intact, nd)
         return nd
+
+    @staticmethod
+    def _joints_by_triangle(sim, consts):
+        """Each triangle's joints as (start (m + 1,), joints) i32 ndarrays: the joints of triangle
+        t are joints[start[t]:start[t + 1]] (constant per simulation, built once)."""
+        tab = consts.get("joints_by_triangle")
+        if tab is None:
+            jt = np.asarray(sim.model.joint_tris_np, dtype=np.int64).reshape(-1, 2)
+            tri_of = jt.reshape(-1)
+            order = np.argsort(tri_of, kind="stable")
+            counts = np.bincount(tri_of, minlength=sim.tri_count)
+            start_np = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
+            joints_np = (order // 2).astype(np.int32) if len(order) else np.zeros(1, np.int32)
+            start = ti.ndarray(dtype=ti.i32, shape=(sim.tri_count + 1,))
+            start.from_numpy(start_np)
+            joints = ti.ndarray(dtype=ti.i32, shape=(len(joints_np),))
+            joints.from_numpy(joints_np)
+            tab = consts["joints_by_triangle"] = (start, joints)
+        return tab
 
     def _frame_scalars(self, sim, kid):
         """Per-triangle scalars of mode id kid into a per-simulation ndarray (kept on the
@@ -439,8 +457,12 @@ class RendererImage(_Overlays):
         info = self._np_small.get("range")
         if info is None:
             info = self._np_small["range"] = np.zeros(3, dtype=np.float64)
-        if kid < 0:      # "damage": per-triangle joint damage from the simulation, fixed range [0, 1]
-            scal.from_numpy(np.ascontiguousarray(sim.tri_damage(), dtype=_np_dtype(sim.state.node_x.dtype)))
+        if kid < 0:      # "damage": per-triangle joint damage (as sim.tri_damage()), fixed range [0, 1]
+            if getattr(sim, "fracture", False) and int(getattr(sim, "joint_count", 0) or 0):
+                start, joints = self._joints_by_triangle(sim, consts)
+                _tri_damage_kernel(start, joints, sim.state.joint_dmax, sim.state.joint_state, scal)
+            else:
+                scal.fill(0)
             info[:] = (0.0, 1.0, sim.tri_count)
             return scal, info
         _sim_scalar_kernel(sim.state.node_x, sim.state.node_v, x0, sim.model.tri_nodes, sim.model.tri_rest_inv, sim.model.tri_mat,
@@ -517,12 +539,12 @@ class RendererImage(_Overlays):
             if self.supersample == 1:
                 c_nd = None     # coloured inside the raster kernel
             else:
-                cols = colormap(scal.to_numpy().astype(np.float64), vmin, vmax, self.cmap)
                 c_nd = consts.get("scalar_colors")
                 if c_nd is None:
                     c_nd = ti.Vector.ndarray(3, ti.f32, shape=(sim.tri_count,))
                     consts["scalar_colors"] = c_nd
-                c_nd.from_numpy(cols)
+                cpos, ctab = self._cmap_nd(self.cmap)
+                _colormap_kernel(scal, np.array([vmin, vmax], dtype=_np_dtype(scal.dtype)), cpos, ctab, c_nd)
             self._last_scalars = None
             self._last_scal_nd = scal
             self.last_range = (vmin, vmax)
@@ -535,9 +557,8 @@ class RendererImage(_Overlays):
         layout = self._bar_layout() if bar is not None else None
         img = self._draw(sim.state.node_x, self._drawn_triangles(sim, consts), c_nd, box,
                          layout["reserve"] if layout else 0,
-                         scal=None if kid is None else scal, rng=None if kid is None else (vmin, vmax))
-        if self.cracks:
-            self._draw_cracks(sim, img)
+                         scal=None if kid is None else scal, rng=None if kid is None else (vmin, vmax),
+                         cracks_of=sim if self.cracks else None)
         stamp = f"t = {sim.time:.4g} s  step {sim.step_count}" if self.stamp else None
         if bar is not None or stamp is not None:
             img = self._overlay(img, bar, layout, stamp)

@@ -9,7 +9,7 @@ import taichi as ti
 
 from .. import backend
 from ..engine.groups import DACC, DACC_FORCE, SWITCH_BC
-from .model import set_counter
+from .model import host_write, set_counter
 
 __all__ = ["remove", "apply_removal"]
 
@@ -68,7 +68,7 @@ def apply_removal(sim) -> None:
         md.node_free = ti.Vector.ndarray(2, backend.real_ti(), shape=n)
         md.node_free.from_numpy(np.ones((n, 2), real))
         md.has_bc = True
-        md.step_switches[None] = int(md.step_switches[None]) | SWITCH_BC
+        host_write(md.step_switches, None, int(md.step_switches[None]) | SWITCH_BC)
     for name in ("node_vbc", "node_react"):
         if getattr(st, name).shape[0] != n:
             arr = ti.Vector.ndarray(2, backend.real_ti(), shape=n)

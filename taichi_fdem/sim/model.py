@@ -48,8 +48,19 @@ def _ndarray(data: np.ndarray, dtype, vec: int | None = None, mat: tuple | None 
 def _scalar(value, dtype):
     """A 0-d Taichi ndarray holding ``value``."""
     arr = ti.ndarray(dtype, shape=())
-    arr[None] = value
+    host_write(arr, None, value)
     return arr
+
+
+def host_write(arr, key, value) -> None:
+    """``arr[key] = value`` from the host, after the kernels already launched have finished.
+
+    Taichi's element write from Python does not wait for the device: on Vulkan it lands before a
+    kernel still in flight (a ``fill`` or a step) runs, which then overwrites or adds to it.
+    Every host write of an ndarray element goes through here (reads and ``from_numpy`` are
+    ordered with the launches already)."""
+    ti.sync()
+    arr[key] = value
 
 
 def counter(arr, k: int):
@@ -59,8 +70,8 @@ def counter(arr, k: int):
 
 
 def set_counter(arr, k: int, value) -> None:
-    """Set counter k of State.step_real / step_int."""
-    arr[k] = value
+    """Set counter k of State.step_real / step_int (:func:`host_write`)."""
+    host_write(arr, k, value)
 
 
 def _next_pow2(n: int) -> int:
@@ -337,7 +348,7 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     md.joint_prop = _ndarray(np.concatenate(cols, axis=1).astype(real), rti, vec=sum(c.shape[1] for c in cols))
     md.step_dt = _scalar(md.dt, rti)
     md.step_gravity = ti.Vector.ndarray(2, rti, shape=())
-    md.step_gravity[None] = [float(g) for g in scene.gravity]
+    host_write(md.step_gravity, None, [float(g) for g in scene.gravity])
     md.step_buffer = _scalar(buffer, rti)
     md.step_vlimit = _scalar(md.speed_limit, rti)
     md.load_nodes = _ndarray(load_nodes if md.loads else np.zeros((1, 5), np.int32), ti.i32, vec=5)

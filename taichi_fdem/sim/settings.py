@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import math
 
+from .model import host_write
+
 __all__ = ["ModelValues"]
 
 
@@ -55,7 +57,7 @@ class ModelValues:
                              f"dt < {1.0 / md.dashpot_rate:.4g} s")
         object.__setattr__(self, "_clock", (self.time, self.step_count))
         md.dt = dt
-        md.step_dt[None] = dt
+        host_write(md.step_dt, None, dt)
 
     dt_limit = _model_value("dt_limit", "Estimated stable time step [s] of the scene.")
     node_count = _model_value("node_count", "Number of nodes.")
