@@ -320,3 +320,13 @@ def test_a_source_off_the_cracks_warns():
     scene.inject(lambda x, y: (np.abs(x) < 1e-9) & (np.abs(y) < 1e-9), rate=1e-3)
     with pytest.warns(RuntimeWarning, match="inject #0: none of its 1 network node"):
         scene.build()
+
+
+def test_auto_runs_a_fluid_scene_serial_on_the_cpu(monkeypatch):
+    """'auto' never picks the parallel strategy for a scene with a fluid on the CPU (it runs one
+    step per launch there, without the team), however many items it has."""
+    import taichi_fdem.sim.simulation as simmod
+    monkeypatch.setattr(simmod, "AUTO_PARALLEL_ITEMS", 1)
+    monkeypatch.setattr(simmod.backend, "cpu_threads", lambda: 2)
+    monkeypatch.setattr(simmod.backend, "usable_cores", lambda: 2)
+    assert cubic_law_scene().build().strategy == "serial"
