@@ -149,6 +149,6 @@ def test_demo_full_mode_runs_to_the_end(name, tmp_path):
     """`python demos/NAME.py` in full mode (as `make demos` runs it) passes its own checks, and the
     README's figures hold.  In-process, so that the returned numbers can be checked; the
     command-line path is the same main()."""
-    ext = ".csv" if name == "sweep_friction" else ".mp4"
+    ext = ".csv" if name in ("sweep_friction", "calibrate_granite") else ".mp4"
     r = _load(name).main(["--out", str(tmp_path / f"{name}{ext}")])
     _readme_figures(name, r)
