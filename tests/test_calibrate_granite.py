@@ -20,7 +20,6 @@ def test_argument_handling():
             mod.parse(bad)
 
 
-@pytest.mark.slow
 def test_elastic_stage_modulus_proportional_to_the_grain_modulus():
     """Stage 1's model at fixed dimensionless groups (every modulus, the joint penalty and the
     strengths scale with E_g; the density is fixed, so time scales as 1/√E_g): the measured E
