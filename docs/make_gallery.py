@@ -20,8 +20,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 DEMOS = os.path.join(ROOT, "demos")
 GALLERY = os.path.join(HERE, "gallery")
-#: demos that make no video of their own (the sweep writes a CSV)
-NO_VIDEO = ("sweep_friction",)
+#: demos that make no video of their own (the sweep and the calibration write a CSV and a plot)
+NO_VIDEO = ("sweep_friction", "calibrate_granite")
 
 
 def demo_names() -> list:

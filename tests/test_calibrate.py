@@ -100,3 +100,13 @@ def test_dask_path_gives_the_serial_result(serial):
     assert [r["score"] for r in dk.history] == pytest.approx([r["score"] for r in serial.history], rel=1e-9)
     assert dk.best == pytest.approx(serial.best, rel=1e-9)
     assert [r["status"] for r in dk.history] == [r["status"] for r in serial.history]
+
+
+def test_budget_smaller_than_the_population_of_one_parameter():
+    """A budget that cuts the first generation short (2 of SciPy's 5 members, 1 parameter) stops
+    after exactly 2 evaluations, and the best is the better of the two."""
+    cal = fdem.calibrate(lambda p: {"u": p["a"] ** 2}, {"a": (0.5, 2.0)}, {"u": 1.0}, budget=2, seed=0,
+                         workers=1, popsize=1)
+    assert cal.evaluations == 2
+    scores = [(r["a"] ** 2 - 1.0) ** 2 for r in cal.history]
+    assert cal.best_score == pytest.approx(min(scores), rel=1e-12)

@@ -137,6 +137,10 @@ def _readme_figures(name, r):
         assert r["peak_over_mc_0"] == pytest.approx(1.01, abs=0.02)
         assert r["peak_over_mc_100000"] == pytest.approx(0.97, abs=0.02)
         assert r["peak_over_mc_200000"] == pytest.approx(0.96, abs=0.02)
+    elif name == "calibrate_granite":
+        # docs/guide/demos.md: within 6 % of every Lac du Bonnet target after 50 evaluations
+        assert r["evaluations"] == 50 and r["failed"] == 0
+        assert all(abs(e) < 0.06 for e in r["errors"].values()), r["errors"]
     elif name == "incline":
         t = r["time"]
         s = 0.5 * G * (math.sin(math.radians(30.0)) - 0.3 * math.cos(math.radians(30.0))) * t * t
@@ -149,6 +153,6 @@ def test_demo_full_mode_runs_to_the_end(name, tmp_path):
     """`python demos/NAME.py` in full mode (as `make demos` runs it) passes its own checks, and the
     README's figures hold.  In-process, so that the returned numbers can be checked; the
     command-line path is the same main()."""
-    ext = ".csv" if name == "sweep_friction" else ".mp4"
+    ext = ".csv" if name in ("sweep_friction", "calibrate_granite") else ".mp4"
     r = _load(name).main(["--out", str(tmp_path / f"{name}{ext}")])
     _readme_figures(name, r)

@@ -100,3 +100,16 @@ def test_grain_specimen_with_grain_boundary_joints_builds_and_steps():
     x = sim.state.node_x.to_numpy()
     assert np.all(np.isfinite(x))
     assert sim.info()["joint_sets"]["grain_boundaries"] == int(js.sum())
+
+
+def test_lab_tests_take_grain_boundary_joint_sets_and_name_a_bad_one():
+    """``joint_sets=`` of fdem.lab.ucs / brazilian: a malformed entry is refused before any run,
+    naming its index."""
+    m, lab = mesh.voronoi_grains(0.02, 0.04, 0.01, 0.005, seed=1, minerals={"quartz": 1.0})
+    mats = lab.materials({"quartz": fdem.Material(**ROCK, name="quartz")})
+    with pytest.raises(ValueError, match=r"joint_sets\[0\] must be a \(name, selector, Material\) triple"):
+        fdem.lab.ucs(mats, 0.02, 0.04, 0.005, mesh=m, groups=lab, joint_sets=[("gb", "interfaces")])
+    d, dl = mesh.voronoi_grains(0.04, 0.04, 0.01, 0.005, seed=1, minerals={"quartz": 1.0}, shape="disc")
+    with pytest.raises(ValueError, match=r"lab.brazilian: joint_sets\[1\]"):
+        fdem.lab.brazilian(dl.materials({"quartz": fdem.Material(**ROCK, name="quartz")}), 0.04, 0.005, mesh=d,
+                           groups=dl, joint_sets=[("gb", "interfaces", fdem.Material(**ROCK)), "weak"])

@@ -10,7 +10,7 @@ import numpy as np
 from .. import mesh as _mesh
 from ..material import Material
 from ..scene import Curve
-from .specimens import axial_record, jointed_specimen_mesh, mohr_coulomb_peak, platen_scene
+from .specimens import axial_record, check_joint_sets, jointed_specimen_mesh, mohr_coulomb_peak, platen_scene
 from .results import LabResult, check_rate, elastic_constants, specimen_kinetic, warn_kinetic
 
 
@@ -46,7 +46,7 @@ def compression(material, width: float, height: float, h: float, confinement: fl
                 max_strain: float | None = None, samples: int = 150, stop_drop: float = 0.8,
                 safety: float = 0.2, quasi_static: bool = True, handover_damage: float | None = None,
                 penalty_factor: float = 10.0, video: str | None = None, history: str | None = None,
-                frame=None, test: str = "triaxial") -> LabResult:
+                frame=None, joint_sets=(), test: str = "triaxial") -> LabResult:
     """A compression test of a ``width`` × ``height`` [m] specimen (mesh size ``h`` [m]) between
     frictionless platens, confined by a pressure ``confinement`` = σ3 [Pa] on its sides.
 
@@ -59,7 +59,9 @@ def compression(material, width: float, height: float, h: float, confinement: fl
 
     ``material``: a Material, or a dict of Materials with ``groups`` (one label per triangle of
     ``mesh``).  ``fracture``: passed to ``Scene.add_body`` (default: True when the material
-    can fracture).  ``mesh``: the specimen's TriMesh centred on the origin (default: the
+    can fracture).  ``joint_sets``: (name, selector, Material) triples added with
+    :meth:`Scene.add_joint_set`, e.g. ``[("grain_boundaries", "interfaces", weak)]`` on a
+    :func:`~taichi_fdem.mesh.voronoi_grains` specimen.  ``mesh``: the specimen's TriMesh centred on the origin (default: the
     triangular lattice of ``verification.jointed_specimen_mesh`` with fracture, else
     ``mesh.rectangle``).  The joint penalty defaults to ``penalty_factor`` × E.
 
@@ -109,7 +111,8 @@ def compression(material, width: float, height: float, h: float, confinement: fl
     start = Curve([0.0, t1, t1 + 5 * transit], [0.0, 0.0, 1.0], name="platens") if t1 > 0 else \
         Curve([0.0, 5 * transit], [0.0, 1.0], name="platens")
     scene, spec, top, bot = platen_scene(mesh, material, platen_material=platen, plane=plane, fracture=fracture,
-                                         strain_rate=rate, groups=groups)
+                                         strain_rate=rate, groups=groups,
+                                         joint_sets=check_joint_sets(joint_sets, where))
     top.velocity_curve = start
     bot.velocity_curve = start
     if confinement > 0:

@@ -12,9 +12,20 @@ from ..mesh import TriMesh
 from ..scene import Curve, Scene
 
 
+def check_joint_sets(joint_sets, where: str) -> list:
+    """``joint_sets`` of a lab test -- an iterable of (name, selector, Material) -- as a list of
+    triples; anything else raises ValueError naming the entry."""
+    out = []
+    for k, js in enumerate(joint_sets or ()):
+        if not (isinstance(js, (tuple, list)) and len(js) == 3 and isinstance(js[2], Material)):
+            raise ValueError(f"{where}: joint_sets[{k}] must be a (name, selector, Material) triple, got {js!r}")
+        out.append(tuple(js))
+    return out
+
+
 def platen_scene(specimen_mesh: TriMesh, material: Material, platen_material: Material | None = None,
                  plane: str = "strain", fracture: bool = False, strain_rate: float = 0.1,
-                 t_ramp: float = 0.0, gravity=(0.0, 0.0), groups=None):
+                 t_ramp: float = 0.0, gravity=(0.0, 0.0), groups=None, joint_sets=()):
     """A specimen (its mesh centred on the origin) between two platens driven towards each other.
 
     The platens (as wide as 1.6 × the specimen, 1/10 of its height thick) have prescribed
@@ -22,7 +33,9 @@ def platen_scene(specimen_mesh: TriMesh, material: Material, platen_material: Ma
     by a linear ``Curve`` ramp over ``t_ramp`` seconds.  Contact between specimen and platens
     uses ``platen_material`` (default: the specimen's material with no friction: frictionless
     platens, a uniform uniaxial stress).  ``material`` may be a dict of Materials with ``groups``
-    (one label per triangle).  Returns (scene, specimen, top platen, bottom platen).
+    (one label per triangle).  ``joint_sets``: (name, selector, Material) triples added to the
+    specimen with :meth:`Scene.add_joint_set` (e.g. ``("grain_boundaries", "interfaces", weak)``).
+    Returns (scene, specimen, top platen, bottom platen).
     """
     x0, y0, x1, y1 = specimen_mesh.bounding_box()
     W, H = x1 - x0, y1 - y0
@@ -30,6 +43,8 @@ def platen_scene(specimen_mesh: TriMesh, material: Material, platen_material: Ma
     pm = platen_material or mats[0].with_(friction=0.0, name="platen")
     scene = Scene(gravity=gravity, plane=plane)
     spec = scene.add_body(specimen_mesh, material, fracture=fracture, name="specimen", groups=groups)
+    for name, selector, m in check_joint_sets(joint_sets, "lab"):
+        scene.add_joint_set(name, selector, m, body=spec)
     v = strain_rate * 0.5 * H
     t = 0.1 * H
     curve = Curve.ramp(t_ramp) if t_ramp > 0 else None

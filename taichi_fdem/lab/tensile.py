@@ -8,11 +8,12 @@ import warnings
 from ..verification.fracture import brazilian_load, brazilian_result, brazilian_scene, hondros_factor
 from .compressive import _first, _positive, video_frames
 from .results import LabResult, check_rate, specimen_kinetic, warn_kinetic
+from .specimens import check_joint_sets
 
 
 def brazilian(material, diameter: float, h: float, *, alpha_deg: float = 10.0, load_time: float = 100.0,
               samples: int = 240, safety: float = 0.35, platen=None, strength=None, groups=None, mesh=None,
-              plane: str = "strain", max_time: float = 3.0, video: str | None = None) -> LabResult:
+              plane: str = "strain", max_time: float = 3.0, joint_sets=(), video: str | None = None) -> LabResult:
     """Brazilian test of a disc of ``diameter`` D [m], mesh size ``h`` [m], every interior edge
     a cohesive joint, between two platens closing at ±v.
 
@@ -25,7 +26,8 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float = 10.0, l
     work over a window of D/c_p divided by their approach (filters contact chatter and ringing).
 
     ``material``: a Material or a dict of Materials with ``groups`` (labels per triangle of
-    ``mesh``, a disc centred on the origin).  ``platen``: the platens' Material (default:
+    ``mesh``, a disc centred on the origin).  ``joint_sets``: (name, selector, Material) triples
+    added with :meth:`Scene.add_joint_set` (e.g. ``[("grain_boundaries", "interfaces", weak)]``).  ``platen``: the platens' Material (default:
     10 × stiffer, penalty 3 × the disc's E).  ``load_time``: the loading to the expected peak
     (approach 5.6 D f_t/E) lasts this many D/c_p; below ``MIN_TRANSITS`` it is refused.  The test
     stops when the load has dropped below 30 % of its peak (``peaked`` True), or after
@@ -53,7 +55,8 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float = 10.0, l
     t0 = _time.perf_counter()
     sim, bodies, p = brazilian_scene(elements=elements, load_time=load_time, D=diameter, alpha_deg=alpha_deg,
                                      safety=safety, strength=strength, material=material, platen=platen,
-                                     groups=groups, disc_mesh=mesh, plane=plane)
+                                     groups=groups, disc_mesh=mesh, plane=plane,
+                                     joint_sets=check_joint_sets(joint_sets, "lab.brazilian"))
     build = _time.perf_counter() - t0
     writer, draw = video_frames(video, (-0.75 * diameter, 0.75 * diameter, -0.75 * diameter, 0.75 * diameter),
                                 (320, 320))

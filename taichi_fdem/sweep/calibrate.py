@@ -310,7 +310,9 @@ def calibrate(model, params: dict, targets: dict, budget: int = 200, seed: int =
         left = budget - cal.evaluations
         if left <= 0:
             raise _BudgetReached
-        xs = [np.asarray(x, float) for x in xs][:left]
+        xs = [np.asarray(x, float) for x in xs]
+        asked = len(xs)
+        xs = xs[:left]
         pts = [{k: float(x[i]) for i, k in enumerate(names)} for x in xs]
         if scheduler is None:
             if pool is None:
@@ -349,8 +351,8 @@ def calibrate(model, params: dict, targets: dict, budget: int = 200, seed: int =
         cal.wall_s = time.perf_counter() - t_start
         if on_batch is not None:
             on_batch(cal)
-        if len(out) < len(xs) or cal.evaluations >= budget:
-            out += [FAILED_SCORE] * (len(xs) - len(out))
+        # the budget cut the batch short: the optimiser still needs one score per member
+        out += [FAILED_SCORE] * (asked - len(out))
         return out
 
     def mapper(func, iterable):
