@@ -41,12 +41,12 @@ from . import mesh
 from .backend import init
 from .discontinuity import NormalStrength, Weibull
 from .sim.guards import SimulationError
-from .material import Material
+from .material import Fluid, Material
 from .scene import Body, Curve, Scene
 from .sim.simulation import Simulation
 
 __version__ = "0.1.0"
-__all__ = ["init", "mesh", "render", "export", "checkpoint", "scenefile", "sweep", "lab", "Material", "Scene", "Body", "Curve",
+__all__ = ["init", "mesh", "render", "export", "checkpoint", "scenefile", "sweep", "lab", "Material", "Fluid", "Scene", "Body", "Curve",
            "Weibull", "NormalStrength", "Simulation", "SimulationError", "calibrate", "__version__"]
 
 # driver modules, loaded on first attribute access (PEP 562)

@@ -62,8 +62,9 @@ def _init(args) -> None:
 def _fmt_energy(e: dict) -> str:
     """One line per term of ``total`` as it enters it (work done on the system with its minus sign),
     so that the printed terms add up to the printed total."""
-    from .sim.energies import TOTAL_TERMS
-    lines = [f"    {('- ' if sign < 0 else '') + k:<16} {sign * float(e[k]):+.6e} J" for k, sign in TOTAL_TERMS]
+    from .sim.energies import OPTIONAL_TERMS, TOTAL_TERMS
+    lines = [f"    {('- ' if sign < 0 else '') + k:<16} {sign * float(e[k]):+.6e} J"
+             for k, sign in TOTAL_TERMS + OPTIONAL_TERMS if k in e]
     lines.append(f"    {'total':<16} {float(e['total']):+.6e} J")
     return "\n".join(lines)
 

@@ -229,3 +229,57 @@ class Material:
     def with_(self, **changes) -> "Material":
         """A copy with some parameters changed (validated again)."""
         return replace(self, **changes)
+
+
+#: The range of real fracturing fluids (SI): outside it a value is most likely in the wrong
+#: unit.  Water: ρ = 1000 kg/m³, K = 2.2e9 Pa, μ = 1e-3 Pa·s; gases and foams are lighter and
+#: far more compressible, drilling muds and gels denser and up to ~1e3 Pa·s viscous.
+#: ``Fluid`` warns (RuntimeWarning) outside these; it does not refuse.
+FLUID_RANGE = {
+    "density": (1.0, 3000.0, "kg/m³", "e.g. 1000 for water, not 1 g/cm³"),
+    "bulk_modulus": (1e5, 1e10, "Pa", "e.g. 2.2e9 for water"),
+    "viscosity": (1e-6, 1e4, "Pa·s", "e.g. 1e-3 for water, not 1 cP"),
+}
+
+
+@dataclass(frozen=True)
+class Fluid:
+    """A compressible Newtonian fluid in the fracture network (``scene.set_fluid``).
+
+    Parameters (SI units)
+    ---------------------
+    density : reference density ρ [kg/m³], > 0: the fluid's mass is its volume at this density
+        (the network stores that volume, ``M/ρ``).
+    bulk_modulus : K [Pa], > 0: dp = K dV/V (linearised about the reference density).
+    viscosity : dynamic viscosity μ [Pa·s], > 0: the cubic law q = −w³/(12 μ) ∂p/∂s.
+    name : free label.
+
+    Values outside :data:`FLUID_RANGE` give a RuntimeWarning (a unit slip, most likely).
+    """
+
+    density: float = 1000.0
+    bulk_modulus: float = 2.2e9
+    viscosity: float = 1e-3
+    name: str = ""
+
+    def __post_init__(self):
+        where = f"Fluid{'(' + repr(self.name) + ')' if self.name else ''}"
+        for key in ("density", "bulk_modulus", "viscosity"):
+            v = check_finite(key, getattr(self, key), where)
+            if v <= 0:
+                raise ValueError(f"{where}: {key} must be > 0 {FLUID_RANGE[key][2]}, got {getattr(self, key)}")
+            object.__setattr__(self, key, v)
+        for key, (lo, hi, unit, hint) in FLUID_RANGE.items():
+            v = getattr(self, key)
+            if not lo <= v <= hi:
+                warnings.warn(f"{where}: {key}={v:g} {unit} is outside the range of real fluids "
+                              f"[{lo:g}, {hi:g}] {unit}; the unit is {unit} ({hint})", RuntimeWarning, stacklevel=3)
+
+    @property
+    def diffusivity_factor(self) -> float:
+        """K/(12 μ) [1/s]: the pressure diffusivity of a channel of aperture w is w² K/(12 μ) [m²/s]."""
+        return self.bulk_modulus / (12.0 * self.viscosity)
+
+    def with_(self, **changes) -> "Fluid":
+        """A copy with some parameters changed (validated again)."""
+        return replace(self, **changes)

@@ -14,6 +14,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from .material import Material, check_finite
+from .scene_fluid import FluidScene
 from .discontinuity import JointSet, check_strength, resolve, split_body
 from .mesh import TriMesh
 from .mesh.split import explode, interior_edge_table
@@ -230,7 +231,7 @@ class _InitialStress:
     y_ref: float
 
 
-class Scene:
+class Scene(FluidScene):
     """A 2D FDEM scene.
 
     Parameters
@@ -254,6 +255,8 @@ class Scene:
         self._interactions: dict = {}
         self._loads: list[_Load] = []
         self._initial_stress: list[_InitialStress] = []
+        self._fluid: Optional[_FluidSpec] = None
+        self._injections: list[_Injection] = []
         self.joint_sets: list[JointSet] = []
         self._node_count = 0
         self._tri_count = 0
@@ -551,6 +554,10 @@ class Scene:
             props[key] = v
         self._interactions[(id(material_a), id(material_b))] = props
         self._interactions[(id(material_b), id(material_a))] = props
+
+    @staticmethod
+    def _check_curve(curve, where: str):
+        return _curve(curve, where)
 
     # ------------------------------------------------------------------------------------------
     @property

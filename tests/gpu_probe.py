@@ -16,6 +16,9 @@ Cases (the features each runs):
   its top under a ramp curve, an absorbing bottom boundary and local damping, then an
   excavation (``sim.remove``) half-way: heterogeneity, joint sets, cracks, loads and curves,
   absorbing boundaries, initial stress, local damping, excavation.
+* ``fluid``: a jointed block with a central crack fed by a rate source, drained by a pressure
+  source at one of its edges: the fluid in the fracture network (apertures, pressures, the
+  pressure forces and their gather, the flow substeps, joints that break and join the network).
 """
 import json
 import os
@@ -53,6 +56,18 @@ def rock_scene():
     return scene
 
 
+def fluid_scene():
+    rock = fdem.Material(density=2700.0, young=10e9, poisson=0.25, tensile_strength=3e5, cohesion=9e5,
+                         fracture_energy=1.0, friction=0.3)
+    scene = fdem.Scene(gravity=(0.0, 0.0))
+    scene.add_body(fdem.mesh.rectangle(0.2, 0.2, 0.05), rock, fracture=True,
+                   cracks=lambda x, y: (np.abs(y) < 1e-9) & (np.abs(x) < 0.06))
+    scene.set_fluid(fdem.Fluid(bulk_modulus=1e8), aperture_min=1e-5)
+    scene.inject(lambda x, y: (np.abs(x) < 1e-9) & (np.abs(y) < 1e-9), rate=2e-2)
+    scene.inject(lambda x, y: (np.abs(x - 0.05) < 1e-9) & (np.abs(y) < 1e-9), pressure=0.0)
+    return scene
+
+
 def snapshot(sim, arch):
     from taichi_fdem.render import RendererImage
     e = sim.energies()
@@ -68,7 +83,7 @@ def snapshot(sim, arch):
 
 
 def run_case(name, arch):
-    scene = {"impact": impact_scene, "rock": rock_scene}[name]()
+    scene = {"impact": impact_scene, "rock": rock_scene, "fluid": fluid_scene}[name]()
     import warnings
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -87,6 +102,9 @@ def run_case(name, arch):
         same = bool(np.array_equal(back.node_positions(), sim.node_positions()))
     out = snapshot(sim, arch)
     out["checkpoint_same"] = same
+    if name == "fluid":
+        out["fluid_pressures"] = sim.fluid_pressures()[1].tolist()
+        out["injected"] = sim.injected_volumes().tolist()
     return out
 
 
@@ -96,4 +114,4 @@ def main(arch, precision, cases):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], sys.argv[2], sys.argv[3].split(",") if len(sys.argv) > 3 else ["impact", "rock"])
+    main(sys.argv[1], sys.argv[2], sys.argv[3].split(",") if len(sys.argv) > 3 else ["impact", "rock", "fluid"])

@@ -13,10 +13,10 @@ PKG = pathlib.Path(__file__).resolve().parent.parent / "taichi_fdem"
 LAYERS = [
     ("backend", "material", "mesh", "discontinuity"),
     ("engine",),
-    ("timestep", "arrays", "model", "state"),
+    ("timestep", "arrays", "fluid", "model", "state"),
     ("guards", "energies", "cracks", "ae", "results", "outputs", "settings", "profiling", "excavation", "team",
      "simulation"),
-    ("scene",),
+    ("scene", "scene_fluid"),
     ("render", "io", "cli", "sweep", "verification", "lab", "__init__"),
 ]
 

@@ -10,7 +10,9 @@ Feature → test that runs it on Vulkan:
 contact, friction, detection, fracture, crack events, fragments, energies, renderer kernels,
 checkpoints → ``test_vulkan_runs_every_feature[*-impact]``; heterogeneity (Weibull strength),
 joint sets, pre-existing cracks, loads and curves, absorbing boundaries, initial stress, local
-damping, excavation → ``test_vulkan_runs_every_feature[*-rock]``; the agreement with the CPU
+damping, excavation → ``test_vulkan_runs_every_feature[*-rock]``; the fluid in the fracture
+network (both its sources, the pressure forces, the flow substeps) →
+``test_vulkan_runs_every_feature[*-fluid]``; the agreement with the CPU
 → ``test_vulkan_matches_cpu`` (expected to fail: see its marker); the portable log / exp / pow →
 ``test_fmath_on_vulkan``; strain energy at rest → ``test_pile_strain_energy_at_rest_vulkan``;
 the buffer budget → ``test_storage_buffer_budget``.
@@ -92,7 +94,7 @@ def task_buffer_counts(cache_dir) -> dict:
 
 
 @pytest.mark.parametrize("precision", ["f64", "f32"])
-@pytest.mark.parametrize("case", ["impact", "rock"])
+@pytest.mark.parametrize("case", ["impact", "rock", "fluid"])
 def test_vulkan_runs_every_feature(vulkan, precision, case):
     """Every feature of the case runs on Vulkan: the run completes, every energy term of the
     CPU run is there and finite, the frame renders like the CPU's, the fragments are counted."""
@@ -102,6 +104,9 @@ def test_vulkan_runs_every_feature(vulkan, precision, case):
     assert all(np.isfinite(v) for v in gpu["energies"].values())
     assert gpu["image_shape"] == cpu["image_shape"] and abs(gpu["image_mean"] - cpu["image_mean"]) < 1.0
     assert gpu["fragments"] >= 1 and len(gpu["x"]) == len(cpu["x"])
+    if case == "fluid":
+        assert gpu["checkpoint_same"]
+        assert np.allclose(gpu["injected"], cpu["injected"], rtol=1e-3)
 
 
 @pytest.mark.xfail(reason="open: on Vulkan a fracturing / self-contact scene keeps fewer couples than the CPU "

@@ -17,6 +17,8 @@ SECTIONS = (  # (title, schema attribute, docstring header)
     ("[materials.NAME]", "MATERIAL_KEYS", "``[materials.NAME]``"),
     ("[[bodies]]", "BODY_KEYS", "``[[bodies]]``"),
     ("[[constraints]]", "CONSTRAINT_KEYS", "``[[constraints]]``"),
+    ("[fluid]", "FLUID_KEYS", "``[fluid]``"),
+    ("[[inject]]", "INJECT_KEYS", "``[[inject]]``"),
     ("[solver]", "SOLVER_KEYS", "``[solver]``"),
     ("[output]", "OUTPUT_KEYS", "``[output]``"),
     ("[lab]", "LAB_KEYS", "``[lab]``"),

@@ -51,6 +51,10 @@ step       parameters set by the host: dt [s], gravity (vec2 [m/s²]), buffer [m
            counters kept by the kernels: real (time [s], dacc [m], rmax [m], vmax [m/s], work
            terms [J/m]; slots :data:`TIME`, :data:`DACC`, ...) and int (couples, found, nonfinite,
            inverted, detections, broken, neighbour pairs; slots :data:`COUPLES`, ...)
+fluid      the fluid in the fracture network (:mod:`taichi_fdem.engine.fluid`): edge (vec8 i32:
+           node copies, fluid nodes, joint), edge_val (vec8: aperture, length, conductance,
+           flux, face forces), node_val (vec4: content, volume, pressure, rate), index (the
+           header and index lists), real (parameters, counters, sources)
 =========  ====================================================================================
 
 Adding an array: declare it in the group below and allocate it in
@@ -88,6 +92,9 @@ JOINT_MEMBERS = ("joint_nodes", "joint_tris", "joint_prop", "joint_state", "join
 STEP_PARAMS = ("step_dt", "step_gravity", "step_buffer", "step_vlimit", "step_switches")
 STEP_COUNTERS = ("step_real", "step_int")
 STEP_MEMBERS = STEP_PARAMS + STEP_COUNTERS
+# the fluid in the fracture network (engine.fluid): edges, their values, the fluid nodes' values,
+# the index lists and the parameters, counters and sources
+FLUID_MEMBERS = ("fluid_edge", "fluid_edge_val", "fluid_node_val", "fluid_index", "fluid_real")
 
 NodeGroup = _group(*NODE_MEMBERS)
 TriGroup = _group(*TRI_MEMBERS)
@@ -97,6 +104,7 @@ DetectGroup = _group(*DETECT_MEMBERS)
 AssemblyGroup = _group(*ASSEMBLY_MEMBERS)
 JointGroup = _group(*JOINT_MEMBERS)
 StepGroup = _group(*STEP_MEMBERS)
+FluidGroup = _group(*FLUID_MEMBERS)
 
 # group -> (argpack type, member names).  Members carry the names of the arrays in the model,
 # the state or the scratch (prefix-first: node_x, tri_nodes, couple_a, step_dt): Taichi flattens
@@ -104,7 +112,14 @@ StepGroup = _group(*STEP_MEMBERS)
 GROUPS = {"nodes": (NodeGroup, NODE_MEMBERS), "tris": (TriGroup, TRI_MEMBERS), "mats": (MaterialGroup, MAT_MEMBERS),
           "contact": (ContactGroup, CONTACT_MEMBERS), "detect": (DetectGroup, DETECT_MEMBERS),
           "joints": (JointGroup, JOINT_MEMBERS), "step": (StepGroup, STEP_MEMBERS),
-          "asm": (AssemblyGroup, ASSEMBLY_MEMBERS)}
+          "asm": (AssemblyGroup, ASSEMBLY_MEMBERS), "fluid": (FluidGroup, FLUID_MEMBERS)}
+
+# The serial step of a scene with a fluid (engine.step.run_steps_serial_fluid) takes every group
+# of the serial step and the fluid's as ONE argpack, as the team launch does: eight argpacks
+# would pass Taichi's 64 leaves (LEAVES_SERIAL_FLUID)
+SERIAL_FLUID_MEMBERS = (NODE_MEMBERS + TRI_MEMBERS + MAT_MEMBERS + CONTACT_MEMBERS + DETECT_MEMBERS + JOINT_MEMBERS
+                        + STEP_MEMBERS + FLUID_MEMBERS)
+SerialFluidGroup = _group(*SERIAL_FLUID_MEMBERS)
 
 # The team launch of the parallel strategy (engine.step.run_steps_blocks) takes every group but
 # the slot lists of the assembly, detection included, as ONE argpack: seven argpacks would cost
@@ -224,5 +239,9 @@ LEAVES_PARALLEL = _leaves(NODE_MEMBERS, TRI_MEMBERS, MAT_MEMBERS, CONTACT_MEMBER
                           ASSEMBLY_MEMBERS)
 # the team launch: nsteps, nwork, detect_in and one argpack
 LEAVES_TEAM = 3 + _leaves(TEAM_MEMBERS)
+# with a fluid: the serial step (nsteps and one argpack), the parallel step (its groups + the fluid's)
+LEAVES_SERIAL_FLUID = 1 + _leaves(SERIAL_FLUID_MEMBERS)
+LEAVES_PARALLEL_FLUID = LEAVES_PARALLEL + _leaves(FLUID_MEMBERS)
 assert LEAVES_SERIAL <= 64 and LEAVES_PARALLEL <= 64 and LEAVES_TEAM <= 64, (LEAVES_SERIAL, LEAVES_PARALLEL,
                                                                              LEAVES_TEAM)
+assert LEAVES_SERIAL_FLUID <= 64 and LEAVES_PARALLEL_FLUID <= 64, (LEAVES_SERIAL_FLUID, LEAVES_PARALLEL_FLUID)

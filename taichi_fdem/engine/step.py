@@ -9,10 +9,12 @@ A step is a list of phases, each a ``@ti.func`` made of loops over one kind of e
 4. contact forces of the couples (:func:`phase_contact`);
 5. applied loads, absorbing boundaries and curve-driven prescribed velocities, scenes with
    loads only (:func:`phase_loads`);
-6. integration of the nodes (:func:`phase_integrate`), with the local (quasi-static) damping
+6. the fluid in the fracture network: apertures, pressures, the pressure forces on the faces and
+   the flow over the step, scenes with a fluid only (:func:`phase_fluid`, :mod:`taichi_fdem.engine.fluid`);
+7. integration of the nodes (:func:`phase_integrate`), with the local (quasi-static) damping
    when asked;
-7. the second half of the joints' and the loads' work, and the end of intact bonds
-   (:func:`phase_joint_work`, :func:`phase_load_work`).
+8. the second half of the joints', the loads' and the fluid's work, and the end of intact bonds
+   (:func:`phase_joint_work`, :func:`phase_load_work`, :func:`phase_fluid_work`).
 
 The maths of each phase is one function per entity (``elastic.tri_forces``,
 ``joints.eval_joint``, ``contact.couple_forces``, ``integrate.integrate_node``) shared by
@@ -31,12 +33,14 @@ both strategies:
   :func:`build_node_slots`), and integrates (:func:`phase_gather_integrate`).  (c) The joints'
   work.  On the CPU, :func:`run_steps_blocks` runs up to thousands of such steps in one
   launch, in a team of worker threads that meet at a barrier between (a), (b) and (c);
-  otherwise :func:`step_parallel` runs one step per launch in three parallel loops.  Sums run
+  otherwise :func:`step_parallel` runs one step per launch in three parallel loops.  A scene with
+a fluid runs :func:`run_steps_serial_fluid` (serial) or :func:`step_parallel_fluid` (parallel,
+one step per launch: no team launch), which take the fluid's group as well.  Sums run
   in a fixed order, so results are bit-identical from run to run and for any thread count.
 
 Every kernel takes the array groups of :mod:`taichi_fdem.engine.groups`.  ``contact``,
-``friction``, ``fracture``, ``loads`` and ``local_damping`` (the quasi-static option) are
-compile-time switches, passed together as one :class:`Features` tuple (absent features are not
+``friction``, ``fracture``, ``loads``, ``local_damping`` (the quasi-static option) and ``fluid``
+are compile-time switches, passed together as one :class:`Features` tuple (absent features are not
 compiled);
 damping, contact damping and prescribed velocities are runtime switches in the step group.
 """
@@ -48,9 +52,10 @@ from .blocks import block_forces, block_node_ranges, item_counts, rebalance_bloc
 from .contact import book_contact_work, couple_forces, eval_couple
 from .detection import phase_detect_count, phase_detect_fill
 from .elastic import eval_tri_elastic, tri_forces
+from .fluid import book_fluid_work, fluid_step
 from .groups import (ABORT_BIT, BLOCK_STRIDE, COUPLES, DACC, DETECTIONS, DUE_BIT, TIMEOUT_BIT, FOUND, INVERTED, NB_PAIRS, NONFINITE,  # noqa: F401
                      REBALANCE, REBALANCE_STEPS, RMAX, UNSTABLE_BIT, VMAX, AssemblyGroup, ContactGroup, DetectGroup,
-                     JointGroup, MaterialGroup, NodeGroup, StepGroup, TeamGroup, TriGroup)
+                     FluidGroup, JointGroup, MaterialGroup, NodeGroup, SerialFluidGroup, StepGroup, TeamGroup, TriGroup)
 from .integrate import asm_blocks, integrate_nodes, integrate_nodes_gathered
 from .joints import add_joint_work, eval_joint
 from .loads import apply_loads, book_load_work
@@ -62,11 +67,14 @@ from .tiutil import vec2
 #: keys a tuple template by its values): a scene without contact, friction, fracture, loads or
 #: the quasi-static damping compiles none of their code.  ``many_blocks``: the block assembly
 #: has more than two blocks (blocks 2, 3, ... add into their copies at a runtime offset, a third
-#: compiled variant of the block loop that two blocks do not need).
-Features = namedtuple("Features", "contact friction fracture loads local_damping many_blocks", defaults=(False,))
+#: compiled variant of the block loop that two blocks do not need).  ``fluid``: the scene has a
+#: fluid in its fracture network (only :func:`run_steps_serial_fluid` and
+#: :func:`step_parallel_fluid` compile it).
+Features = namedtuple("Features", "contact friction fracture loads local_damping many_blocks fluid",
+                      defaults=(False, False))
 
 __all__ = ["UNSTABLE_BIT", "DUE_BIT", "ABORT_BIT", "TIMEOUT_BIT", "Features", "detect_count", "detect_fill", "build_node_slots", "step_parallel",
-           "run_steps_blocks", "run_steps_serial", "eval_elastic", "eval_joints", "eval_contact", "eval_loads",
+           "run_steps_blocks", "run_steps_serial", "run_steps_serial_fluid", "step_parallel_fluid", "eval_elastic", "eval_joints", "eval_contact", "eval_loads",
            "integrate", "book_joint_work", "book_loads_work", "refresh_blocks"]
 
 
@@ -112,6 +120,16 @@ def phase_load_work(nodes: ti.template(), step: ti.template()):
 
 
 @ti.func
+def phase_fluid(nodes: ti.template(), joints: ti.template(), step: ti.template(), fl: ti.template()):
+    fluid_step(nodes, joints, step, fl)
+
+
+@ti.func
+def phase_fluid_work(nodes: ti.template(), step: ti.template(), fl: ti.template()):
+    book_fluid_work(nodes, step, fl)
+
+
+@ti.func
 def phase_integrate(nodes: ti.template(), step: ti.template(), local_damping: ti.template()):
     integrate_nodes(nodes, step, local_damping)
 
@@ -136,8 +154,8 @@ def status_code(step: ti.template()):
 
 @ti.func
 def phases_forces_integrate(nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
-                            joints: ti.template(), step: ti.template(), feat: ti.template()):
-    """Phases 2–7 of a step."""
+                            joints: ti.template(), step: ti.template(), feat: ti.template(), fl: ti.template()):
+    """Phases 2–8 of a step (``fl``: the fluid group, read only with ``feat.fluid``)."""
     phase_elastic(nodes, tris, mats, step)
     if ti.static(feat.fracture):
         phase_joints(nodes, tris, mats, joints, step)
@@ -145,11 +163,15 @@ def phases_forces_integrate(nodes: ti.template(), tris: ti.template(), mats: ti.
         phase_contact(nodes, tris, mats, con, step, feat.friction, feat.fracture)
     if ti.static(feat.loads):
         phase_loads(nodes, step)
+    if ti.static(feat.fluid):
+        phase_fluid(nodes, joints, step, fl)
     phase_integrate(nodes, step, feat.local_damping)
     if ti.static(feat.fracture):
         phase_joint_work(nodes, tris, mats, joints, step)
     if ti.static(feat.loads):
         phase_load_work(nodes, step)
+    if ti.static(feat.fluid):
+        phase_fluid_work(nodes, step, fl)
 
 
 @ti.func
@@ -223,21 +245,26 @@ def phase_gather_integrate(nodes: ti.template(), joints: ti.template(), step: ti
 @ti.func
 def phases_parallel(nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
                     joints: ti.template(), step: ti.template(), asm: ti.template(), feat: ti.template(),
-                    blocks: ti.template()):
-    """Phases 2–7 of a step in the parallel strategy (no atomic float add on the element, joint
-    and couple forces; the few load entries are added to node_f in one serial loop).  ``blocks``:
-    the block assembly (CPU) instead of the slots (GPU)."""
+                    blocks: ti.template(), fl: ti.template()):
+    """Phases 2–8 of a step in the parallel strategy (no atomic float add on the element, joint
+    and couple forces; the few load entries are added to node_f in one serial loop, the fluid's
+    pressure forces by a loop over the nodes they act on).  ``blocks``: the block assembly (CPU)
+    instead of the slots (GPU); ``fl``: the fluid group, read only with ``feat.fluid``."""
     if ti.static(blocks):
         phase_blocks(nodes, tris, mats, con, joints, step, asm, feat)
     else:
         phase_slots(nodes, tris, mats, con, joints, step, asm, feat.contact, feat.friction, feat.fracture)
     if ti.static(feat.loads):
         phase_loads(nodes, step)
+    if ti.static(feat.fluid):
+        phase_fluid(nodes, joints, step, fl)
     phase_gather_integrate(nodes, joints, step, asm, blocks, feat.local_damping)
     if ti.static(feat.fracture):
         phase_joint_work(nodes, tris, mats, joints, step)
     if ti.static(feat.loads):
         phase_load_work(nodes, step)
+    if ti.static(feat.fluid):
+        phase_fluid_work(nodes, step, fl)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -347,7 +374,16 @@ def step_parallel(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: Co
     """One step in parallel loops without atomic float adds on the element, joint and couple
     forces.  ``feat``: the compile-time :class:`Features`; ``blocks``: block assembly (CPU)
     rather than slots (GPU).  Returns :func:`status_code`."""
-    phases_parallel(nodes, tris, mats, con, joints, step, asm, feat, blocks)
+    phases_parallel(nodes, tris, mats, con, joints, step, asm, feat, blocks, step)
+    return status_code(step)
+
+
+@ti.kernel
+def step_parallel_fluid(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: ContactGroup,
+                        joints: JointGroup, step: StepGroup, asm: AssemblyGroup, fl: FluidGroup, feat: ti.template(),
+                        blocks: ti.template()) -> ti.i32:
+    """:func:`step_parallel` of a scene with a fluid (``feat.fluid``; the fluid's group ``fl``)."""
+    phases_parallel(nodes, tris, mats, con, joints, step, asm, feat, blocks, fl)
     return status_code(step)
 
 
@@ -417,13 +453,39 @@ def run_steps_serial(nsteps: ti.i32, nodes: NodeGroup, tris: TriGroup, mats: Mat
                 else:
                     phase_detect_fill(tris, det, con, step, feat.friction)
         if stop == 0:
-            phases_forces_integrate(nodes, tris, mats, con, joints, step, feat)
+            phases_forces_integrate(nodes, tris, mats, con, joints, step, feat, step)
             done += 1
             if is_unstable(step):
                 stop = 1
         if stop != 0:
             break
     return done + ti.select(status_code(step) >= 2, UNSTABLE_BIT, 0)
+
+
+@ti.kernel
+def run_steps_serial_fluid(nsteps: ti.i32, g: SerialFluidGroup, feat: ti.template()) -> ti.i32:
+    """:func:`run_steps_serial` of a scene with a fluid (``feat.fluid``): every group, the
+    fluid's included, in the one argpack ``g`` (engine.groups.SERIAL_FLUID_MEMBERS), which
+    serves as each group of the phases."""
+    done = 0
+    ti.loop_config(serialize=True)
+    for _ in range(nsteps):
+        stop = 0
+        if ti.static(feat.contact):
+            if g.step_real[DACC] >= g.step_buffer[None]:
+                phase_detect_count(g, g, g, g, g)
+                if g.step_int[FOUND] > g.couple_a.shape[0]:
+                    stop = 1                    # the host grows the buffer to step_int[FOUND]
+                else:
+                    phase_detect_fill(g, g, g, g, feat.friction)
+        if stop == 0:
+            phases_forces_integrate(g, g, g, g, g, g, feat, g)
+            done += 1
+            if is_unstable(g):
+                stop = 1
+        if stop != 0:
+            break
+    return done + ti.select(status_code(g) >= 2, UNSTABLE_BIT, 0)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -36,6 +36,7 @@ Loading unpickles Python objects from the file: only load checkpoints you trust.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 import os
 import pickle
@@ -153,6 +154,10 @@ def _scene_bundle(sim) -> dict:
         mask = np.asarray(ld.where(X[:, 0].copy(), X[:, 1].copy()), dtype=bool)
         loads.append(_Load(ld.kind, _NodeMask(mask), ld.body, ld.value, ld.curve))
     scene._loads = loads
+    if getattr(sim.model, "fluid", False):             # sources: masks over the network's nodes
+        Xf = sim.model.fluid_node_rest
+        scene._injections = [dataclasses.replace(inj, where=_NodeMask(np.asarray(
+            inj.where(Xf[:, 0].copy(), Xf[:, 1].copy()), dtype=bool))) for inj in sim.scene._injections]
     # interactions are keyed by id(material): store the material objects themselves
     by_id = {}
     for b in sim.bodies:

@@ -100,6 +100,28 @@ vx, vy            m/s     prescribed velocity component; an absent component sta
                           (a roller); at least one is required
 ================  ======  =================================================================
 
+``[fluid]`` (optional: a fluid in the cracks and broken joints, ``Scene.set_fluid``)
+
+================  ======  =================================================================
+density           kg/m³   reference density ρ > 0 [1000.0]
+bulk_modulus      Pa      bulk modulus K > 0 [2.2e9]
+viscosity         Pa·s    dynamic viscosity μ > 0 [1e-3]
+aperture_min      m       residual hydraulic aperture, > 0 (required)
+aperture_max      m       largest hydraulic aperture, > aperture_min [none]
+initial_pressure  Pa      pressure of the fluid in the cracks at the start, ≥ 0 [0.0]
+conduct           —       "broken" or "damaged": which joints conduct ["broken"]
+================  ======  =================================================================
+
+``[[inject]]`` (a source of the fracture network, ``Scene.inject``; needs ``[fluid]``)
+
+================  ======  =================================================================
+xmin, xmax        m       box of network nodes (initial positions), inclusive [−∞, +∞]; at
+ymin, ymax        m       least one bound is required
+rate              m²/s    volume rate per unit thickness ≥ 0, shared among the nodes [none]
+pressure          Pa      or: prescribed pressure ≥ 0 (a source or a drain) [none]
+ramp              s       the rate or pressure rises linearly from 0 over this time [none]
+================  ======  =================================================================
+
 ``[solver]``
 
 ===============  ======  ===================================================================
@@ -302,7 +324,23 @@ LAB_TEST_KEYS = {
     "brazilian": (("diameter",), ("load_time",)),
     "direct_shear": (("width", "height", "normal_stress"), ("rate_transits", "joint")),
 }
-TOP_KEYS = ("description", "scene", "materials", "bodies", "constraints", "solver", "output", "lab")
+FLUID_KEYS = {
+    "density": _POS("kg/m³", default=1000.0),
+    "bulk_modulus": _POS("Pa", default=2.2e9),
+    "viscosity": _POS("Pa·s", default=1e-3),
+    "aperture_min": _POS("m", hi=_LEN, required=True),
+    "aperture_max": _POS("m", hi=_LEN),
+    "initial_pressure": _F(default=0.0, unit="Pa", lo=0.0),
+    "conduct": _Key("choice", "broken", choices=("broken", "damaged")),
+}
+INJECT_KEYS = {
+    "xmin": _F(unit="m"), "xmax": _F(unit="m"), "ymin": _F(unit="m"), "ymax": _F(unit="m"),
+    "rate": _F(unit="m²/s", lo=0.0),
+    "pressure": _F(unit="Pa", lo=0.0),
+    "ramp": _POS("s"),
+}
+TOP_KEYS = ("description", "scene", "materials", "bodies", "constraints", "fluid", "inject", "solver",
+            "output", "lab")
 
 # ----------------------------------------------------------------------------------------------
 # overrides (sweeps)
@@ -480,6 +518,8 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
             raise ck.error(cp + ("body",), f"unknown body {c['body']!r}{_suggest(c['body'], names)}")
         constraints.append(c)
 
+    fluid, injections = _fluid_tables(ck, data)
+
     solver_t = ck.table(data.get("solver", {}), ("solver",), "duration, dt, safety, ...")
     ck.keys(solver_t, SOLVER_KEYS, ("solver",))
     if "duration" not in solver_t:
@@ -506,7 +546,8 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
         raise ck.error(("output", "vtu_every"), "vtu_every needs vtu = \"folder\"")
 
     return SceneSpec(path=path, scene=scene, materials=materials, bodies=bodies, constraints=constraints,
-                     solver=solver, output=output, description=description, _checker=ck)
+                     solver=solver, output=output, description=description, fluid=fluid, injections=injections,
+                     _checker=ck)
 
 
 def _lab_table(ck, data: dict, materials: dict) -> dict:
@@ -538,3 +579,43 @@ def _lab_table(ck, data: dict, materials: dict) -> dict:
                        f"[materials.{lab['material']}]")
     return {k: v for k, v in lab.items() if k in ("test", "material", "h", "samples", "plane", "csv", "video")
             or k in required + optional}
+
+
+def _fluid_tables(ck, data: dict):
+    """The checked ``[fluid]`` table (None without one) and ``[[inject]]`` list."""
+    fluid = None
+    if "fluid" in data:
+        ft = ck.table(data["fluid"], ("fluid",), "density, bulk_modulus, viscosity, aperture_min, ...")
+        ck.keys(ft, FLUID_KEYS, ("fluid",))
+        if "aperture_min" not in ft:
+            raise ck.error(("fluid",), "[fluid] needs aperture_min [m] (the residual hydraulic aperture)",
+                           table=("fluid",))
+        fluid = ck.values(ft, FLUID_KEYS, ("fluid",))
+        if fluid["aperture_max"] is not None and fluid["aperture_max"] <= fluid["aperture_min"]:
+            raise ck.error(("fluid", "aperture_max"), f"aperture_max ({fluid['aperture_max']} m) must be > "
+                           f"aperture_min ({fluid['aperture_min']} m)")
+        from ..material import Fluid
+        try:
+            Fluid(density=fluid["density"], bulk_modulus=fluid["bulk_modulus"], viscosity=fluid["viscosity"])
+        except (ValueError, TypeError) as exc:
+            raise ck.error(("fluid",), str(exc), table=("fluid",)) from None
+    inj_t = data.get("inject", [])
+    if not isinstance(inj_t, list):
+        raise ck.error(("inject",), "inject must be an array of tables [[inject]]", table=())
+    if inj_t and fluid is None:
+        raise ck.error(("inject",), "[[inject]] needs a [fluid] table (the fluid of the fracture network)", table=())
+    injections = []
+    for k, it in enumerate(inj_t):
+        ip = ("inject", k)
+        ck.table(it, ip, "a box of network nodes and a rate or a pressure")
+        ck.keys(it, INJECT_KEYS, ip)
+        c = ck.values(it, INJECT_KEYS, ip)
+        if all(c[b] is None for b in ("xmin", "xmax", "ymin", "ymax")):
+            raise ck.error(ip, "give at least one of xmin, xmax, ymin, ymax [m] (the box of network nodes)", table=ip)
+        for lo, hi in (("xmin", "xmax"), ("ymin", "ymax")):
+            if c[lo] is not None and c[hi] is not None and c[lo] > c[hi]:
+                raise ck.error(ip + (lo,), f"{lo} ({c[lo]} m) must be <= {hi} ({c[hi]} m)")
+        if (c["rate"] is None) == (c["pressure"] is None):
+            raise ck.error(ip, "give exactly one of rate [m²/s] or pressure [Pa]", table=ip)
+        injections.append(c)
+    return fluid, injections

@@ -82,6 +82,7 @@ class SceneSpec:
     output : the ``[output]`` table.
     lab : the ``[lab]`` table (a standard test, :meth:`run_lab`), or None; a lab file has no
         bodies, constraints, solver or output.
+    fluid : the ``[fluid]`` table (None without one); injections : one dict per ``[[inject]]``.
     """
 
     path: str
@@ -93,6 +94,8 @@ class SceneSpec:
     output: dict
     description: str = ""
     lab: dict | None = None
+    fluid: dict | None = None
+    injections: list = field(default_factory=list)
     _checker: Any = field(default=None, repr=False)
 
     def run_lab(self):
@@ -191,6 +194,16 @@ class SceneSpec:
                 raise (self._checker.error(("constraints", k), msg, table=("constraints", k)) if self._checker
                        else SceneFileError(f"{self.path}: [constraints[{k}]] {msg}"))
             scene.fix_nodes(where, body=body, velocity=(c["vx"], c["vy"]))
+        fl = getattr(self, "fluid", None)
+        if fl is not None:
+            from ..material import Fluid
+            from ..scene import Curve
+            scene.set_fluid(Fluid(density=fl["density"], bulk_modulus=fl["bulk_modulus"], viscosity=fl["viscosity"]),
+                            aperture_min=fl["aperture_min"], aperture_max=fl["aperture_max"],
+                            initial_pressure=fl["initial_pressure"], conduct=fl["conduct"])
+            for c in getattr(self, "injections", []):
+                scene.inject(_BoxSelector(c["xmin"], c["xmax"], c["ymin"], c["ymax"]), rate=c["rate"],
+                             pressure=c["pressure"], curve=Curve.ramp(c["ramp"]) if c["ramp"] is not None else None)
         return scene, bodies
 
     def build(self):
@@ -205,6 +218,10 @@ class SceneSpec:
                               joined_pairs=s["joined_pairs"], handover_damage=s["handover_damage"],
                               quasi_static=s["quasi_static"] or False)
         except ValueError as exc:
+            if "Scene.inject" in str(exc) or "Scene.set_fluid" in str(exc):
+                table = "inject" if "inject" in str(exc) else "fluid"
+                where = self._checker.where((table,)) if self._checker else self.path
+                raise SceneFileError(f"{where}: [{table}] {exc}") from None
             key = "dt" if "dt" in str(exc) else "solver"
             where = self._checker.where(("solver", key)) if self._checker else self.path
             raise SceneFileError(f"{where}: [solver] {exc}") from None

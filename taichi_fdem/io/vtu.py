@@ -16,7 +16,9 @@ Fields (SI units; the mesh points are the *current* node positions, z = 0):
 
 point data
     ``displacement`` x − X [m] and ``velocity`` [m/s], 3 components (z = 0, so that ParaView
-    treats them as vectors); ``body_id`` (int32).
+    treats them as vectors); ``body_id`` (int32); with a fluid in the fracture network
+    (``scene.set_fluid``), ``fluid_pressure`` [Pa]: on the face nodes of the network's edges,
+    the pressure of their network node (0 elsewhere; ``Simulation.node_fluid_pressures``).
 cell data
     ``stress``: elastic Cauchy stress [Pa] as 3 components (σ_xx, σ_yy, σ_xy), from
     :meth:`Simulation.stresses` (without the viscous part);
@@ -99,13 +101,10 @@ def frame_fields(sim) -> dict:
         if not keep.all():
             tris = tris[keep]
             cells = {k: v[keep] for k, v in cells.items()}
-    return {
-        "points": x,
-        "triangles": tris,
-        "point_data": {"displacement": sim.node_displacements(), "velocity": sim.node_velocities(),
-                       "body_id": node_body},
-        "cell_data": cells,
-    }
+    point = {"displacement": sim.node_displacements(), "velocity": sim.node_velocities(), "body_id": node_body}
+    if getattr(getattr(sim, "model", None), "fluid", False):
+        point["fluid_pressure"] = sim.node_fluid_pressures()
+    return {"points": x, "triangles": tris, "point_data": point, "cell_data": cells}
 
 
 def _read_pvd(path: str) -> list:

@@ -3,7 +3,8 @@
 
 Shapes use N nodes, E triangles, M materials, B bodies, K contact triangles, J joint slots,
 L load rows, P curve points, F fan entries, G fix_nodes groups, nb bonded neighbour pairs, C
-couple capacity (``State.couple_max``); an array a scene does not use has one placeholder row
+couple capacity (``State.couple_max``), Q fracture-network edges, W network nodes, I and R the
+lengths of the network's index list and of its parameters and sources (engine.fluid); an array a scene does not use has one placeholder row
 (``N|1``: N when the feature is present).  ``real`` is the precision chosen at :func:`taichi_fdem.init` (f64 or f32);
 ``vecK`` a K-vector per row.  Units are SI; "-" marks counts, indices, flags and bit sets.
 Every Taichi array a Model or State holds is declared here and every declared one is allocated
@@ -61,6 +62,8 @@ MODEL_ARRAYS = _specs([
     ("step_buffer", "()", "real", "m", "detection buffer"),
     ("step_vlimit", "()", "real", "m/s", "node speed above which a step stops (speed_limit)"),
     ("step_switches", "()", "i32", "-", "runtime switches (damping, prescribed velocities, ...)"),
+    ("fluid_edge", "(Q|1,)", "i32 vec8", "-", "fracture-network edges: node copies, fluid nodes, joint (engine.fluid)"),
+    ("fluid_index", "(I,)", "i32", "-", "the network's header and index lists (engine.fluid)"),
 ])
 
 #: NumPy arrays of the Model (host copies and build results).
@@ -82,6 +85,10 @@ MODEL_HOST_ARRAYS = _specs([
     ("joint_len0_np", "(J,)", "f64", "m", "rest length of each joint"),
     ("joint_fs0", "(J|1, 3)", "f64", "Pa", "initial shear strength c of each joint (three points)"),
     ("nb_pairs_np", "(nb, 2)", "i32", "-", "bonded neighbour triangle pairs"),
+    ("fluid_real0", "(R,)", "f64", "Pa, Pa·s, m, m²/s", "the fluid's parameters and sources at the start"),
+    ("fluid_content0", "(W|1,)", "f64", "m²", "initial fluid content of each network node"),
+    ("fluid_node_rest", "(W, 2)", "f64", "m", "initial positions of the network nodes"),
+    ("fluid_copies", "(k, 2)", "i32", "-", "(network node, node copy) pairs of the network's edge faces"),
 ])
 
 #: Taichi arrays of the State (what a step changes; all saved by checkpoints).
@@ -108,4 +115,10 @@ STATE_ARRAYS = _specs([
     ("couple_hist", "(6C|1,)", "real", "m", "tangential slip history of the couples (6 slots each, with friction)"),
     ("step_real", "(REAL_COUNTERS,)", "real", "s, J/m, m", "real counters (engine.groups: TIME, DACC, energies)"),
     ("step_int", "(INT_COUNTERS,)", "i32", "-", "integer counters (engine.groups: COUPLES, FOUND, ...)"),
+    ("fluid_edge_val", "(Q|1,)", "real vec8", "m, m, m³/(Pa·s), m²/s, N/m", "per network edge: aperture, length, "
+                                                                          "conductance, flux, face forces"),
+    ("fluid_node_val", "(W|1,)", "real vec4", "m², m², Pa, 1/s", "per network node: fluid content, volume, pressure, "
+                                                               "K ΣC/V"),
+    ("fluid_real", "(R,)", "real", "Pa, Pa·s, m, J/m, m²/s, m²", "the fluid's parameters, counters and sources "
+                                                                "(engine.fluid: F_K, ...)"),
 ])

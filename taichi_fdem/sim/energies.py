@@ -7,9 +7,10 @@ elastically, plus any damage so far) and fracture (work done on joints that have
 dissipated in cracking), load_work (work done on the system by applied pressure, tractions and
 forces, docs/theory/loads.md §12), local_damping (work dissipated by the quasi-static damping), absorbed
 (work taken out by absorbing boundaries), excavated (energy the removed triangles took with
-them: strain, kinetic and gravity energy at removal), and
+them: strain, kinetic and gravity energy at removal), fluid_work (work done on the solid by
+the fluid pressure on the fracture faces, scenes with a fluid only), and
 total = kinetic + strain + contact + gravity + joints + dissipated + excavated − boundary_work
-− load_work, which is conserved up to the time-discretisation error.  The strain energy includes
+− load_work − fluid_work, which is conserved up to the time-discretisation error.  The strain energy includes
 the potential S⁰:E of an initial stress.
 """
 from __future__ import annotations
@@ -19,6 +20,7 @@ import taichi as ti
 
 from .. import backend
 from ..engine.diagnostics import energy_terms
+from ..engine.fluid import F_WORK
 from ..engine.groups import WORK_ABSORB, WORK_BOUNDARY, WORK_CDAMPING, WORK_FRICTION, WORK_LOAD, WORK_LOCAL
 
 
@@ -26,6 +28,8 @@ from ..engine.groups import WORK_ABSORB, WORK_BOUNDARY, WORK_CDAMPING, WORK_FRIC
 TOTAL_TERMS = (("kinetic", 1), ("strain", 1), ("contact", 1), ("gravity", 1), ("joints", 1), ("damping", 1),
                ("friction", 1), ("contact_damping", 1), ("fracture", 1), ("local_damping", 1), ("absorbed", 1),
                ("excavated", 1), ("boundary_work", -1), ("load_work", -1))
+# terms of ``total`` present only when the scene has the feature (a fluid: scene.set_fluid)
+OPTIONAL_TERMS = (("fluid_work", -1),)
 
 
 def compute_energies(sim) -> dict:
@@ -51,5 +55,7 @@ def compute_energies(sim) -> dict:
         broken = st.joint_state.to_numpy() != 0
         e["joints"] = float(work[~broken].sum()) * t
         e["fracture"] = float(work[broken].sum()) * t
-    e["total"] = sum(sign * e[k] for k, sign in TOTAL_TERMS)
+    if getattr(md, "fluid", False):
+        e["fluid_work"] = float(st.fluid_real[F_WORK]) * t
+    e["total"] = sum(sign * e[k] for k, sign in TOTAL_TERMS + OPTIONAL_TERMS if k in e)
     return e

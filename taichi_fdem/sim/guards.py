@@ -17,6 +17,7 @@ import taichi as ti
 from .. import backend
 from ..engine.diagnostics import couple_penetrations, overlap_areas
 from ..engine.groups import INVERTED, NONFINITE, VMAX
+from .fluid import fluid_failure
 
 
 class SimulationError(RuntimeError):
@@ -37,7 +38,10 @@ def raise_unstable(sim) -> None:
     ints, reals = sim.state.step_int.to_numpy(), sim.state.step_real.to_numpy()
     nonfinite, inverted, vmax = int(ints[NONFINITE]), int(ints[INVERTED]), float(reals[VMAX])
     speed = vmax > sim.model.speed_limit
-    if nonfinite:
+    fluid = fluid_failure(sim)
+    if fluid:
+        cause = fluid
+    elif nonfinite:
         cause = f"non-finite position or velocity at node {nonfinite - 1}"
     elif speed:
         cause = (f"a node moved at {vmax:.4g} m/s, above the bound "
@@ -116,7 +120,8 @@ def energy_scale(e: dict) -> float:
     + ``|load work|``."""
     return (e["kinetic"] + abs(e["strain"]) + abs(e["contact"]) + e["damping"] + e["friction"]
             + e["contact_damping"] + abs(e["boundary_work"]) + abs(e.get("load_work", 0.0))
-            + e.get("local_damping", 0.0) + e.get("absorbed", 0.0) + abs(e.get("excavated", 0.0)))
+            + e.get("local_damping", 0.0) + e.get("absorbed", 0.0) + abs(e.get("excavated", 0.0))
+            + abs(e.get("fluid_work", 0.0)))        # (and |fluid work| with a fluid)
 
 
 class RunGuard:

@@ -24,7 +24,7 @@ import warnings
 import numpy as np
 import taichi as ti
 
-from . import timestep
+from . import fluid as fluid_net, timestep
 from .arrays import MODEL_ARRAYS, MODEL_HOST_ARRAYS, STATE_ARRAYS
 from .. import backend
 from ..engine.groups import SWITCH_BC, SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING, SWITCH_PRESTRESS
@@ -238,10 +238,15 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
         j_pf = joint_prop[:, 5]
     else:
         h_j = j_rho = j_pf = np.zeros(0)
+    fspec = getattr(scene, "_fluid", None)
+    net = fluid_net.build_network(bodies) if fspec is not None else None
+    dt_fluid = fluid_net.fluid_stiffness_step(net, X, mass, np.any(free != 0.0, axis=1), fspec.fluid.bulk_modulus,
+                                              fspec.aperture_min) if fspec is not None else math.inf
     steps = timestep.estimate_time_steps(
         altitude=altitude, area0=area0, cp=cp, beta=beta_t, moving=moving,
         contact_altitude=altitude[ctri] if md.contact else np.zeros(0), contact_penalty=pmax, rho_min=rho_min,
-        xi_max=xi_max, joint_h=h_j, joint_rho=j_rho, joint_penalty=j_pf)
+        xi_max=xi_max, joint_h=h_j, joint_rho=j_rho, joint_penalty=j_pf, fluid_step=dt_fluid)
+    md.dt_fluid = steps["fluid"]
     md.dt_elastic, md.dt_contact, md.dt_joint = steps["elastic"], steps["contact"], steps["joint"]
     md.dt_estimate, md.dt_limit = steps["estimate"], steps["limit"]
     md.dt = timestep.choose_time_step(steps, dt, safety, force_dt)
@@ -263,6 +268,7 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     # ---- loads, curves, initial stress, local damping (docs/theory/loads.md §12) --------------------------
     load_nodes, load_vals, md.dashpot_rate = _load_table(scene, bodies, X, mass, md.dt, curves, free, vbc_raw, vcurve)
     md.load_count = len(load_nodes)
+    fluid_net.install_fluid(md, scene, net, curves)      # (its curves join the table before it is made)
     md.loads = md.load_count > 0
     md.curves = curves.list
     md.curve_slices = curves.slices

@@ -13,14 +13,16 @@ import os
 
 from .cracks import CrackResults
 from .energies import compute_energies
+from .fluid import FluidResults
 from ..engine.groups import BROKEN
 from ..engine.loads import LOAD_ABSORB, LOAD_FORCE, LOAD_VELOCITY
 from .model import counter
 
 
-class SimulationResults(CrackResults):
+class SimulationResults(CrackResults, FluidResults):
     """Read-only views of a simulation's state as NumPy arrays (crack and fragment results from
-    :class:`~taichi_fdem.sim.cracks.CrackResults`)."""
+    :class:`~taichi_fdem.sim.cracks.CrackResults`, the fluid's from
+    :class:`~taichi_fdem.sim.fluid.FluidResults`)."""
 
     def _body_obj(self, body):
         """The Body of this simulation that ``body`` (a Body, or its index) names.
@@ -223,6 +225,8 @@ class SimulationResults(CrackResults):
         if self.fracture:
             row["broken_joints"] = self.broken_joint_count
             row["crack_length"] = self.crack_length()
+        if md.fluid:
+            self._fluid_history(row)
         for k, v in self.energies().items():
             row[f"E_{k}"] = float(v)
         return row
@@ -247,8 +251,12 @@ class History:
     Columns: time [s], step, the reaction (x, y) [N] of each prescribed body (by name) and of
     each ``fix_nodes`` group (fix0, fix1, ...), the amplitude of each curve, the mean
     displacement (x, y) [m] of each body, with fracture the number of broken joints
-    (``broken_joints``) and their total initial length (``crack_length`` [m]), and the energy
-    account [J] (``E_load_work`` included).
+    (``broken_joints``) and their total initial length (``crack_length`` [m]), with a fluid
+    the pressure at the first source (``fluid_injection_pressure`` [Pa]), the net volume the
+    sources put in (``fluid_injected_volume``), the volume stored in the network
+    (``fluid_stored_volume``, both [m² per unit thickness]) and each source's rate
+    (``fluid_rate_0``, ... [m²/s]), and the energy account [J] (``E_load_work`` included, and
+    ``E_fluid_work`` with a fluid).
     A file that exists is appended to (its header is kept).
     """
 

@@ -10,7 +10,9 @@ Execution strategy (:mod:`taichi_fdem.engine.step`): the serial one runs thousan
 launch on one core; the parallel one sums the forces without atomics and, on the CPU, runs
 thousands of steps per launch in a team of worker threads (:mod:`taichi_fdem.engine.team`,
 :attr:`Simulation.team_steps`) whose waits are bounded, sized to the usable cores, and timed
-against one worker on a shared CPU (:meth:`sim.team.TeamScheduler.choose`).  "auto" picks parallel
+against one worker on a shared CPU (:meth:`sim.team.TeamScheduler.choose`).  A scene with a fluid
+(``scene.set_fluid``) runs no team launch: its parallel strategy runs one step per launch
+(:func:`taichi_fdem.engine.step.step_parallel_fluid`).  "auto" picks parallel
 on the CPU from 2 threads and usable cores and :data:`AUTO_PARALLEL_ITEMS` items (triangles +
 joints + couples), and on GPUs.
 """
@@ -132,6 +134,9 @@ class Simulation(SimulationResults, ModelValues):
         self._groups = {"serial": (p["nodes"], p["tris"], p["mats"], p["contact"], p["detect"], p["joints"], p["step"]),
                         "parallel": (p["nodes"], p["tris"], p["mats"], p["contact"], p["joints"], p["step"], p["asm"]),
                         "team": (p["team"],)}
+        if self.model.fluid:
+            self._groups["serial"] = (p["serial_fluid"],)
+            self._groups["parallel"] = self._groups["parallel"] + (p["fluid"],)
 
     @property
     def strategy(self) -> str:
@@ -310,7 +315,7 @@ class Simulation(SimulationResults, ModelValues):
         # runtime switches in the step group (a branch each), which keeps compiled variants few
         md, many = self.model, self.strategy == "parallel" and self._assembly == "blocks" and self._force_blocks > 2
         return (kernels.Features(bool(md.contact), bool(md.friction), bool(md.fracture), bool(md.loads),
-                                 bool(md.local_damping), many),)
+                                 bool(md.local_damping), many, bool(md.fluid)),)
 
     def steps_per_launch(self) -> int:
         """Steps one launch runs: the chunk of :meth:`run` without frames.  Serial: ~50 ms of work
@@ -379,8 +384,9 @@ class Simulation(SimulationResults, ModelValues):
         return self.model.ctri_count <= DETECT_SERIAL_TRIS
 
     def _team_launches(self) -> bool:
-        """Whether the parallel strategy runs team launches (block assembly on the CPU, team_steps)."""
-        return bool(self.scratch.blocks and backend.arch() == "cpu" and self.team_steps)
+        """Whether the parallel strategy runs team launches (block assembly on the CPU, team_steps;
+        never with a fluid, whose scenes run one parallel step per launch)."""
+        return bool(self.scratch.blocks and backend.arch() == "cpu" and self.team_steps and not self.model.fluid)
 
     def _team(self) -> int:
         """Workers of the next team launch (:class:`~taichi_fdem.sim.team.TeamScheduler`), 0 for one
@@ -403,8 +409,12 @@ class Simulation(SimulationResults, ModelValues):
         for _ in range(n):
             if due:
                 self._detect()
-            code = self._launch_cached("step_parallel", kernels.step_parallel, *self._groups["parallel"], *switches,
-                                       self.scratch.blocks)
+            if self.model.fluid:
+                code = self._launch_cached("step_parallel_fluid", kernels.step_parallel_fluid, *self._groups["parallel"],
+                                           *switches, self.scratch.blocks)
+            else:
+                code = self._launch_cached("step_parallel", kernels.step_parallel, *self._groups["parallel"], *switches,
+                                           self.scratch.blocks)
             self.step_count += 1
             due = self.model.contact and bool(code & 1)
             if code & 2:
@@ -415,8 +425,12 @@ class Simulation(SimulationResults, ModelValues):
         per_launch = self.steps_per_launch()
         while n > 0:
             chunk = min(n, per_launch)
-            done = self._launch_cached("run_steps_serial", kernels.run_steps_serial, chunk, *self._groups["serial"],
-                                       *switches)
+            if self.model.fluid:
+                done = self._launch_cached("run_steps_serial_fluid", kernels.run_steps_serial_fluid, chunk,
+                                           *self._groups["serial"], *switches)
+            else:
+                done = self._launch_cached("run_steps_serial", kernels.run_steps_serial, chunk, *self._groups["serial"],
+                                           *switches)
             unstable = done >= kernels.UNSTABLE_BIT
             done &= kernels.UNSTABLE_BIT - 1
             self.step_count += done
@@ -564,6 +578,7 @@ class Simulation(SimulationResults, ModelValues):
                 "strategy": self.strategy, "contact": md.contact, "friction": md.friction,
                 "damping": md.damping, "contact_damping": md.contact_damping, "buffer": md.buffer,
                 "fracture": md.fracture, "joints": md.joint_count, "dt_joint": md.dt_joint,
+                "fluid": md.fluid, "dt_fluid": md.dt_fluid, "fluid_edges": md.fluid_edge_count,
                 "joint_sets": {name: int((md.joint_set_np == k).sum())
                                for k, name in enumerate(getattr(md, "joint_set_names", ["default"]))},
                 "crack_edges": sum(getattr(b, "crack_count", 0) for b in self.bodies),

@@ -13,8 +13,9 @@ import taichi as ti
 
 from .. import backend
 from ..engine.groups import (COUPLES, DACC, DACC_FORCE, DET_CAND, FORCE_BLOCKS, GROUPS, HANDOVER, INT_COUNTERS,
-                            NB_PAIRS, QS_ALPHA, REAL_COUNTERS, REBALANCE, SYNC_LINE, TEAM_CHUNK, TEAM_MEMBERS,
-                            TeamGroup)
+                            NB_PAIRS, QS_ALPHA, REAL_COUNTERS, REBALANCE, SERIAL_FLUID_MEMBERS, SYNC_LINE, TEAM_CHUNK,
+                            TEAM_MEMBERS, SerialFluidGroup, TeamGroup)
+from .fluid import allocate_fluid_state
 from .model import Model, Scratch, State, _ndarray, _next_pow2, counter, set_counter
 
 
@@ -58,6 +59,7 @@ def allocate_state(md: Model) -> State:
     st.step_real.fill(0)
     st.step_int = ti.ndarray(ti.i32, shape=INT_COUNTERS)         # slots: engine.groups.COUPLES, ...
     st.step_int.fill(0)
+    allocate_fluid_state(md, st)
     grow_couples(md, st, md.nb_count + 2 * K + 64 if md.contact else 1)
     install_neighbour_pairs(md, st)
     set_counter(st.step_real, QS_ALPHA, md.qs_alpha)
@@ -198,4 +200,9 @@ def pack_groups(md: Model, st: State, sw: Scratch) -> dict:
             arrays[name] = arr
         packs[group] = ptype(**{name: arrays[name] for name in names})
     packs["team"] = TeamGroup(**{name: arrays[name] for name in TEAM_MEMBERS})
+    if getattr(md, "fluid", False):
+        for name in SERIAL_FLUID_MEMBERS:
+            if name not in arrays:
+                arrays[name] = getattr(sw, name)
+        packs["serial_fluid"] = SerialFluidGroup(**{name: arrays[name] for name in SERIAL_FLUID_MEMBERS})
     return packs

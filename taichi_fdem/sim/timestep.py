@@ -16,16 +16,19 @@ CONTACT_LIMIT_FACTOR = 0.4      # stable contact / joint step = 0.4 × the book'
 
 
 def estimate_time_steps(*, altitude, area0, cp, beta, moving, contact_altitude, contact_penalty, rho_min,
-                        xi_max, joint_h, joint_rho, joint_penalty) -> dict:
+                        xi_max, joint_h, joint_rho, joint_penalty, fluid_step=math.inf) -> dict:
     """The per-mechanism estimates and the limit [s].
 
     Parameters (per triangle unless said): altitude (smallest altitude [m]), area0 [m²], cp
     (P-wave speed [m/s]), beta (damping ratio), moving (bool: not every node prescribed);
     contact_altitude (altitudes of contact triangles, may be empty), contact_penalty (largest
     penalty in use [Pa], 0 without contact), rho_min [kg/m³], xi_max (largest contact damping
-    ratio); joint_h, joint_rho, joint_penalty (per joint; empty without fracture).
+    ratio); joint_h, joint_rho, joint_penalty (per joint; empty without fracture); fluid_step
+    (the step 2√(m a_min/(K L)) of the fluid's stiffness in the narrowest channels, inf without
+    a fluid: :func:`taichi_fdem.sim.fluid.fluid_stiffness_step`), which enters as the joints'
+    term does (its limit × CONTACT_LIMIT_FACTOR).
 
-    Returns {"elastic", "contact", "joint", "estimate", "limit"}; without anything that moves,
+    Returns {"elastic", "contact", "joint", "fluid", "estimate", "limit"}; without anything that moves,
     estimate = limit = 1e-3 s (any step is stable).
     """
     damp_factor = np.sqrt(1.0 + beta ** 2) - beta
@@ -35,14 +38,15 @@ def estimate_time_steps(*, altitude, area0, cp, beta, moving, contact_altitude, 
         dt_c = float(np.min(contact_altitude) * math.sqrt(rho_min / contact_penalty)
                      * (math.sqrt(1 + xi_max ** 2) - xi_max))
     dt_j = float(np.min(joint_h * np.sqrt(joint_rho / joint_penalty))) if len(joint_h) else math.inf
-    estimate = min(dt_el, dt_c, dt_j)
+    estimate = min(dt_el, dt_c, dt_j, fluid_step)
     xi_eff = beta * np.sqrt(4.0 * area0 / math.sqrt(3.0)) / altitude
     dt_el_lim = float(np.min((altitude / cp * (np.sqrt(1.0 + xi_eff ** 2) - xi_eff))[moving])) if moving.any() \
         else math.inf
-    limit = min(dt_el_lim, CONTACT_LIMIT_FACTOR * dt_c, CONTACT_LIMIT_FACTOR * dt_j)
+    limit = min(dt_el_lim, CONTACT_LIMIT_FACTOR * dt_c, CONTACT_LIMIT_FACTOR * dt_j, CONTACT_LIMIT_FACTOR * fluid_step)
     if not math.isfinite(limit):
         limit = estimate = 1e-3
-    return {"elastic": dt_el, "contact": dt_c, "joint": dt_j, "estimate": float(estimate), "limit": float(limit)}
+    return {"elastic": dt_el, "contact": dt_c, "joint": dt_j, "fluid": float(fluid_step), "estimate": float(estimate),
+            "limit": float(limit)}
 
 
 def choose_time_step(steps: dict, dt, safety: float, force_dt: bool) -> float:
@@ -63,6 +67,8 @@ def choose_time_step(steps: dict, dt, safety: float, force_dt: bool) -> float:
         raise ValueError(
             f"Scene.build: dt = {dt:.4g} s is above the estimated stable limit {steps['limit']:.4g} s "
             f"(elements {steps['elastic']:.4g} s, contact {CONTACT_LIMIT_FACTOR * steps['contact']:.4g} s, "
-            f"joints {CONTACT_LIMIT_FACTOR * steps['joint']:.4g} s); use dt <= {steps['limit']:.4g} s "
+            f"joints {CONTACT_LIMIT_FACTOR * steps['joint']:.4g} s"
+            + (f", fluid {CONTACT_LIMIT_FACTOR * steps['fluid']:.4g} s" if math.isfinite(steps.get('fluid', math.inf))
+               else "") + f"); use dt <= {steps['limit']:.4g} s "
             f"(the default is {safety * steps['estimate']:.4g} s), or force_dt=True to run it anyway")
     return dt
