@@ -19,7 +19,10 @@ runs each in its own process; ``benchmarks/accuracy.py`` does).
 Modules: :mod:`.cases` (wave, two bars, Hertz, cantilever, rotation, incline, disks) and
 :mod:`.fracture` (joint pull, direct tension, Brazilian disc, fragmenting plate) and :mod:`.rock`
 (loads and rock mechanics, docs/theory/loads.md §12.6: Kirsch, Lamé, uniaxial compression, triaxial
-strength), sharing :mod:`._common`.
+strength), sharing :mod:`._common`; :mod:`.hydro` holds the analytic references of fluid-driven
+fracture (docs/theory/hydro.md §14.2: Sneddon's pressurised crack, KGD in its toughness- and
+viscosity-dominated limits) and :mod:`.hydro_cases` the cases that run them with the fluid engine
+(``case_sneddon``, ``case_kgd``; not in ``CASES``: they need the fluid and take tens of seconds).
 """
 from ._common import E, NU, RHO, _build, _centroid_velocity, _crossing, _precision, _result  # noqa: F401
 from .cases import (cantilever_deflection, case_cantilever, case_disks, case_hertz, case_incline,  # noqa: F401
@@ -29,6 +32,9 @@ from .fracture import (BRAZILIAN_MATERIAL, JointPair, brazilian_load, brazilian_
 from .rock import (TRIAXIAL_MATERIAL, axial_record, case_kirsch, case_lame, case_triaxial,  # noqa: F401
                    case_uniaxial, jointed_specimen_mesh, kirsch_hoop, lame, mohr_coulomb_peak, platen_scene,
                    triaxial_test)
+from .hydro import (KGDSolution, kgd_dimensionless_toughness, kgd_toughness, kgd_viscosity,  # noqa: F401
+                    plane_modulus, pressurised_crack_stress_intensity, sneddon_opening, sneddon_volume)
+from .hydro_cases import case_kgd, case_sneddon, crack_plate_mesh, joint_fracture_energy, kgd_scene  # noqa: F401
 
 CASES = {"wave": case_wave, "two_bars": case_two_bars, "hertz": case_hertz, "cantilever": case_cantilever,
          "rotation": case_rotation, "incline": case_incline, "disks": case_disks,
