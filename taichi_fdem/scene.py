@@ -515,8 +515,16 @@ class Scene(FluidScene):
         the Cauchy stress is T_el(F) + F S⁰ Fᵀ / J (objective under rotation).  A balanced start
         needs matching boundary tractions (:meth:`apply_traction`, :meth:`apply_pressure`) or
         rollers; then nothing moves.  A later call overrides earlier ones on the bodies it
-        names.  Intact cohesive joints do not carry the prestress: start fracturing bodies
-        unstressed.
+        names.
+
+        Fracturing bodies (``fracture=``, joint sets) start at rest too: each intact joint
+        carries σ⁰·n̂ at its ends and mid-point, as an initial opening and slip below the peak
+        of its own law, which turn with the joint (docs/theory/joints.md §7.11).  The initial
+        state damages no joint; the strength counts the initial traction (a joint in initial
+        tension σ⁰ fails when its total normal traction reaches f_t, a compressed one has the
+        shear strength c − σ⁰ tan φ); a broken joint carries nothing.  ``build()`` raises
+        ValueError if the initial traction of a joint point reaches its tensile or shear
+        strength.
         """
         where = "Scene.initial_stress"
         if body is not None and (not isinstance(body, Body) or body not in self.bodies):

@@ -51,6 +51,7 @@ def rock_scene():
     other = scene.add_body(fdem.mesh.rectangle(0.15, 0.1, 0.025), rock, position=(0.1, 0.0501),
                            cracks=lambda x, y: np.abs(x - 0.1) < 1e-6, name="cracked")
     scene.initial_stress(-2e4, -1e4, 0.0, body=other)
+    scene.initial_stress(-2e3, -1e3, 5e2, body=block)       # carried by the block's joints too
     scene.apply_pressure(lambda x, y: y > 0.1, 2e4, body=block, curve=fdem.Curve.ramp(1e-3))
     scene.absorbing_boundary(lambda x, y: y < -0.039, body=None)
     return scene

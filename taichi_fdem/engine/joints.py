@@ -7,7 +7,9 @@ integrated by Simpson's rule at the two ends and the mid-point (§7.3); the norm
 follows the pre-peak parabola and the z(D) softening curve (§7.5–7.6), the shear strength is
 Mohr–Coulomb with a one-step lag stored per point (§7.7), damage is irreversible (the maximum
 D is stored per point and unloading is linear towards the origin, the Y-Geo option of §7.8),
-and the joint breaks for good when two of its three points have failed (§7.8).
+and the joint breaks for good when two of its three points have failed (§7.8).  A joint of a
+prestressed body starts at the opening and slip of its law that carry the initial traction
+σ⁰·n̂ (§7.11, :func:`prestress_offsets`).
 """
 import numpy as np
 import taichi as ti
@@ -63,6 +65,46 @@ def initial_intact(tri_nodes, joint_nodes, joint_tris, carries, fracturing) -> n
     has_joint &= np.asarray(carries, bool)[:, None]
     bits = ((EDGE_FREE << np.arange(3))[None, :] * ~has_joint).sum(axis=1)
     return np.where(fracturing, INTACT + bits, 0).astype(np.int32)
+
+
+#: columns of joint_prop that hold the initial offsets of a prestressed joint (:func:`prestress_offsets`)
+PRESTRESS_COL = 8
+
+
+def prestress_offsets(joint_prop, length, sigma0, tau0):
+    """The initial offsets of prestressed joints (numpy in and out; docs/theory/joints.md §7.11).
+
+    A joint that starts carrying the normal and shear tractions ``sigma0``, ``tau0`` [Pa] ((J, 3):
+    at its end j0/j3, its mid-point and its end j1/j2; tension positive, τ along ê) starts at the
+    point of its own law where the law gives them: the opening o⁰ and slip s⁰ [m] at which the
+    undamaged law of §7.6–7.7 (the compression penalty, the pre-peak parabolas) returns
+    (σ⁰, τ⁰), with the shear strength the Mohr–Coulomb value at σ⁰.  ``joint_prop`` (J, 6): f_t,
+    c, tan φ, G_I, G_II, p_f; ``length`` (J,): rest length [m].  Returns (J, 6) offsets
+    (o⁰, s⁰) per point, point by point, and (J, 3) the initial shear strength [Pa].  Raises
+    ValueError when a point's traction reaches the joint's strength (σ⁰ ≥ f_t or |τ⁰| ≥ the
+    shear strength): such a joint would be damaged by the initial state alone.
+    """
+    prop = np.asarray(joint_prop, np.float64)
+    ft, c, tanphi, pf = prop[:, 0:1], prop[:, 1:2], prop[:, 2:3], prop[:, 5:6]
+    L = np.asarray(length, np.float64)[:, None]
+    sn, tau = np.asarray(sigma0, np.float64), np.asarray(tau0, np.float64)
+    fs = np.where(sn > 0.0, c, c - sn * tanphi)
+    bad = (sn >= ft) | (np.abs(tau) >= fs)
+    if bad.any():
+        j, p = np.argwhere(bad)[0]
+        raise ValueError(f"Scene.initial_stress: the initial traction of joint {j} (point {p}: σ = {sn[j, p]:.4g} Pa, "
+                         f"τ = {tau[j, p]:.4g} Pa) reaches its strength (f_t = {ft[j, 0]:.4g} Pa, shear "
+                         f"strength {fs[j, p]:.4g} Pa): it would break under the initial state alone "
+                         f"({int(bad.any(axis=1).sum())} joints do)")
+    dp = 2.0 * L * ft / pf                    # opening and slip at peak (§7.4)
+    sp = 2.0 * L * fs / pf
+    # compression: σ = 2 f_t o / δ_p; tension: σ = f_t (2r − r²), r = o / δ_p, so
+    # r = 1 − √(1 − x) = x / (1 + √(1 − x)), x = σ / f_t (the second form without cancellation)
+    xn = np.maximum(sn, 0.0) / ft
+    xs = np.abs(tau) / fs
+    o = np.where(sn < 0.0, 0.5 * sn / ft * dp, dp * xn / (1.0 + np.sqrt(1.0 - xn)))
+    s = np.sign(tau) * sp * xs / (1.0 + np.sqrt(1.0 - xs))
+    return np.stack([o, s], axis=2).reshape(len(prop), 6), fs
 
 
 def neighbour_pairs(tri_origin, eligible) -> np.ndarray:
@@ -341,6 +383,11 @@ def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(
 
     The nodal forces g0 (on the pair j0/j3) and g1 (on j1/j2) are kept in joints.joint_g[j] so that
     :func:`add_joint_work` can book their work over the step with the new velocities.
+
+    When joint_prop has the PRESTRESS_COL offsets (a prestressed body, §7.11; a compile-time
+    branch on the vector's width), the law, its damage and the failure mode see the faces'
+    opening and slip plus the offsets (o⁰, s⁰) of each point; the carried contact share sees the
+    faces' overlap alone.
     """
     jt0 = joints.joint_tris[j]
     if joints.joint_state[j] == 0 and tris.tri_intact[jt0[0]] >= 0 and tris.tri_intact[jt0[1]] >= 0:
@@ -363,11 +410,18 @@ def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(
         trac = ti.Matrix.zero(float, 3, 2)            # row p: traction σ n̂ + τ ê at point p [Pa]
         om = dm.dot(nh)
         sm = dm.dot(eh)
+        if ti.static(prop.n > PRESTRESS_COL):         # a prestressed joint (compiled only then, §7.11)
+            om += prop[PRESTRESS_COL + 2]
+            sm += prop[PRESTRESS_COL + 3]
         dlist = [d0, dm, d1]
         for p in ti.static(range(3)):
             d = dlist[p]
-            o = d.dot(nh)
+            og = d.dot(nh)                            # the faces' opening; the law sees o = og + o⁰
+            o = og
             s = d.dot(eh)
+            if ti.static(prop.n > PRESTRESS_COL):
+                o += prop[PRESTRESS_COL + 2 * p]
+                s += prop[PRESTRESS_COL + 2 * p + 1]
             fs = fsv[p]
             sp = 2.0 * L * fs / pf                    # slip at peak
             ds = 3.0 * gII / fs                       # mode II softening span
@@ -403,10 +457,11 @@ def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(
             if s < 0.0:
                 tau = -tau
             fsv[p] = ti.select(sigma > 0.0, coh, coh - sigma * tanphi)     # Mohr–Coulomb, lagged
-            if o < 0.0:
+            if og < 0.0:
                 # the carried contact share (0 unless carried): its normal stress, and its
-                # friction μ|σ_x| added to the shear strength, as contact friction gave before
-                sx = kx * o
+                # friction μ|σ_x| added to the shear strength, as contact friction gave before.
+                # It acts on the faces' overlap og, as contact does once it takes the pair over
+                sx = kx * og
                 fsv[p] -= mux * sx
                 sigma += sx
             t = sigma * nh + tau * eh

@@ -52,8 +52,9 @@ MODEL_ARRAYS = _specs([
     ("contact_tri", "(K|1,)", "i32", "-", "the triangles that take part in contact"),
     ("joint_nodes", "(J|1,)", "i32 vec4", "-", "the four nodes of each joint (two per face)"),
     ("joint_tris", "(J|1,)", "i32 vec4", "-", "the two triangles of each joint and their edges"),
-    ("joint_prop", "(J|1,)", "real vec8", "Pa, J/m², Pa/m, -", "joint strengths, fracture energies, penalties, "
-                                                             "friction"),
+    ("joint_prop", "(J|1,)", "real vec8 | vec14", "Pa, J/m², Pa/m, -, m", "joint strengths, fracture energies, "
+                                                             "penalties, friction; prestressed joints: the "
+                                                             "initial offsets (o⁰, s⁰) of the three points"),
     ("load_nodes", "(L|1,)", "i32 vec5", "-", "load rows: kind, nodes, curve"),
     ("load_vals", "(L|1,)", "real vec4", "Pa or N/m", "load row values"),
     ("curve_points", "(P|1,)", "real vec2", "s, -", "the amplitude curves' points (time, factor)"),
@@ -83,7 +84,8 @@ MODEL_HOST_ARRAYS = _specs([
     ("joint_prop_np", "(J, 6)", "f64", "Pa, J/m², -", "the joints' material properties"),
     ("joint_set_np", "(J,)", "i32", "-", "joint set index of each joint"),
     ("joint_len0_np", "(J,)", "f64", "m", "rest length of each joint"),
-    ("joint_fs0", "(J|1, 3)", "f64", "Pa", "initial shear strength c of each joint (three points)"),
+    ("joint_fs0", "(J|1, 3)", "f64", "Pa", "initial shear strength of each joint (three points): c, or "
+                                           "c − σ⁰ tan φ under an initial compression σ⁰"),
     ("nb_pairs_np", "(nb, 2)", "i32", "-", "bonded neighbour triangle pairs"),
     ("fluid_real0", "(R,)", "f64", "Pa, Pa·s, m, m²/s", "the fluid's parameters and sources at the start"),
     ("fluid_content0", "(W|1,)", "f64", "m²", "initial fluid content of each network node"),

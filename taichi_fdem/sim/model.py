@@ -28,7 +28,7 @@ from . import fluid as fluid_net, timestep
 from .arrays import MODEL_ARRAYS, MODEL_HOST_ARRAYS, STATE_ARRAYS
 from .. import backend
 from ..engine.groups import SWITCH_BC, SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING, SWITCH_PRESTRESS
-from ..engine.joints import FAN_HEAD, HANDOVER_DAMAGE, fan_links, initial_intact, neighbour_pairs
+from ..engine.joints import FAN_HEAD, HANDOVER_DAMAGE, fan_links, initial_intact, neighbour_pairs, prestress_offsets
 from ..engine.loads import LOAD_ABSORB, LOAD_FORCE, LOAD_PRESSURE, LOAD_TRACTION, LOAD_VELOCITY
 
 
@@ -272,7 +272,7 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     md.loads = md.load_count > 0
     md.curves = curves.list
     md.curve_slices = curves.slices
-    prestress = _prestress(scene, bodies, X, tris)
+    prestress = _prestress(scene, tri_body, X, tris)
     md.prestress = prestress is not None
     md.qs_alpha = float(quasi_static)
     md.local_damping = md.qs_alpha > 0.0
@@ -324,8 +324,17 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     mA, mB = tri_mat[joint_tris[:, 0]], tri_mat[joint_tris[:, 1]]
     kx_per_len = 3.0 * pair[mA, mB, 0] * (0.5 / area0[joint_tris[:, 0]] + 0.5 / area0[joint_tris[:, 1]])
     carried = np.stack([kx_per_len, pair[mA, mB, 2]], axis=1) if md.fracture else np.zeros((len(joint_prop), 2))
-    md.joint_prop = _ndarray(np.concatenate([joint_prop, carried], axis=1).astype(real), rti, vec=8)
+    cols = [joint_prop, carried]
     md.joint_fs0 = np.repeat(joint_prop[:, 1:2], 3, axis=1)       # initial shear strength c [Pa]
+    # prestressed joints start at the point of their law that carries σ⁰·n̂ (docs/theory/joints.md §7.11):
+    # 6 more columns, the offsets, and only then (engine.joints.eval_joint compiles them by width)
+    sn_tau = _joint_prestress(scene, X, joint_nodes[: md.joint_count], tri_body[joint_tris[: md.joint_count, 0]]) \
+        if md.fracture and md.prestress else None
+    md.joint_prestress = sn_tau is not None and bool(np.any(sn_tau != 0.0))
+    if md.joint_prestress:
+        offsets, md.joint_fs0 = prestress_offsets(joint_prop, joint_len, sn_tau[0], sn_tau[1])
+        cols.append(offsets)
+    md.joint_prop = _ndarray(np.concatenate(cols, axis=1).astype(real), rti, vec=sum(c.shape[1] for c in cols))
     md.step_dt = _scalar(md.dt, rti)
     md.step_gravity = ti.Vector.ndarray(2, rti, shape=())
     md.step_gravity[None] = [float(g) for g in scene.gravity]
@@ -519,20 +528,42 @@ def _load_table(scene, bodies, X, mass, dt, curves, free, vbc_raw, vcurve):
     return table, np.asarray(vals, np.float64).reshape(-1, 4), md_dash
 
 
-def _prestress(scene, bodies, X, tris):
-    """(m, 3) initial stress (xx, yy, xy) of each triangle [Pa], or None without one (§12.4)."""
+def _stress_at(scene, body, y):
+    """(n, 3) initial stress (xx, yy, xy) [Pa] at n points of the bodies ``body`` (n,) at the
+    heights ``y`` (n,) [m], or None without one (§12.4: a later call overrides on its bodies)."""
     specs = getattr(scene, "_initial_stress", [])
     if not specs:
         return None
-    out = np.zeros((len(tris), 3))
-    yc = X[tris].mean(axis=1)[:, 1]
+    out = np.zeros((len(y), 3))
     for sp in specs:
-        for b in bodies:
-            if sp.body is not None and sp.body.index != b.index:
-                continue
-            sl = b.triangles
-            out[sl] = sp.stress + (yc[sl, None] - sp.y_ref) * sp.gradient
+        sel = np.ones(len(y), bool) if sp.body is None else (body == sp.body.index)
+        out[sel] = sp.stress + (y[sel, None] - sp.y_ref) * sp.gradient
     return out
+
+
+def _prestress(scene, tri_body, X, tris):
+    """(m, 3) initial stress (xx, yy, xy) of each triangle [Pa], at its centroid, or None (§12.4)."""
+    return _stress_at(scene, tri_body, X[tris].mean(axis=1)[:, 1])
+
+
+def _joint_prestress(scene, X, joint_nodes, joint_body):
+    """(σ⁰, τ⁰), each (J, 3): the normal and shear traction σ⁰·n̂ of the initial stress at the
+    three points of each joint (end j0, mid-point, end j1) in its rest frame (n̂ into triangle A,
+    ê from j0 to j1) [Pa], or None (docs/theory/joints.md §7.11)."""
+    x0, x1 = X[joint_nodes[:, 0]], X[joint_nodes[:, 1]]
+    if not len(x0):
+        return None
+    pts = np.stack([x0, 0.5 * (x0 + x1), x1], axis=1)                          # (J, 3, 2)
+    st = _stress_at(scene, np.repeat(joint_body, 3), pts[..., 1].ravel())
+    if st is None:
+        return None
+    st = st.reshape(-1, 3, 3)
+    e = x1 - x0
+    e = e / np.linalg.norm(e, axis=1, keepdims=True)
+    n = np.stack([-e[:, 1], e[:, 0]], axis=1)
+    tx = st[..., 0] * n[:, None, 0] + st[..., 2] * n[:, None, 1]               # σ⁰·n̂
+    ty = st[..., 2] * n[:, None, 0] + st[..., 1] * n[:, None, 1]
+    return tx * n[:, None, 0] + ty * n[:, None, 1], tx * e[:, None, 0] + ty * e[:, None, 1]
 
 
 def _touching_penalty(bodies, tri_mat, moving, pair) -> float:
