@@ -4,9 +4,11 @@ docs/guide/fluid.md).
     python demos/dfn_injection.py            # writes out/dfn_injection.mp4 and its CSV files
     python demos/dfn_injection.py --short    # a quick, coarser version (used by tests/test_demos.py)
 
-A square block of rock (plane strain; the rock of demos/hydrofrac.py, every interior edge a
-cohesive joint) under the in-situ stress σ_H = 2 MPa along x, σ_h = 0.5 MPa (initial stress and
-matching tractions) holds three pre-existing fractures (``add_body(cracks=...)`` with
+A square block of rock (plane strain, E = 10 GPa, f_t = 0.3 MPa, c = 2 MPa, G_I = 2 J/m²; every
+interior edge a cohesive joint; ``quasi_static=True`` damps the waves of each break) under the
+in-situ stress σ_H = 2 MPa along x, σ_h = 0.5 MPa (initial stress and matching tractions), with
+water (K = 100 MPa, residual aperture 0.1 mm) injected at a constant rate, holds three
+pre-existing fractures (``add_body(cracks=...)`` with
 ``fdem.mesh.Polyline``; contact and friction μ = 0.6):
 
 * A, horizontal through the centre, where water is injected at a constant rate;

@@ -4,7 +4,7 @@
     python demos/hydrofrac.py            # writes out/hydrofrac.mp4 and its CSV files
     python demos/hydrofrac.py --short    # a quick, coarser version (used by tests/test_demos.py)
 
-A square block of rock (plane strain, E = 10 GPa, f_t = 0.3 MPa, c = 0.9 MPa, G_I = 1 J/m²) in
+A square block of rock (plane strain, E = 10 GPa, f_t = 0.3 MPa, c = 2 MPa, G_I = 1 J/m²) in
 which every interior mesh edge is a cohesive joint (``fracture=True``) starts in equilibrium
 under the in-situ stress σ_H = 2 MPa, σ_h = 0.5 MPa (compression; ``scene.initial_stress`` with
 the matching tractions on its four sides).  The borehole is a small cross of pre-existing
@@ -40,7 +40,7 @@ def rock_mass(sigma_h_along_x: bool, size: float, h: float):
     in-situ stress with σ_H along x (``sigma_h_along_x``) or along y, fed at its centre."""
     import numpy as np
     import taichi_fdem as fdem
-    rock = fdem.Material(density=2700.0, young=10e9, poisson=0.25, tensile_strength=3e5, cohesion=9e5,
+    rock = fdem.Material(density=2700.0, young=10e9, poisson=0.25, tensile_strength=3e5, cohesion=2e6,
                          fracture_energy=1.0, name="rock")
     tol = 1e-6 * h
     seed = 1.5 * h
