@@ -21,7 +21,7 @@ from taichi_fdem.mesh import TriMesh
 from conftest import shared_node_pairs, union_find_roots
 
 Z_INTEGRAL = 0.3863      # ∫₀¹ z(D) dD (docs/theory/joints.md §7.5)
-EVENT_KEYS = ("index", "time", "x", "y", "mode", "energy", "length", "set")
+EVENT_KEYS = ("index", "time", "x", "y", "mode", "energy", "length", "set", "pressure")
 
 
 def _same_events(a: dict, b: dict) -> None:
@@ -30,7 +30,7 @@ def _same_events(a: dict, b: dict) -> None:
         if a[k].dtype == object:
             assert list(a[k]) == list(b[k]), k
         else:
-            assert np.array_equal(a[k], b[k]), k
+            assert np.array_equal(a[k], b[k], equal_nan=a[k].dtype.kind == "f"), k
 
 
 def _u8(rgb):
@@ -407,3 +407,51 @@ def test_joint_set_names_from_the_model():
     sim.state.joint_state.from_numpy(st)
     ev = sim.crack_events()
     assert list(ev["set"]) == ["fault"] and list(ev["set_id"]) == [1] and list(ev["mode"]) == ["II"]
+
+
+# ---- the fluid pressure of crack events ---------------------------------------------------------
+def _injected_block():
+    """A free jointed block with a crack at its centre fed at a constant rate: the fluid opens the
+    crack and breaks the joints ahead of its tips."""
+    rock = fdem.Material(density=2700.0, young=10e9, poisson=0.25, tensile_strength=3e5, cohesion=9e5,
+                         fracture_energy=1.0)
+    scene = fdem.Scene(gravity=(0.0, 0.0))
+    scene.add_body(fdem.mesh.rectangle(0.4, 0.4, 0.05), rock, fracture=True,
+                   cracks=lambda x, y: (np.abs(y) < 1e-9) & (np.abs(x) < 0.06))
+    scene.set_fluid(fdem.Fluid(bulk_modulus=1e8), aperture_min=1e-5)
+    scene.inject(lambda x, y: (np.abs(x) < 1e-9) & (np.abs(y) < 1e-9), rate=2e-2)
+    return scene.build(strategy="serial")
+
+
+def test_crack_events_carry_the_fluid_pressure_at_breakage(tmp_path):
+    """An event's pressure is the mean of the pressures of its joint's two network nodes at the
+    start of the step that broke it: re-run to the step of the first wet break, read the network's
+    pressures there (sim.fluid_pressures()), take one step, and compare.  The pressure survives a
+    CSV round trip; a scene without a fluid has NaN."""
+    first = _injected_block()
+    first.step(1500)
+    ev = first.crack_events()
+    assert len(ev["index"]) > 0 and np.all(np.isfinite(ev["pressure"])) and ev["pressure"].max() > 0
+    wet = int(np.nonzero(ev["pressure"] > 0)[0][0])          # the first joint broken by a wet edge
+    k = int(round(ev["time"][wet] / first.dt))
+    sim = _injected_block()
+    sim.step(k)
+    assert sim.broken_joint_count == wet
+    _, p_before = sim.fluid_pressures()
+    sim.step(1)
+    now = sim.crack_events()
+    now = {key: v[wet:] for key, v in now.items()}             # the joints broken in this step
+    assert len(now["index"]) > 0 and np.all(now["time"] == ev["time"][wet])
+    fe = sim.model.fluid_edge.to_numpy()
+    edge_of = {int(j): e for e, j in enumerate(fe[:, 6]) if j >= 0}
+    rows = fe[[edge_of[int(j)] for j in now["index"]]]
+    expect = 0.5 * (p_before[rows[:, 4]] + p_before[rows[:, 5]])
+    assert expect.max() > 0
+    np.testing.assert_allclose(now["pressure"], expect, rtol=1e-12, atol=0)
+    back = read_crack_events(first.write_crack_events(tmp_path / "c.csv"))
+    assert np.array_equal(back["pressure"], ev["pressure"])
+
+
+def test_crack_events_without_fluid_have_nan_pressure(plate_run):
+    ev = plate_run["sim"].crack_events()
+    assert len(ev["pressure"]) == len(ev["index"]) > 0 and np.all(np.isnan(ev["pressure"]))

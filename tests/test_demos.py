@@ -156,3 +156,74 @@ def test_demo_full_mode_runs_to_the_end(name, tmp_path):
     ext = ".csv" if name in ("sweep_friction", "calibrate_granite") else ".mp4"
     r = _load(name).main(["--out", str(tmp_path / f"{name}{ext}")])
     _readme_figures(name, r)
+
+
+def _injection_history_checks(path, rate):
+    """The history CSV of a run fed at a constant ``rate`` from its start: the fluid columns are
+    there, the injected volume is rate × t, and what the network stores grew by what was injected
+    (nothing drains), to round-off."""
+    import csv
+    with open(path) as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) >= 3
+    for col in ("fluid_injection_pressure", "fluid_injected_volume", "fluid_stored_volume", "fluid_rate_0",
+                "E_fluid_work"):
+        assert col in rows[0], col
+    t = np.array([float(r["time"]) for r in rows])
+    inj = np.array([float(r["fluid_injected_volume"]) for r in rows])
+    stored = np.array([float(r["fluid_stored_volume"]) for r in rows])
+    np.testing.assert_allclose(inj, rate * t, rtol=1e-9, atol=1e-18)
+    np.testing.assert_allclose(stored - stored[0], inj, rtol=1e-6, atol=1e-6 * inj.max())
+    assert max(float(r["fluid_injection_pressure"]) for r in rows) > 0
+
+
+def test_hydrofrac_short(tmp_path):
+    """The fracture grows along σ_H and turns with it: the long axis of the broken joints, taken
+    here from the crack-event CSVs (principal axis of the event positions), lies within 20° of x
+    with σ_H along x and within 20° of y once the stresses are swapped; the events carry the
+    fluid pressure; the histories close the fluid's mass balance."""
+    from taichi_fdem.sim.cracks import read_crack_events
+    mod = _load("hydrofrac")
+    r = _run("hydrofrac", tmp_path)
+    for label, along_x in (("sH_x", True), ("sH_y", False)):
+        ev = read_crack_events(r[f"cracks_{label}"])
+        assert len(ev["index"]) >= 10
+        P = np.column_stack([ev["x"], ev["y"]])
+        P = P - P.mean(axis=0)
+        w, v = np.linalg.eigh(P.T @ P)
+        angle = math.degrees(math.atan2(abs(v[1, 1]), abs(v[0, 1])))
+        assert (angle < 20.0) if along_x else (angle > 70.0), (label, angle)
+        assert np.all(np.isfinite(ev["pressure"])) and ev["pressure"].max() > 0
+        _injection_history_checks(r[f"history_{label}"], mod.RATE)
+
+
+def test_dfn_injection_short(tmp_path):
+    """The fluid fills the fracture B that crosses the fed fracture A through their crossing (the
+    pre-existing cracks alone connect B to the well, and B's pressure rises); C, which no
+    pre-existing crack connects (union-find on the crack edges), is joined to the well by broken
+    joints at the end (union-find on the conducting edges) and its pressure has risen, once joints
+    had broken (the fractures' pressure CSV)."""
+    from conftest import union_find_roots
+    mod = _load("dfn_injection")
+    r = _run("dfn_injection", tmp_path)
+    sim, h = r["sim"], r["h"]
+    fe = sim.model.fluid_edge.to_numpy()
+    F = sim.model.fluid_node_count
+    rest = sim.model.fluid_node_rest
+    well = int(np.argmin(np.hypot(rest[:, 0], rest[:, 1])))
+    on = {k: mod._on_segment(rest, seg, 1e-3 * h) & ~mod._on_segment(rest, mod.FRACTURES["A"], 1.5 * h)
+          for k, seg in mod.FRACTURES.items() if k != "A"}
+    crack_roots = union_find_roots(F, fe[fe[:, 6] < 0][:, 4:6])
+    assert np.all(crack_roots[on["B"]] == crack_roots[well])
+    assert not np.any(crack_roots[on["C"]] == crack_roots[well])
+    conducting = sim.state.fluid_edge_val.to_numpy()[:, 0] > 0
+    roots = union_find_roots(F, fe[conducting][:, 4:6])
+    assert np.any(roots[on["C"]] == roots[well])
+    _, p = sim.fluid_pressures()
+    assert p[on["B"]].max() > mod.P_WET and p[on["C"]].max() > 0.1 * mod.P_WET
+    import csv
+    with open(r["fractures_csv"]) as fh:
+        rows = list(csv.DictReader(fh))
+    wet_c = [float(row["pressure_C_Pa"]) > mod.P_WET for row in rows]
+    assert any(wet_c) and int(rows[wet_c.index(True)]["broken_joints"]) > 0   # C fills only after joints broke
+    _injection_history_checks(r["history"], mod.RATE)

@@ -805,3 +805,71 @@ def test_excavated_triangles_render_without_out_of_bounds_reads(tmp_path):
                          cwd=os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     assert out.returncode == 0, out.stderr[-3000:]
     assert "ok" in out.stdout
+
+
+# ---- the fluid-pressure colour mode -------------------------------------------------------------------
+def _fluid_sim(p_left):
+    """A fixed 0.4 m × 0.2 m block cut by a crack along y = 0 at the residual aperture, pressure
+    p_left held at its left end and 0 at its right end (or no source: a dry crack)."""
+    import taichi_fdem as fdem
+    scene = fdem.Scene(gravity=(0.0, 0.0))
+    scene.add_body(fdem.mesh.rectangle(0.4, 0.2, 0.05), fdem.Material(density=2700.0, young=10e9, poisson=0.25),
+                   fixed=True, cracks=lambda x, y: np.abs(y) < 1e-9)
+    scene.set_fluid(fdem.Fluid(), aperture_min=1e-4)
+    if p_left is not None:
+        scene.inject(lambda x, y: x < -0.2 + 1e-9, pressure=p_left)
+        scene.inject(lambda x, y: x > 0.2 - 1e-9, pressure=0.0)
+    sim = scene.build(strategy="serial")
+    sim.step(10)
+    return sim
+
+
+def test_fluid_pressure_colours_the_network_by_its_pressure():
+    """Every pixel on the crack takes the colour map of the pressure at its x, interpolated
+    linearly between the network nodes' pressures (sim.fluid_pressures(), a field the engine
+    computed, not a uniform one); a dry crack is drawn at the colour of 0 Pa; the solid away from
+    the crack is the grey of SOLID_UNDER_FLUID in both."""
+    from taichi_fdem.render.colors import SOLID_UNDER_FLUID
+    P = 1e6
+    kw = dict(view=(-0.2, 0.2, -0.1, 0.1), color_by="fluid_pressure", vmin=0.0, vmax=P, colorbar=False,
+              stamp=False, draw_edges=False, crack_width=3.0)
+    wet, dry = _fluid_sim(P), _fluid_sim(None)
+    pos, p = wet.fluid_pressures()
+    order = np.argsort(pos[:, 0])
+    assert 0.2 * P < np.interp(0.0, pos[order, 0], p[order]) < 0.8 * P     # a graded field
+    r = render.RendererImage(160, 80, **kw)
+    img_wet, img_dry = r.render_sim(wet), r.render_sim(dry)
+    xmin, xmax, ymin, ymax = r.last_view
+    row = int((ymax - 0.0) / (ymax - ymin) * 80)             # the pixel row through y = 0
+    cols = np.arange(4, 156)
+    xc = xmin + (cols + 0.5) / 160 * (xmax - xmin)
+    expect = np.round(render.colormap(np.interp(xc, pos[order, 0], p[order]), 0.0, P) * 255.0)
+    for rr in (row - 1, row):                                # y = 0 lies on a pixel boundary
+        assert np.abs(img_wet[rr, cols].astype(float) - expect).max() <= 2.0
+        zero = np.round(render.colormap(np.zeros(1), 0.0, P)[0] * 255.0)
+        assert np.abs(img_dry[rr, cols].astype(float) - zero).max() <= 1.0
+    grey = np.round(np.asarray(SOLID_UNDER_FLUID) * 255.0)
+    for img in (img_wet, img_dry):
+        assert np.abs(img[row + 10, cols].astype(float) - grey).max() <= 1.0
+    assert np.abs(img_wet[row, cols[:20]].astype(float) - img_dry[row, cols[:20]]).max() > 50
+
+
+def test_fluid_pressure_mode_range_bar_and_errors():
+    """The automatic range is that of the conducting nodes' pressures; a colour bar is drawn; a
+    scene without a fluid and tri_scalars refuse the mode."""
+    P = 1e6
+    wet = _fluid_sim(P)
+    r = render.RendererImage(96, 48, color_by="fluid_pressure")
+    r.render_sim(wet)
+    p = wet.fluid_pressures()[1]
+    assert r.last_range == pytest.approx((p.min(), p.max()), rel=1e-12, abs=1e-9)
+    assert r.last_range[1] == pytest.approx(P, rel=1e-9)
+    import taichi_fdem as fdem
+    scene = fdem.Scene(gravity=(0.0, 0.0))
+    scene.add_body(fdem.mesh.rectangle(0.2, 0.2, 0.1), fdem.Material(density=2700.0, young=10e9, poisson=0.25))
+    with pytest.raises(ValueError, match="needs a scene with a fluid"):
+        r.render_sim(scene.build())
+    with pytest.raises(ValueError, match="not the triangles"):
+        r.tri_scalars(wet, "fluid_pressure")
+    with pytest.raises(ValueError, match="color_by must be one of"):
+        render.RendererImage(8, 8, color_by="pressure")

@@ -147,7 +147,9 @@ def edge_conducts(en, fl: ti.template(), joints: ti.template()):
 
 @ti.func
 def update_edges(nodes: ti.template(), joints: ti.template(), fl: ti.template()):
-    """Step 1: aperture, length and conductance of every edge."""
+    """Step 1: aperture, length and conductance of every edge; the pressure at a joint that
+    broke in this step, the mean of its two fluid nodes' (from the last step), into
+    joint_break[j][3] (the crack event's ``pressure``)."""
     mu = fl.fluid_real[F_MU]
     amin = fl.fluid_real[F_AMIN]
     amax = fl.fluid_real[F_AMAX]
@@ -164,6 +166,13 @@ def update_edges(nodes: ti.template(), joints: ti.template(), fl: ti.template())
         ev[1] = L
         ev[2] = C
         fl.fluid_edge_val[e] = ev
+        j = en[6]
+        if j >= 0:
+            if joints.joint_state[j] != 0 and joints.joint_break[j][3] < 0.0:
+                # the joint broke in this step: the pressure there, the mean of its ends' (last step's)
+                jb = joints.joint_break[j]
+                jb[3] = 0.5 * (fl.fluid_node_val[en[4]][2] + fl.fluid_node_val[en[5]][2])
+                joints.joint_break[j] = jb
 
 
 @ti.func

@@ -486,7 +486,8 @@ def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(
             elif gII_done:
                 mode = MODE_II
             joints.joint_state[j] = mode                   # non-zero: broken, and how
-            joints.joint_break[j] = ti.Vector([step.step_real[TIME], centre[0], centre[1]], dt=float)
+            # (the fluid pressure, slot 3, is recorded by the fluid's phase of this step: −1 until then)
+            joints.joint_break[j] = ti.Vector([step.step_real[TIME], centre[0], centre[1], -1.0], dt=float)
             ti.atomic_add(step.step_int[BROKEN], 1)
             joints.joint_g[j] = ti.Vector([0.0, 0.0, 0.0, 0.0], dt=float)
         else:

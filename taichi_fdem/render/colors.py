@@ -1,7 +1,8 @@
 """Colour modes, colour maps and body colours (NumPy; built-in tables, no matplotlib).
 
 * :data:`COLOR_MODES` -- the ``color_by`` modes of
-  :meth:`~taichi_fdem.render.RendererImage.render_sim` with their colour-bar titles;
+  :meth:`~taichi_fdem.render.RendererImage.render_sim` with their colour-bar titles
+  (``"fluid_pressure"`` colours the fracture network, not the triangles);
 * :data:`COLORMAPS` / :func:`colormap` -- scalar fields to RGB (viridis, gray, coolwarm);
 * :func:`body_colors` -- a distinct palette colour per body (or material) id.
 
@@ -14,7 +15,7 @@ import numpy as np
 
 from ._util import _to_np
 
-__all__ = ["COLOR_MODES", "COLORMAPS", "colormap", "body_colors"]
+__all__ = ["COLOR_MODES", "COLORMAPS", "colormap", "body_colors", "SOLID_UNDER_FLUID"]
 
 # color_by modes of RendererImage.render_sim: name -> (kernel mode id or None for categorical,
 # colour-bar title with units).  The stress titles have two spaces before "stress": a space of
@@ -29,7 +30,11 @@ COLOR_MODES = {
     "max_principal": (3, "max principal  stress [Pa]"),
     "min_principal": (4, "min principal  stress [Pa]"),
     "damage": (-1, "damage"),       # Simulation.tri_damage() (joint model), range [0, 1]
+    # the network edges coloured by the fluid pressure over a grey solid (scenes with a fluid)
+    "fluid_pressure": (-2, "fluid  pressure [Pa]"),
 }
+#: fill colour of the solid under the fluid network in the "fluid_pressure" mode (RGB in [0, 1])
+SOLID_UNDER_FLUID = (0.86, 0.86, 0.86)
 
 
 def _check_color_by(mode):

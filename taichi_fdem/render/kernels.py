@@ -9,6 +9,8 @@
   (speed, displacement, von Mises and principal stresses), the latter with their finite range;
 * :func:`_cracks_u8_kernel` -- the broken joints of a simulation as their two crack faces (crack
   overlay), one thread per joint, straight into a uint8 image;
+* :func:`_fluid_u8_kernel` -- the conducting edges of the fluid network coloured by the fluid
+  pressure (the ``"fluid_pressure"`` mode), one thread per edge, straight into a uint8 image;
 * :func:`_bbox_kernel`, :func:`_centroid_kernel`, :func:`_clear_u8_kernel` -- bounding box, centroids, clearing;
 * :func:`_drawn_tris_kernel`, :func:`_tri_damage_kernel`, :func:`_colormap_kernel` -- the
   triangles left by an excavation, the per-triangle damage and the colours of the scalars, from
@@ -464,3 +466,77 @@ def _colormap_kernel(scal: ti.types.ndarray(), rng: ti.types.ndarray(), cpos: ti
     K = cpos.shape[0]
     for t in range(scal.shape[0]):
         out[t] = _cmap(scal[t], rng[0], rng[1], cpos, ctab, K)
+
+
+@ti.func
+def _in_tri(p, a, b, c):
+    """1 if p lies in the triangle abc (either orientation, edges included; 0 if degenerate)."""
+    w0 = (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
+    w1 = (c[0] - b[0]) * (p[1] - b[1]) - (c[1] - b[1]) * (p[0] - b[0])
+    w2 = (a[0] - c[0]) * (p[1] - c[1]) - (a[1] - c[1]) * (p[0] - c[0])
+    area2 = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+    inside = 0
+    if area2 != 0.0 and ((w0 >= 0.0 and w1 >= 0.0 and w2 >= 0.0) or (w0 <= 0.0 and w1 <= 0.0 and w2 <= 0.0)):
+        inside = 1
+    return inside
+
+
+@ti.func
+def _seg_dist(p, a, b):
+    """Distance from p to the segment ab."""
+    ab = b - a
+    l2 = ab.dot(ab)
+    t = 0.0
+    if l2 > 0.0:
+        t = ti.min(ti.max((p - a).dot(ab) / l2, 0.0), 1.0)
+    return (p - (a + t * ab)).norm()
+
+
+@ti.kernel
+def _fluid_u8_kernel(x: ti.types.ndarray(), fe: ti.types.ndarray(), fev: ti.types.ndarray(),
+                     fnv: ti.types.ndarray(), ne: ti.i32, cpos: ti.types.ndarray(), ctab: ti.types.ndarray(),
+                     params: ti.types.ndarray(), img: ti.types.ndarray(), half_w: ti.f32):
+    """Draw every conducting edge e < ne of the fluid network (fev[e][0] = aperture > 0) coloured
+    by the fluid pressure: the pixels of the (H, W, 3) u8 image within half_w pixels of either
+    face (a0 → a1 on triangle A, b0 → b1 on B) or inside the opening between them take the colour
+    map (cpos/ctab, as :func:`colormap`) of the pressure interpolated linearly between the
+    edge's fluid nodes u and v (fnv[u][2], fnv[v][2] [Pa]) along its mid-line.
+
+    fe: the edges' (a0, a1, b1, b0, u, v, joint, 0); params = [x_left, y_top, pixels_per_metre,
+    vmin, vmax].  One thread per edge; edges with a non-finite node are skipped."""
+    H = img.shape[0]
+    W = img.shape[1]
+    n = x.shape[0]
+    K = cpos.shape[0]
+    for e in range(ne):
+        en = fe[e]
+        ok = False
+        if 0 <= en[0] < n and 0 <= en[1] < n and 0 <= en[2] < n and 0 <= en[3] < n and fev[e][0] > 0.0:
+            ok = _finite_tri(x[en[0]], x[en[1]], x[en[2]]) and _finite_tri(x[en[3]], x[en[3]], x[en[3]])
+        if ok:
+            a0 = _pix(x[en[0]], params)
+            a1 = _pix(x[en[1]], params)
+            b1 = _pix(x[en[2]], params)
+            b0 = _pix(x[en[3]], params)
+            pu = fnv[en[4]][2]
+            pv = fnv[en[5]][2]
+            m0 = 0.5 * (a0 + b0)
+            mm = 0.5 * (a1 + b1) - m0
+            l2 = mm.dot(mm)
+            q0 = ti.cast(ti.max(ti.ceil(ti.min(a0[0], a1[0], b0[0], b1[0]) - half_w - 0.5), 0.0), ti.i32)
+            q1 = ti.cast(ti.min(ti.floor(ti.max(a0[0], a1[0], b0[0], b1[0]) + half_w - 0.5), W - 1.0), ti.i32)
+            r0 = ti.cast(ti.max(ti.ceil(ti.min(a0[1], a1[1], b0[1], b1[1]) - half_w - 0.5), 0.0), ti.i32)
+            r1 = ti.cast(ti.min(ti.floor(ti.max(a0[1], a1[1], b0[1], b1[1]) + half_w - 0.5), H - 1.0), ti.i32)
+            for r in range(r0, r1 + 1):
+                for q in range(q0, q1 + 1):
+                    pc = ti.Vector([ti.cast(q, ti.f32) + 0.5, ti.cast(r, ti.f32) + 0.5])
+                    hit = _seg_dist(pc, a0, a1) <= half_w or _seg_dist(pc, b0, b1) <= half_w
+                    if not hit:
+                        hit = _in_tri(pc, a0, a1, b1) != 0 or _in_tri(pc, a0, b1, b0) != 0
+                    if hit:
+                        t = 0.0
+                        if l2 > 0.0:
+                            t = ti.min(ti.max((pc - m0).dot(mm) / l2, 0.0), 1.0)
+                        c8 = _to_u8(_cmap(pu + t * (pv - pu), params[3], params[4], cpos, ctab, K))
+                        for k in ti.static(range(3)):
+                            img[r, q, k] = c8[k]

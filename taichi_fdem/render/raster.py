@@ -17,10 +17,11 @@ from taichi_fdem import backend
 
 from ._util import (_check_color, _check_pos_int, _check_range, _check_real, _check_view, _is_ndarray,
                     _np_dtype, _to_np)
-from .colors import COLOR_MODES, COLORMAPS, _check_color_by, body_colors
+from .colors import COLOR_MODES, COLORMAPS, SOLID_UNDER_FLUID, _check_color_by, body_colors, colormap
 from .kernels import (_bbox_kernel, _centroid_kernel, _clear_kernel, _clear_u8_kernel, _colormap_kernel,
-                      _cracks_u8_kernel, _drawn_tris_kernel, _raster_kernel, _raster_u8_kernel, _resolve_kernel,
-                      _sim_scalar_kernel, _to_pixels_kernel, _tri_damage_kernel, _tri_scalar_kernel, _vec3f)
+                      _cracks_u8_kernel, _drawn_tris_kernel, _fluid_u8_kernel, _raster_kernel, _raster_u8_kernel,
+                      _resolve_kernel, _sim_scalar_kernel, _to_pixels_kernel, _tri_damage_kernel, _tri_scalar_kernel,
+                      _vec3f)
 from .labels import _Overlays
 
 __all__ = ["RendererImage"]
@@ -63,7 +64,12 @@ class RendererImage(_Overlays):
         plane-stress form sqrt(sxx^2 - sxx syy + syy^2 + 3 sxy^2), Pa), ``"max_principal"`` /
         ``"min_principal"`` (principal stresses, Pa), ``"damage"`` (the largest damage of the
         triangle's joints, 0 to 1).  Scalars are computed by a Taichi kernel
-        from the simulation's arrays; inverted triangles are grey.
+        from the simulation's arrays; inverted triangles are grey.  ``"fluid_pressure"`` (scenes
+        with a fluid, ``scene.set_fluid``): the solid in light grey and, over it, every
+        conducting edge of the fracture network, its two faces ``crack_width`` pixels wide and
+        the opening between them, coloured by the fluid pressure [Pa] (``cmap``, interpolated
+        linearly between the edge's two network nodes); the automatic range is that of the
+        conducting nodes' pressures.
     vmin, vmax : float or None
         Colour range of the scalar modes, in the quantity's unit.  ``None`` (default)
         = automatic, the finite min / max of the current frame (so colours are not comparable
@@ -326,11 +332,12 @@ class RendererImage(_Overlays):
             tab = self._small[key] = (cpos, ctab)
         return tab
 
-    def _draw(self, x_nd, t_nd, c_nd, box, reserve_right=0, scal=None, rng=None, cracks_of=None) -> np.ndarray:
+    def _draw(self, x_nd, t_nd, c_nd, box, reserve_right=0, scal=None, rng=None, overlays=None) -> np.ndarray:
         """Rasterise; colours are c_nd, or (supersample 1 only) the scalars scal mapped through
-        the colour map over rng = (vmin, vmax) inside the raster kernel; then the cracks of the
-        simulation ``cracks_of`` (if given).  The image is drawn on the device and is the one
-        array copied to the host."""
+        the colour map over rng = (vmin, vmax) inside the raster kernel; then ``overlays`` =
+        (simulation, fluid range or None): its cracks (when ``cracks``) and its fluid network
+        (:meth:`_draw_overlays`).  The image is drawn on the device and is the one array copied
+        to the host."""
         s = self.supersample
         view, scale = self._letterbox(box, reserve_right)
         self.last_view = view
@@ -350,8 +357,7 @@ class RendererImage(_Overlays):
                 _raster_u8_kernel(x_nd, t_nd, c_nd, scal, use_scal,
                                   cpos, ctab, params, img, ti.Vector(self.edge_color, dt=ti.f32),
                                   float(0.5 * self.edge_width), int(draw))
-            if cracks_of is not None:
-                self._draw_cracks(cracks_of, img)
+            self._draw_overlays(overlays, img)
             return img.to_numpy()
         img, out = self._buffers()
 
@@ -370,8 +376,7 @@ class RendererImage(_Overlays):
             _raster_kernel(p_nd, t_nd, c_nd, img, ti.Vector(self.edge_color, dt=ti.f32),
                            float(0.5 * self.edge_width * s), int(draw))
         _resolve_kernel(img, out, s)
-        if cracks_of is not None:
-            self._draw_cracks(cracks_of, out)
+        self._draw_overlays(overlays, out)
         return out.to_numpy()
 
     __call__ = render
@@ -392,6 +397,9 @@ class RendererImage(_Overlays):
         kid = _plane_mode(COLOR_MODES[mode][0], sim)
         if kid is None:
             raise ValueError(f"tri_scalars: color_by={mode!r} is not a scalar mode")
+        if kid == -2:
+            raise ValueError("tri_scalars: 'fluid_pressure' colours the fracture network, not the triangles "
+                             "(sim.fluid_pressures() gives the network's pressures)")
         if kid < 0:      # "damage"
             return np.asarray(sim.tri_damage(), dtype=np.float64)
         backend.ensure_init()
@@ -491,6 +499,17 @@ class RendererImage(_Overlays):
         hh = 0.5 * width * self.height / self.width
         return (cx - 0.5 * width, cx + 0.5 * width, cy - hh, cy + hh)
 
+    def _draw_overlays(self, overlays, img) -> None:
+        """Into the u8 image on the device: the cracks of the simulation (when ``cracks``), then
+        its fluid network coloured by pressure (when a fluid range is given)."""
+        if overlays is None:
+            return
+        sim, fluid_rng = overlays
+        if self.cracks:
+            self._draw_cracks(sim, img)
+        if fluid_rng is not None:
+            self._draw_fluid(sim, img, fluid_rng)
+
     def _draw_cracks(self, sim, img) -> None:
         """The crack overlay (see ``cracks``) into the u8 image, in the view of the last frame."""
         nj = int(getattr(sim, "joint_count", 0) or 0) if getattr(sim, "fracture", False) else 0
@@ -500,6 +519,38 @@ class RendererImage(_Overlays):
         params = np.array([xmin, ymax, self.width / (xmax - xmin)], dtype=_np_dtype(sim.state.node_x.dtype))
         _cracks_u8_kernel(sim.state.node_x, sim.model.joint_nodes, sim.state.joint_state, nj, params, img,
                           ti.Vector(self.crack_color, dt=ti.f32), float(0.5 * self.crack_width))
+
+    def _fluid_range(self, sim):
+        """(vmin, vmax) [Pa] of the "fluid_pressure" mode: the renderer's, or the range of the
+        pressures of the network nodes that conducting edges reach ((0, 1) while none)."""
+        if not getattr(sim.model, "fluid", False):
+            raise ValueError("render_sim: color_by='fluid_pressure' needs a scene with a fluid (scene.set_fluid)")
+        nv = sim.state.fluid_node_val.to_numpy()[: sim.model.fluid_node_count]
+        p = nv[nv[:, 1] > 0.0, 2].astype(np.float64)
+        p = p[np.isfinite(p)]
+        vmin, vmax = self.vmin, self.vmax
+        if vmin is None:
+            vmin = float(p.min()) if len(p) else 0.0
+            if vmax is not None and vmin > vmax:
+                vmin = vmax
+        if vmax is None:
+            vmax = float(p.max()) if len(p) else max(1.0, vmin)
+            if vmax < vmin:
+                vmax = vmin
+        return vmin, vmax
+
+    def _draw_fluid(self, sim, img, rng) -> None:
+        """The fluid network coloured by pressure over rng = (vmin, vmax) into the u8 image, in
+        the view of the last frame (see ``color_by="fluid_pressure"``)."""
+        ne = int(sim.model.fluid_edge_count)
+        if ne == 0:
+            return
+        xmin, xmax, _, ymax = self.last_view
+        params = np.array([xmin, ymax, self.width / (xmax - xmin), rng[0], rng[1]],
+                          dtype=_np_dtype(sim.state.node_x.dtype))
+        cpos, ctab = self._cmap_nd(self.cmap)
+        _fluid_u8_kernel(sim.state.node_x, sim.model.fluid_edge, sim.state.fluid_edge_val, sim.state.fluid_node_val,
+                         ne, cpos, ctab, params, img, float(0.5 * self.crack_width))
 
     def render_sim(self, sim, color_by=None) -> np.ndarray:
         """Draw a :class:`~taichi_fdem.sim.simulation.Simulation`; returns ``(height, width, 3)`` uint8.
@@ -512,17 +563,26 @@ class RendererImage(_Overlays):
         consts = self._sim_consts(sim)
         kid, title = COLOR_MODES[mode]
         bar = None
-        if kid is None:
+        fluid_rng = None
+        if kid is None or kid == -2:
             key = "colors_" + mode
             colors = consts.get(key)
             if colors is None:
-                ids = sim.model.tri_body_np if mode == "body" else sim.model.tri_mat_np
+                if kid == -2:
+                    cols = np.broadcast_to(np.asarray(SOLID_UNDER_FLUID, np.float32), (sim.tri_count, 3))
+                else:
+                    cols = body_colors(sim.model.tri_body_np if mode == "body" else sim.model.tri_mat_np)
                 colors = ti.Vector.ndarray(3, ti.f32, shape=(sim.tri_count,))
-                colors.from_numpy(np.ascontiguousarray(body_colors(ids), dtype=np.float32))
+                colors.from_numpy(np.ascontiguousarray(cols, dtype=np.float32))
                 consts[key] = colors
             c_nd = colors
             self.last_scalars = None
             self.last_range = None
+            if kid == -2:
+                fluid_rng = self.last_range = self._fluid_range(sim)
+                if self.colorbar:
+                    bar = (fluid_rng[0], fluid_rng[1], title)
+            kid = None          # the triangles in one colour each
         else:
             # scalars and their finite range in one launch; nothing per-triangle leaves the device
             scal, info = self._frame_scalars(sim, _plane_mode(kid, sim))
@@ -558,7 +618,7 @@ class RendererImage(_Overlays):
         img = self._draw(sim.state.node_x, self._drawn_triangles(sim, consts), c_nd, box,
                          layout["reserve"] if layout else 0,
                          scal=None if kid is None else scal, rng=None if kid is None else (vmin, vmax),
-                         cracks_of=sim if self.cracks else None)
+                         overlays=(sim, fluid_rng))
         stamp = f"t = {sim.time:.4g} s  step {sim.step_count}" if self.stamp else None
         if bar is not None or stamp is not None:
             img = self._overlay(img, bar, layout, stamp)

@@ -109,7 +109,8 @@ STATE_ARRAYS = _specs([
     ("joint_zmax", "(J|1,)", "real vec3", "-", "softening factor at the largest opening"),
     ("joint_fs", "(J|1,)", "real vec3", "Pa", "shear strength of each joint (three integration points)"),
     ("joint_work", "(J|1,)", "real", "J/m", "work done on each joint"),
-    ("joint_break", "(J|1,)", "real vec3", "s, m, m", "time and position of each joint's break"),
+    ("joint_break", "(J|1,)", "real vec4", "s, m, m, Pa", "time, position and fluid pressure of each joint's break "
+     "(pressure −1: none recorded)"),
     ("joint_g", "(J|1,)", "real vec4", "J/m²", "energy released per mode"),
     ("couple_start", "(K+1|1,)", "i32", "-", "first couple of each contact triangle (friction history)"),
     ("couple_a", "(C,)", "i32", "-", "first triangle of each contact couple"),

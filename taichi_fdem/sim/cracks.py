@@ -28,9 +28,9 @@ from .model import counter
 __all__ = ["CrackResults", "CrackEventLog", "read_crack_events", "CSV_COLUMNS"]
 
 #: columns of a crack-event CSV file, with the units in their names
-CSV_COLUMNS = ("joint", "time_s", "x_m", "y_m", "mode", "energy_J", "length_m", "set")
+CSV_COLUMNS = ("joint", "time_s", "x_m", "y_m", "mode", "energy_J", "length_m", "set", "pressure_Pa")
 # crack_events() key of each CSV column
-_CSV_KEYS = ("index", "time", "x", "y", "mode", "energy", "length", "set")
+_CSV_KEYS = ("index", "time", "x", "y", "mode", "energy", "length", "set", "pressure")
 _MODE_TABLE = np.array(["?"] + [MODE_NAMES[k] for k in sorted(MODE_NAMES)], dtype=object)
 _MODE_IDS = {name: k for k, name in MODE_NAMES.items()}
 
@@ -39,7 +39,7 @@ def _empty_events() -> dict:
     f = np.zeros(0)
     return {"index": np.zeros(0, np.int64), "time": f, "x": f.copy(), "y": f.copy(),
             "mode": np.zeros(0, dtype=object), "mode_id": np.zeros(0, np.int32), "energy": f.copy(),
-            "length": f.copy(), "set": np.zeros(0, dtype=object), "set_id": np.zeros(0, np.int32)}
+            "length": f.copy(), "set": np.zeros(0, dtype=object), "set_id": np.zeros(0, np.int32), "pressure": f.copy()}
 
 
 class CrackResults:
@@ -85,7 +85,10 @@ class CrackResults:
           share included, §7.9) × the scene thickness; the events' sum is
           ``energies()["fracture"]``;
         * ``length`` [m]: the joint's initial length L0 (from the rest positions);
-        * ``set``: the name of its joint set ("default" without joint sets), ``set_id`` its index.
+        * ``set``: the name of its joint set ("default" without joint sets), ``set_id`` its index;
+        * ``pressure`` [Pa]: the fluid pressure at the joint when it broke, the mean of the
+          pressures at its two ends at the start of the step (``scene.set_fluid``; 0 where the
+          fluid has not arrived); NaN in a scene without a fluid.
 
         Ties in time are in joint order.  Empty arrays for a scene without fracture.
         """
@@ -106,13 +109,15 @@ class CrackResults:
         mode_id = st.joint_state.to_numpy()[idx].astype(np.int32)
         energy = st.joint_work.to_numpy()[idx].astype(np.float64) * self.thickness
         set_id = c["set_id"][idx]
+        pressure = np.where(brk[:, 3] >= 0.0, brk[:, 3], np.nan)
         return {"index": idx.astype(np.int64), "time": brk[:, 0], "x": brk[:, 1], "y": brk[:, 2],
                 "mode": _MODE_TABLE[np.clip(mode_id, 0, len(_MODE_TABLE) - 1)], "mode_id": mode_id,
-                "energy": energy, "length": c["length"][idx], "set": c["set_names"][set_id], "set_id": set_id}
+                "energy": energy, "length": c["length"][idx], "set": c["set_names"][set_id], "set_id": set_id,
+                "pressure": pressure}
 
     def write_crack_events(self, path) -> str:
         """Write :meth:`crack_events` as a CSV file (overwritten), columns :data:`CSV_COLUMNS`
-        (``joint, time_s, x_m, y_m, mode, energy_J, length_m, set``); returns the path.
+        (``joint, time_s, x_m, y_m, mode, energy_J, length_m, set, pressure_Pa``); returns the path.
 
         Floats are written with ``repr`` (exact round trip, :func:`read_crack_events`)."""
         path = os.fspath(path)
@@ -291,7 +296,7 @@ def read_crack_events(path) -> dict:
     body = rows[1:]
     cols = list(zip(*body)) if body else [()] * len(CSV_COLUMNS)
     ev = {"index": np.array(cols[0], dtype=np.int64)}
-    for k, name in ((1, "time"), (2, "x"), (3, "y"), (5, "energy"), (6, "length")):
+    for k, name in ((1, "time"), (2, "x"), (3, "y"), (5, "energy"), (6, "length"), (8, "pressure")):
         ev[name] = np.array(cols[k], dtype=np.float64)
     ev["mode"] = np.array(cols[4], dtype=object)
     ev["mode_id"] = np.array([_MODE_IDS.get(m, 0) for m in cols[4]], dtype=np.int32)

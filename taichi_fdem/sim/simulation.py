@@ -525,7 +525,7 @@ class Simulation(SimulationResults, ModelValues):
             each body, energies (:class:`taichi_fdem.sim.results.History`).  Each row is flushed;
             an existing file is appended to.
         crack_events : path of a CSV file of crack events (:meth:`crack_events`, columns
-            ``joint, time_s, x_m, y_m, mode, energy_J, length_m, set``): the joints broken so
+            ``joint, time_s, x_m, y_m, mode, energy_J, length_m, set, pressure_Pa``): the joints broken so
             far are written at the start, new ones after every chunk of steps (at least as
             often as the history rows and checks) and at the end, also when the run stops
             with an error; each write is flushed.  An existing file is appended to, without

@@ -50,7 +50,7 @@ def allocate_state(md: Model) -> State:
     st.joint_zmax = _ndarray(np.ones((nj, 3), real), rti, vec=3)              # z(dmax), z(0) = 1
     st.joint_fs = _ndarray(md.joint_fs0.astype(real), rti, vec=3)
     st.joint_work = sc(np.zeros(nj))
-    st.joint_break = _ndarray(np.zeros((nj, 3), real), rti, vec=3)
+    st.joint_break = _ndarray(np.zeros((nj, 4), real), rti, vec=4)
     st.joint_g = _ndarray(np.zeros((nj, 4), real), rti, vec=4)
     K = md.ctri_count if md.contact else 1
     st.couple_start = i32(np.zeros(K + 1 if md.friction else 1))
