@@ -97,14 +97,9 @@ def task_buffer_counts(cache_dir) -> dict:
 
 @pytest.mark.parametrize("precision", ["f64", "f32"])
 @pytest.mark.parametrize("case", ["impact", "rock", "fluid"])
-def test_vulkan_runs_every_feature(vulkan, precision, case, request):
+def test_vulkan_runs_every_feature(vulkan, precision, case):
     """Every feature of the case runs on Vulkan: the run completes, every energy term of the
     CPU run is there and finite, the frame renders like the CPU's, the fragments are counted."""
-    if case == "fluid" and precision == "f64":
-        request.applymarker(pytest.mark.xfail(
-            reason="open: on Vulkan in f64 the fluid's pressure forces do not move the nodes inside "
-                   "step_parallel_fluid (the faces stay still and the pressure climbs); f32 matches the CPU",
-            strict=False))
     gpu = probe("vulkan", precision)[0][case]
     cpu = probe("cpu", precision)[0][case]
     assert set(gpu["energies"]) == set(cpu["energies"])

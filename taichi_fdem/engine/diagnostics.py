@@ -93,9 +93,9 @@ def energy_terms(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: Con
     """
     for i in range(5):
         out[i] = 0.0
-    g = step.step_gravity[None]
     ti.loop_config(serialize=True)
     for i in range(nodes.node_x.shape[0]):
+        g = step.step_gravity[None]       # read in the loop: no vector global temporary (engine.integrate)
         m = nodes.node_mass[i]
         out[0] += 0.5 * m * nodes.node_v[i].norm_sqr()
         out[3] -= m * g.dot(nodes.node_x[i])

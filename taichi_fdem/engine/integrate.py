@@ -180,7 +180,6 @@ def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.templat
     """gathered: 0 = node_f only (serial), 1 = plus the node's slots, 2 = plus its block copies."""
     N = nodes.node_x.shape[0]
     dt = step.step_dt[None]
-    g = step.step_gravity[None]
     bc = step.step_switches[None] & SWITCH_BC
     bc_work = step.step_switches[None] & SWITCH_BC_WORK
     alpha = 0.0
@@ -190,6 +189,11 @@ def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.templat
     for _ in range(1):
         step.step_real[VMAX] = 0.0
     for chunk in range((N + CHUNK - 1) // CHUNK):
+        # g is read in the loop, not before it: a vector set outside a loop and read inside one
+        # is a global temporary, which Taichi 1.7 places unaligned, and SPIR-V (Vulkan) stores an
+        # f64 vector at an offset of 4 mod 8 four bytes lower, over its neighbour: in a scene with
+        # a fluid that was this loop's end, so the nodes did not move (tests/test_gpu.py, fluid-f64)
+        g = step.step_gravity[None]
         vmax2, bad, work, local = integrate_span(chunk * CHUNK, ti.min(N, chunk * CHUNK + CHUNK), nodes, joints, asm,
                                                  step, dt, g, bc, bc_work, alpha, gathered, local_damping)
         ti.atomic_max(step.step_real[VMAX], ti.sqrt(vmax2))
