@@ -330,3 +330,28 @@ def test_auto_runs_a_fluid_scene_serial_on_the_cpu(monkeypatch):
     monkeypatch.setattr(simmod.backend, "cpu_threads", lambda: 2)
     monkeypatch.setattr(simmod.backend, "usable_cores", lambda: 2)
     assert cubic_law_scene().build().strategy == "serial"
+
+
+def test_scene_file_colours_the_video_by_fluid_pressure(tmp_path):
+    """[output] color_by = "fluid_pressure" writes a video of the fluid in a scene file with a
+    [fluid] table, and is refused by name without one."""
+    path = tmp_path / "s.toml"
+    video = tmp_path / "fluid.gif"
+    path.write_text(SCENE_FILE.replace("duration = 0.006", "duration = 0.001") + f"""[output]
+video = "{video}"
+color_by = "fluid_pressure"
+width = 96
+height = 32
+""")
+    sim, settings = fdem.scenefile.load(str(path)).build()
+    settings.run(sim, progress=False)
+    assert video.exists() and video.stat().st_size > 0
+    dry = SCENE_FILE.split("[fluid]")[0] + f"""[solver]
+duration = 0.001
+[output]
+video = "{video}"
+color_by = "fluid_pressure"
+"""
+    path.write_text(dry)
+    with pytest.raises(fdem.scenefile.SceneFileError, match="color_by.*needs a \\[fluid\\] table"):
+        fdem.scenefile.load(str(path))

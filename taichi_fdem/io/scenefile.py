@@ -147,7 +147,8 @@ video          —       video written while running: .mp4, .gif or a folder of 
 fps            1/s     frames per second of the video [30]
 frame_dt       s       simulated time between frames [duration / (5 s × fps)]
 color_by       —       "body", "material", "speed", "displacement", "von_mises",
-                       "max_principal" or "min_principal" ["body"]
+                       "max_principal", "min_principal", "damage" or "fluid_pressure"
+                       (needs ``[fluid]``) ["body"]
 width, height  px      video frame size [960, 540]
 cracks         —       draw the broken joints on the video frames [false]
 crack_events   —       CSV file of crack events, appended as joints break [none]
@@ -284,7 +285,8 @@ SOLVER_KEYS = {
     "handover_damage": _Key("float", HANDOVER_DAMAGE, lo=0.0, hi=1.0),
     "quasi_static": _Key("float", 0.0, lo=0.0, hi=0.999),
 }
-COLOR_BY = ("body", "material", "speed", "displacement", "von_mises", "max_principal", "min_principal")
+COLOR_BY = ("body", "material", "speed", "displacement", "von_mises", "max_principal", "min_principal", "damage",
+            "fluid_pressure")
 OUTPUT_KEYS = {
     "video": _Key("str"),
     "fps": _Key("int", 30, "1/s", lo=1, hi=1000),
@@ -540,6 +542,9 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
             raise ck.error(("output", "checkpoint"), "checkpoints need Simulation.save, which this version does not have")
     if "cracks" in output_t and output["cracks"] and output["video"] is None:
         raise ck.error(("output", "cracks"), "cracks = true draws the broken joints on the video: it needs video = \"...\"")
+    if output["color_by"] == "fluid_pressure" and "fluid" not in data:
+        raise ck.error(("output", "color_by"), "color_by = \"fluid_pressure\" colours the fluid in the fractures: "
+                       "it needs a [fluid] table")
     if "history_every" in output_t and output["history"] is None:
         raise ck.error(("output", "history_every"), "history_every needs history = \"file.csv\"")
     if "vtu_every" in output_t and output["vtu"] is None:
