@@ -105,7 +105,9 @@ def warn_kinetic(ratio: float, where: str) -> None:
     """Warn (RuntimeWarning) when the specimen's kinetic/strain energy at half the peak exceeds ``MAX_KINETIC_RATIO``."""
     if ratio > MAX_KINETIC_RATIO:
         warnings.warn(f"{where}: kinetic / strain energy of the specimen at half the peak is {ratio:.3g} "
-                      f"(> {MAX_KINETIC_RATIO}): the test is not quasi-static; load more slowly", RuntimeWarning,
+                      f"(> {MAX_KINETIC_RATIO}): the test is not quasi-static; load more slowly, or damp the specimen's "
+                      "material (Material(damping=1.0): without damping its elastic waves ring and the peak is "
+                      "not the material's)", RuntimeWarning,
                       stacklevel=3)
 
 
