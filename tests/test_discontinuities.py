@@ -313,13 +313,13 @@ def test_serial_and_parallel_agree_on_a_partly_jointed_body_with_a_crack_tip():
 
 
 def test_guide_discontinuity_example_runs_as_written(capsys):
-    """docs/guide/fracture.md "Discontinuities, joint sets and heterogeneity": the example runs as written; its
+    """docs/guide/fracture.md "Joints on chosen edges, cracks, joint sets and heterogeneity": the example runs as written; its
     band of joints, its crack (x = 0 below y = −0.1: 3 edges of 0.05 m) and its joint set
     (y = 0.15: 20 edges) are where it says."""
     import os
     import re
     readme = open(os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "docs", "guide", "fracture.md")).read()
-    sec = readme[readme.index("## Discontinuities, joint sets and heterogeneity"):]
+    sec = readme[readme.index("## Joints on chosen edges, cracks, joint sets and heterogeneity"):]
     code = re.search(r"```python\n(.*?)```", sec, re.S).group(1)
     scope: dict = {}
     exec(compile(code, "docs/guide/fracture.md", "exec"), scope)

@@ -345,12 +345,12 @@ def test_gmsh_engine_missing(monkeypatch):
 
 
 def test_guide_fracture_lines_example_runs_as_written(capsys):
-    """docs/guide/meshes.md "Meshes with fracture lines": the example runs as written and the edges it
+    """docs/guide/meshes.md "Fracture lines and pre-existing cracks": the example runs as written and the edges it
     selects add up to the fault's length sqrt(2) m."""
     import os
     import re
     readme = open(os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "docs", "guide", "meshes.md")).read()
-    sec = readme[readme.index("## Meshes with fracture lines"):]
+    sec = readme[readme.index("## Fracture lines and pre-existing cracks"):]
     code = re.search(r"```python\n(.*?)```", sec, re.S).group(1)
     scope: dict = {}
     exec(compile(code, "docs/guide/meshes.md", "exec"), scope)
