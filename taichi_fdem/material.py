@@ -246,13 +246,17 @@ FLUID_RANGE = {
 class Fluid:
     """A compressible Newtonian fluid in the fracture network (``scene.set_fluid``).
 
-    Parameters (SI units)
-    ---------------------
-    density : reference density ρ [kg/m³], > 0: the fluid's mass is its volume at this density
-        (the network stores that volume, ``M/ρ``).
-    bulk_modulus : K [Pa], > 0: dp = K dV/V (linearised about the reference density).
-    viscosity : dynamic viscosity μ [Pa·s], > 0: the cubic law q = −w³/(12 μ) ∂p/∂s.
-    name : free label.
+    Parameters
+    ----------
+    density : float
+        Reference density ρ [kg/m³], > 0: the fluid's mass is its volume at this density (the
+        network stores that volume, ``M/ρ``).
+    bulk_modulus : float
+        K [Pa], > 0: dp = K dV/V (linearised about the reference density).
+    viscosity : float
+        Dynamic viscosity μ [Pa·s], > 0: the cubic law q = −w³/(12 μ) ∂p/∂s.
+    name : str, optional
+        Free label.
 
     Values outside :data:`FLUID_RANGE` give a RuntimeWarning (a unit slip, most likely).
     """

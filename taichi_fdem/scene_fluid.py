@@ -91,12 +91,11 @@ class FluidScene:
         """A source of the fracture network on the network nodes selected by ``where(x, y)``
         (their initial coordinates [m]): a crack's centre, a notch, a borehole wall.
 
-        Give exactly one of
-        ``rate`` : a volume rate [m²/s per unit thickness], >= 0, into the network, shared
-            equally among the selected nodes that conduct (nothing enters while none does);
-        ``pressure`` : a pressure [Pa], >= 0, prescribed on the selected nodes that conduct;
-            the fluid it adds or takes out (a source or a drain) is its rate.
-        ``curve`` : a :class:`Curve` multiplying the rate or the pressure.
+        Give exactly one of ``rate``, a volume rate [m²/s per unit thickness], >= 0, into the
+        network, shared equally among the selected nodes that conduct (nothing enters while
+        none does), or ``pressure``, a pressure [Pa], >= 0, prescribed on the selected nodes
+        that conduct (the fluid it adds or takes out, as a source or a drain, is its rate).
+        ``curve`` is a :class:`Curve` multiplying the rate or the pressure.
 
         Several calls make several sources, reported in order by ``sim.injection_rates()``
         (positive into the network); ``sim.injection_pressure()`` is the pressure at the first.

@@ -81,7 +81,7 @@ def prestress_offsets(joint_prop, length, sigma0, tau0):
     (σ⁰, τ⁰), with the shear strength the Mohr–Coulomb value at σ⁰.  ``joint_prop`` (J, 6): f_t,
     c, tan φ, G_I, G_II, p_f; ``length`` (J,): rest length [m].  Returns (J, 6) offsets
     (o⁰, s⁰) per point, point by point, and (J, 3) the initial shear strength [Pa].  Raises
-    ValueError when a point's traction reaches the joint's strength (σ⁰ ≥ f_t or |τ⁰| ≥ the
+    ValueError when a point's traction reaches the joint's strength (σ⁰ ≥ f_t or ``|τ⁰|`` ≥ the
     shear strength): such a joint would be damaged by the initial state alone.
     """
     prop = np.asarray(joint_prop, np.float64)

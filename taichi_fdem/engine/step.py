@@ -33,9 +33,9 @@ both strategies:
   :func:`build_node_slots`), and integrates (:func:`phase_gather_integrate`).  (c) The joints'
   work.  On the CPU, :func:`run_steps_blocks` runs up to thousands of such steps in one
   launch, in a team of worker threads that meet at a barrier between (a), (b) and (c);
-  otherwise :func:`step_parallel` runs one step per launch in three parallel loops.  A scene with
-a fluid runs :func:`run_steps_serial_fluid` (serial) or :func:`step_parallel_fluid` (parallel,
-one step per launch: no team launch), which take the fluid's group as well.  Sums run
+  otherwise :func:`step_parallel` runs one step per launch in three parallel loops.  A scene
+  with a fluid runs :func:`run_steps_serial_fluid` (serial) or :func:`step_parallel_fluid`
+  (parallel, one step per launch: no team launch), which take the fluid's group as well.  Sums run
   in a fixed order, so results are bit-identical from run to run and for any thread count.
 
 Every kernel takes the array groups of :mod:`taichi_fdem.engine.groups`.  ``contact``,

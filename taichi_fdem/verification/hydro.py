@@ -63,7 +63,7 @@ def plane_modulus(young: float, poisson: float, plane: str = "strain") -> float:
 def sneddon_opening(x, a: float, p: float, young: float, poisson: float, plane: str = "strain") -> np.ndarray:
     """Opening w(x) [m] (distance between the faces) of a crack of half-length ``a`` [m] along
     −a < x < a in an infinite plane, under a uniform internal pressure ``p`` [Pa] (Sneddon 1946):
-    w = 4 p/E' √(a² − x²), zero for |x| ≥ a.  Same shape as ``x`` (any shape, m).
+    w = 4 p/E' √(a² − x²), zero for ``|x|`` ≥ a.  Same shape as ``x`` (any shape, m).
 
     The volume is 2π p a²/E' (:func:`sneddon_volume`), the stress intensity at the tips
     p √(π a) (:func:`pressurised_crack_stress_intensity`).
@@ -112,7 +112,7 @@ class KGDSolution:
     rate: float
 
     def opening(self, x) -> np.ndarray:
-        """w(x, t) [m] at the positions ``x`` [m] (broadcast against ``t``), zero for |x| ≥ ℓ."""
+        """w(x, t) [m] at the positions ``x`` [m] (broadcast against ``t``), zero for ``|x|`` ≥ ℓ."""
         x = np.asarray(x, dtype=np.float64)
         xi = np.abs(x) / self.half_length
         inside = xi < 1.0

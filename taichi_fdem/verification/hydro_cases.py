@@ -37,11 +37,11 @@ def _graded_axis(inner: float, outer: float, h: float, growth: float) -> np.ndar
 
 def crack_plate_mesh(a: float, width: float, h: float, growth: float = 1.2, band: float | None = None) -> TriMesh:
     """A square plate of side ``width`` [m] centred on the origin, meshed for a crack along the x
-    axis from −a to a: mesh lines at y = 0 and at x = ±a, cells h × h [m] over |x| ≤ a + band and
-    |y| ≤ band (``band`` default 2h), growing by ``growth`` per cell outside.  Each cell is split
+    axis from −a to a: mesh lines at y = 0 and at x = ±a, cells h × h [m] over ``|x|`` ≤ a + band and
+    ``|y|`` ≤ band (``band`` default 2h), growing by ``growth`` per cell outside.  Each cell is split
     along the diagonal that points away from the origin (the mesh is symmetric about both axes).
 
-    The crack edges are the mesh edges on y = 0 with |x| ≤ a: select them with
+    The crack edges are the mesh edges on y = 0 with ``|x|`` ≤ a: select them with
     ``lambda x, y: (abs(y) < tol) & (abs(x) < a + tol)``.
     """
     where = "crack_plate_mesh"
@@ -108,7 +108,7 @@ def case_sneddon(resolution: int = 16, safety: float = 0.2, penalty_factor: floa
     held until the kinetic energy is below ``settle`` times the strain energy.  Checked: the opening at
     the centre against 4 p a/E' (plane strain).  The finite plate opens the crack more than the
     infinite plane: about +0.6 % at ratio 20 (Tada's strip), not corrected.
-    error = |w(0) − 4pa/E'| / (4pa/E').
+    error = ``|w(0) − 4pa/E'|`` / (4pa/E').
     """
     _precision(precision)
     a, h = 1.0, 1.0 / resolution
@@ -176,8 +176,8 @@ def kgd_scene(regime: str = "toughness", resolution: int = 16, ratio: float = 10
               aperture_min: float = 1.0e-4, conduct: str = "damaged", confinement: float = 0.0,
               penalty_factor: float = 10.0):
     """The KGD scene (docs/theory/hydro.md §14.2): a plate ``ratio`` × ``path`` wide (free edges,
-    plane strain, E = 10 GPa, ν = 0.25), a pre-existing crack |x| ≤ ``seed`` on y = 0, cohesive
-    joints along y = 0 out to |x| = ``path`` [m], and a rate source at the centre node (the well).
+    plane strain, E = 10 GPa, ν = 0.25), a pre-existing crack ``|x|`` ≤ ``seed`` on y = 0, cohesive
+    joints along y = 0 out to ``|x|`` = ``path`` [m], and a rate source at the centre node (the well).
     Cells h = 1/``resolution`` m along the path (:func:`crack_plate_mesh`).
 
     The material and fluid are chosen for the ``regime``'s vertex solution to reach the
@@ -253,7 +253,7 @@ def _half_lengths(sim, seed: float, confinement: float = 0.0) -> tuple:
     """Half-lengths [m] of the fracture: (broken, equivalent LEFM, wet).  *broken*: the seed and
     half the initial length of the broken joints (both wings); *equivalent LEFM*: that plus half
     of the softening joints' half (Irwin: the LEFM tip lies about halfway into the cohesive zone);
-    *wet*: the largest |x| of the network nodes at a net pressure (less ``confinement``) above
+    *wet*: the largest ``|x|`` of the network nodes at a net pressure (less ``confinement``) above
     1 % of the well's."""
     d = sim.joint_damage()
     length = sim._joint_consts()["length"] if len(d) else np.zeros(0)
