@@ -7,7 +7,9 @@
 Each measurement is a fresh process (its own Taichi runtime) that builds the scene, runs a few
 steps (compiling the kernels; the offline cache makes it short after the first run), then times
 ``--steps`` steps and prints triangle-steps per second.  Both strategies are measured in each
-condition, back to back:
+condition, ``--reps`` times each in the order auto, serial, serial, auto, ... (so that a drift
+of the host's speed affects both alike), and a strategy's rate is its steps over its total
+time:
 
 * ``idle``: nothing else runs (besides what the host itself runs);
 * ``busy``: one CPU-bound process (a Python busy loop) runs beside it;
@@ -17,7 +19,8 @@ condition, back to back:
   reported (the row shows their mean and the slower one).
 
 The columns: the rate of ``strategy="auto"`` and of ``strategy="serial"`` [M triangle-steps/s],
-and their ratio, auto / serial.  ``--scene plate`` is the plate impact of benchmarks/fracture.py
+their ratio, auto / serial, and the team's counters (``Simulation.info()["team"]``: waits past
+their bound, switches to one worker and back, steps run by one worker).  ``--scene plate`` is the plate impact of benchmarks/fracture.py
 (every interior edge jointed, hit at 50 m/s; first contact near step 3,000, so 6,000 steps run
 through the impact and the fragmentation); ``--scene pile`` the pile of benchmarks/pile.py.
 """
@@ -94,6 +97,7 @@ def main(argv=None) -> None:
     ap.add_argument("--size", type=int, default=None, help="triangles (default: plate 10,000, pile 100,000)")
     ap.add_argument("--steps", type=int, default=None, help="timed steps (default: plate 6,000, pile 1,500)")
     ap.add_argument("--conditions", nargs="+", choices=CONDITIONS, default=list(CONDITIONS))
+    ap.add_argument("--reps", type=int, default=2, help="measurements of each strategy per condition (default 2)")
     ap.add_argument("--markdown", action="store_true", help="print a Markdown table")
     ap.add_argument("--json", default=None, help="also write every measurement to this JSON file")
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
@@ -111,22 +115,26 @@ def main(argv=None) -> None:
         run.steps = args.steps or (6_000 if scene == "plate" else 1_500)
         rows = []
         for cond in args.conditions:
-            res = {s: measure(run, cond, s) for s in ("auto", "serial")}
+            res = {"auto": [], "serial": []}
+            for k in range(args.reps):
+                for s in (("auto", "serial") if k % 2 == 0 else ("serial", "auto")):
+                    res[s] += measure(run, cond, s)
             every[f"{scene}/{cond}"] = res
-            rate = {s: sum(r["rate"] for r in rs) / len(rs) for s, rs in res.items()}
+            rate = {s: len(rs) / sum(1.0 / r["rate"] for r in rs) for s, rs in res.items()}
             low = {s: min(r["rate"] for r in rs) for s, rs in res.items()}
-            team = res["auto"][0]["team"]
+            team = {key: sum(r["team"][key] for r in res["auto"]) for key in res["auto"][0]["team"]}
             rows.append((cond, rate["auto"], low["auto"], rate["serial"], low["serial"], rate["auto"] / rate["serial"],
                          res["auto"][0]["strategy"], team))
         title = f"{scene} {run.size:,} triangles, {run.steps:,} steps"
         if args.markdown:
             print(f"\n**{title}** [M triangle-steps/s]\n")
-            print("| condition | auto | serial | auto / serial | auto ran | team: timeouts, probes, solo steps |")
+            print("| condition | auto | serial | auto / serial | auto ran | team: timeouts, to one worker / back, "
+                  "steps by one worker |")
             print("|:--|--:|--:|--:|:--|:--|")
             for cond, a, al, s, sl, ratio, strat, team in rows:
                 extra = f" (slower {al / 1e6:.2f} / {sl / 1e6:.2f})" if cond == "pair" else ""
                 print(f"| {cond}{extra} | {a / 1e6:.2f} | {s / 1e6:.2f} | {ratio:.2f} | {strat} | "
-                      f"{team['timeouts']}, {team['probes']}, {team['solo_steps']:,} |")
+                      f"{team['timeouts']}, {team['to_solo']} / {team['to_team']}, {team['solo_steps']:,} |")
         else:
             print(title)
             for cond, a, al, s, sl, ratio, strat, team in rows:

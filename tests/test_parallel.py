@@ -414,7 +414,7 @@ def test_team_detects_inside_its_launch_with_the_same_bits(monkeypatch):
     tests/test_detection.py::test_redetection_while_moving_and_buffer_growth.)"""
     import taichi_fdem.sim.simulation as simmod
     import taichi_fdem.sim.team as teammod
-    monkeypatch.setattr(teammod, "TEAM_PROBE_FIRST", 1e9)     # launch counts compared below
+    _team_stays(monkeypatch, teammod)     # launch counts compared below
     runs = {}
     for inside in (True, False):
         monkeypatch.setattr(simmod, "DETECT_SERIAL_TRIS", 10**9 if inside else 0)
@@ -437,7 +437,7 @@ def test_team_steps_stop_at_the_unstable_step(monkeypatch):
     as the per-step launches do, and the run ends with a diagnosis."""
     import taichi_fdem.sim.simulation as simmod
     import taichi_fdem.sim.team as teammod
-    monkeypatch.setattr(teammod, "TEAM_PROBE_FIRST", 1e9)     # launch counts compared below
+    _team_stays(monkeypatch, teammod)     # launch counts compared below
     steps = {}
     for team in (True, False):
         mat = fdem.Material(density=1000.0, young=1e7, poisson=0.25)
@@ -556,23 +556,56 @@ def test_a_team_stopped_between_stages_resumes_with_the_same_bits(monkeypatch):
     _same_bits(sim, ref)
 
 
-def test_the_team_and_one_worker_alone_are_timed_and_give_the_same_bits(monkeypatch):
-    """Probes time a short launch of one worker against one of the team and the faster runs on
-    (``TeamScheduler.choose``); probing at every launch, or running alone, the same bits."""
-    import taichi_fdem.sim.team as simmod
+def _team_stays(monkeypatch, teammod):
+    """No switch to one worker and no wait past its bound, whatever the load beside the test:
+    launch counts are then a function of the scene alone."""
+    monkeypatch.setattr(teammod, "TEAM_CPU_SHARE", 0.0)
+    monkeypatch.setattr(teammod, "TEAM_WAIT_MIN", 60.0)
+
+
+def test_a_team_on_a_shared_cpu_switches_to_one_worker_and_back_with_the_same_bits(monkeypatch):
+    """A team launch whose workers got less CPU time than TEAM_CPU_SHARE of their wall time
+    hands the next launches to one worker, which hands them back when the other cores were
+    idle (``TeamScheduler.judge``).  Here every team launch counts as descheduled and every
+    solo one as idle, so the run switches at every launch: the same bits as one launch per
+    step, and the counters say so; with one worker throughout, the same bits too."""
+    import taichi_fdem.sim.team as teammod
     ref = _per_step_reference()
-    monkeypatch.setattr(simmod, "TEAM_PROBE_FIRST", 0.0)
-    monkeypatch.setattr(simmod, "TEAM_PROBE_MAX", 0.0)
+    monkeypatch.setattr(teammod, "TEAM_CPU_SHARE", 1e9)
+    monkeypatch.setattr(teammod, "TEAM_IDLE_SHARE", 0.0)
+    monkeypatch.setattr(teammod, "TEAM_JUDGE_S", 0.0)
+    monkeypatch.setattr(teammod, "TEAM_RETRY_FIRST", 0.0)
+    monkeypatch.setattr(teammod, "TEAM_RETRY_MAX", 0.0)
     sim = _loaded_pair()
     sim.run(0.01, progress=False)
-    assert sim.info()["team"]["probes"] > 0
+    stats = sim.info()["team"]
+    assert stats["to_solo"] >= 1 and stats["to_team"] >= 1
+    assert 0 < stats["solo_steps"] < sim.step_count
     _same_bits(sim, ref)
+    monkeypatch.setattr(teammod, "TEAM_RETRY_FIRST", 1e9)
     sim = _loaded_pair()
     sim._teams.solo = True
-    monkeypatch.setattr(simmod, "TEAM_PROBE_FIRST", 1e9)
     sim.run(0.01, progress=False)
     assert sim.info()["team"]["solo_steps"] == sim.step_count
+    assert sim.info()["team"]["to_team"] == 0
     _same_bits(sim, ref)
+
+
+def test_idle_seconds_reads_the_affinity_set():
+    """The idle time of the usable cores grows with the wall clock and never by more than the
+    cores' count times it (Linux /proc/stat; None elsewhere)."""
+    import os
+    import time
+    from taichi_fdem.sim.team import idle_seconds
+    if not os.path.exists("/proc/stat"):
+        assert idle_seconds() is None
+        return
+    cpus = os.sched_getaffinity(0)
+    a, t0 = idle_seconds(), time.perf_counter()
+    time.sleep(0.3)
+    b, t1 = idle_seconds(), time.perf_counter()
+    assert 0.0 <= b - a <= len(cpus) * (t1 - t0) + 0.05
+    assert idle_seconds(set()) == 0.0
 
 
 def _couple_costs(sim) -> np.ndarray:
@@ -664,7 +697,7 @@ def test_team_workers_cap_the_team_and_keep_the_bits(monkeypatch):
     bad value is refused by name."""
     import taichi_fdem.sim.simulation as simmod
     import taichi_fdem.sim.team as teammod
-    monkeypatch.setattr(teammod, "TEAM_PROBE_FIRST", 1e9)     # launch counts compared below
+    _team_stays(monkeypatch, teammod)     # launch counts compared below
     out = {}
     for workers in (1, None):
         sim = _loaded_pair()

@@ -9,8 +9,8 @@ kernels of :mod:`taichi_fdem.engine.step` with the array groups as argpacks (tim
 Execution strategy (:mod:`taichi_fdem.engine.step`): the serial one runs thousands of steps per
 launch on one core; the parallel one sums the forces without atomics and, on the CPU, runs
 thousands of steps per launch in a team of worker threads (:mod:`taichi_fdem.engine.team`,
-:attr:`Simulation.team_steps`) whose waits are bounded, sized to the usable cores, and timed
-against one worker on a shared CPU (:meth:`sim.team.TeamScheduler.choose`).  A scene with a fluid
+:attr:`Simulation.team_steps`) whose waits are bounded, sized to the usable cores, and replaced
+by one worker while another busy process shares the cores (:mod:`taichi_fdem.sim.team`).  A scene with a fluid
 (``scene.set_fluid``) runs no team launch: its parallel strategy runs one step per launch
 (:func:`taichi_fdem.engine.step.step_parallel_fluid`), so "auto" runs it serial on the CPU.
 Otherwise "auto" picks parallel on the CPU from 2 threads and usable cores and
@@ -572,8 +572,9 @@ class Simulation(SimulationResults, ModelValues):
     def info(self) -> dict:
         """Sizes, features, time step and strategy of this simulation; ``"threads"`` (Taichi's
         CPU threads, the usable cores and the team's largest size) and ``"team"``: the team
-        launches' counters (waits past their bound, launches resumed by one worker, probes,
-        steps run by one worker because it was the faster; zeros before any team launch).  ``device``: the arch it runs on ("cpu", "cuda", "vulkan", ...; see :func:`taichi_fdem.init`)."""
+        launches' counters (waits past their bound, launches resumed by one worker, switches
+        to one worker on a shared CPU and back, steps run by one worker; zeros before any team
+        launch, :class:`~taichi_fdem.sim.team.TeamScheduler`).  ``device``: the arch it runs on ("cpu", "cuda", "vulkan", ...; see :func:`taichi_fdem.init`)."""
         md = self.model
         return {"nodes": md.node_count, "triangles": md.tri_count, "bodies": len(self.bodies),
                 "contact_triangles": md.ctri_count, "couples": self.couple_count, "dt": md.dt,

@@ -1,43 +1,78 @@
 """How the parallel strategy runs its team launches on the CPU (:mod:`taichi_fdem.engine.team`):
 the bound of a wait, resumption after a wait past it, and the choice between the team and one
-worker on a shared CPU.  Every choice here changes the speed, never the bits."""
+worker on a shared CPU.  Every choice here changes the speed, never the bits.
+
+The choice reads two counters of the operating system, never a timed trial launch:
+
+* after a team launch, the CPU time the process got: below :data:`TEAM_CPU_SHARE` of its
+  workers' wall time (a spinning worker counts as busy, so only a descheduled one lowers it),
+  or a wait past its bound, means another busy process shares the cores, and one worker runs on;
+* while one worker runs, the idle time of the process's other usable cores (Linux
+  ``/proc/stat``): when they were idle for :data:`TEAM_IDLE_SHARE` of the time, the team runs
+  again.  Where the idle times cannot be read, the team is tried again after
+  :data:`TEAM_RETRY_FIRST` seconds, twice as long after each try that failed, up to
+  :data:`TEAM_RETRY_MAX`; the same back-off delays a return after a failed one everywhere.
+"""
 from __future__ import annotations
 
+import os
 import time as _time
 
-from .. import backend
 from ..engine import step as kernels
 from . import guards
 
 TEAM_WAIT_MIN = 0.02             # a team's wait is bounded by this [s], or by TEAM_WAIT_STEPS of its steps
 TEAM_WAIT_STEPS = 8.0            # (mean step times of the last launch), whichever is longer
 TEAM_SPINS_PER_S = 5e7           # tries of a team's wait per second (an i32 atomic each, ~10-20 ns)
-TEAM_PROBE_FIRST = 1.0           # the team and one worker are timed against each other after this [s],
-TEAM_PROBE_MAX = 16.0            # then twice as long after each probe that agrees, up to this [s]
-TEAM_CPU_SHARE = 0.85            # ... and at once after a launch whose workers got less than this share of
-                                 # their cores (descheduled: another busy process shares them)
-TEAM_PROBE_STEPS = 8             # a probe launch runs 1/8 of a launch's steps
+TEAM_CPU_SHARE = 0.85            # a team launch whose workers got less CPU time than this share of their
+                                 # wall time was descheduled: one worker runs on
+TEAM_IDLE_SHARE = 0.75           # one worker returns to the team when the other usable cores were idle
+                                 # this share of its wall time
+TEAM_JUDGE_S = 0.05              # launches shorter than this [s] (added up while one worker runs) are not judged
+TEAM_RETRY_FIRST = 1.0           # the least time one worker runs after a team launch was descheduled [s],
+TEAM_RETRY_MAX = 16.0            # twice as long after each return that failed, up to this [s]
 
 _STEPS = kernels.UNSTABLE_BIT - 1    # the steps in a launch's result
 
 
+def idle_seconds(cpus=None) -> float | None:
+    """Idle time [s] (idle + iowait) of the CPUs ``cpus`` (default: this process's affinity set)
+    since boot, from Linux ``/proc/stat``; None where it cannot be read."""
+    try:
+        cpus = os.sched_getaffinity(0) if cpus is None else cpus
+        tick = os.sysconf("SC_CLK_TCK")
+        total = 0
+        with open("/proc/stat") as f:
+            for line in f:
+                if line.startswith("cpu") and line[3].isdigit():
+                    name, *vals = line.split()
+                    if int(name[3:]) in cpus:
+                        total += int(vals[3]) + int(vals[4])
+        return total / tick
+    except (OSError, AttributeError, ValueError, IndexError):
+        return None
+
+
 class TeamScheduler:
-    """The team launches of one simulation.
+    """The team launches of one simulation (module docstring).
 
     ``stats``: waits that ran past their bound (``timeouts``), launches resumed by one worker
-    after one (``resumed``), probes timing the team against one worker (``probes``) and steps
-    run by one worker because it timed faster (``solo_steps``); ``Simulation.info()["team"]``.
+    after one (``resumed``), switches from the team to one worker (``to_solo``) and back
+    (``to_team``), and steps run by one worker (``solo_steps``); ``Simulation.info()["team"]``.
     """
 
     def __init__(self):
-        self.stats = {"timeouts": 0, "resumed": 0, "probes": 0, "solo_steps": 0}
-        self.solo = False          # one worker timed faster than the team (choose)
-        self.probe_at = 0.0        # perf_counter time of the next probe (0: no team launch yet)
-        self.probe_wait = TEAM_PROBE_FIRST
-        self.step_s = 0.0          # mean wall time of a step in the last team launch [s]
+        self.stats = {"timeouts": 0, "resumed": 0, "to_solo": 0, "to_team": 0, "solo_steps": 0}
+        self.solo = False          # one worker runs: the team's workers were descheduled
+        self.retry_wait = TEAM_RETRY_FIRST
+        self.retry_at = 0.0        # perf_counter time before which the team is not tried again
+        self.judged = False        # a team launch has run (the first one compiles: not judged)
+        self.solo_wall = 0.0       # one worker's wall time [s] and the other cores' idle time [s]
+        self.solo_idle = 0.0       # since the last decision
+        self.step_s = 0.0          # mean wall time of a step in the last launch [s]
 
     def workers(self, sim) -> int:
-        """Workers of the next team launch: the team's size, or one while one timed faster."""
+        """Workers of the next team launch: the team's size, or one on a shared CPU."""
         return 1 if self.solo else sim._team_size()
 
     def spin_bound(self) -> int:
@@ -49,7 +84,8 @@ class TeamScheduler:
     def launch(self, sim, nsteps: int, nwork: int, flags: int, switches) -> int:
         """One team launch of ``nsteps`` steps; a launch that stopped at a stage boundary because a
         wait ran past its bound is resumed by one worker (the same bits).  Returns the kernel's
-        result with the steps of every part."""
+        result with the steps of every part, and judges the launch (:meth:`judge`)."""
+        idle0 = idle_seconds() if nwork == 1 and self.solo else None
         t0, c0 = _time.perf_counter(), _time.process_time()
         args = (*sim._groups["team"], *switches)
         ret = sim._launch_cached("run_steps_blocks", kernels.run_steps_blocks, nsteps, nwork, flags,
@@ -63,45 +99,46 @@ class TeamScheduler:
             ret = sim._launch_cached("run_steps_blocks", kernels.run_steps_blocks, nsteps - done, 1, flags | 2,
                                      self.spin_bound(), *args)
         steps = done + (ret & _STEPS)
-        ret = (ret & ~_STEPS & ~kernels.TIMEOUT_BIT) | steps
         wall = _time.perf_counter() - t0
         if steps:
             self.step_s = wall / steps
-        # a wait past its bound, or workers that did not get their cores (a spinning worker
-        # counts as busy: only a descheduled one lowers the share): time the two again now
-        starved = wall > 5e-3 and _time.process_time() - c0 < TEAM_CPU_SHARE * nwork * wall
-        if nwork > 1 and (timed_out or starved) and self.probe_at > t0:
-            self.probe_at = t0
-        return ret
+        if nwork == 1:
+            self.stats["solo_steps"] += steps
+        self.judge(sim, nwork, wall, _time.process_time() - c0, timed_out, idle0)
+        return (ret & ~_STEPS & ~kernels.TIMEOUT_BIT) | steps
 
-    def choose(self, sim, nwork: int, chunk: int, flags: int, switches) -> tuple[int, int]:
-        """When a probe is due (TEAM_PROBE_FIRST seconds after the first team launch, then twice as
-        long after each probe that agrees with the choice, up to TEAM_PROBE_MAX; at once after a
-        wait past its bound or a launch whose workers lacked their cores), time a short launch of one worker and one of the team, and run on
-        with the faster: a team on a CPU shared with other busy processes waits for its
-        descheduled workers.  Returns (steps the probes ran, the kernel's last result)."""
+    def judge(self, sim, nwork: int, wall: float, cpu: float, timed_out: bool, idle0) -> None:
+        """Team or one worker for the next launches (module docstring), from a team launch's CPU
+        time ``cpu`` [s] and a wait past its bound, or from the idle time of the other usable
+        cores during one worker's launches (``idle0``: theirs before this one)."""
         now = _time.perf_counter()
-        if self.probe_at == 0.0:
-            self.probe_at = now + TEAM_PROBE_FIRST      # (the first launch compiles)
-            return 0, 0
-        if now < self.probe_at or chunk < 2 * TEAM_PROBE_STEPS:
-            return 0, 0
-        steps = max(1, chunk // TEAM_PROBE_STEPS)
-        rates, done, ret = {}, 0, 0
-        for workers in (1, nwork):
-            t0 = _time.perf_counter()
-            ret = self.launch(sim, steps, workers, flags, switches)
-            k = ret & _STEPS
-            done += k
-            rates[workers] = k / max(_time.perf_counter() - t0, 1e-9)
-            if ret & (kernels.UNSTABLE_BIT | kernels.DUE_BIT) or k < steps:
-                return done, ret
-        self.stats["probes"] += 1
-        solo = rates[1] > rates[nwork]
-        self.probe_wait = min(TEAM_PROBE_MAX, 2.0 * self.probe_wait) if solo == self.solo else TEAM_PROBE_FIRST
-        self.solo = solo
-        self.probe_at = _time.perf_counter() + self.probe_wait
-        return done, ret
+        if nwork > 1:
+            if not self.judged:
+                self.judged = True          # (this launch compiled)
+            elif timed_out or (wall > TEAM_JUDGE_S and cpu < TEAM_CPU_SHARE * nwork * wall):
+                self.solo = True
+                self.stats["to_solo"] += 1
+                self.retry_at = now + self.retry_wait
+                self.retry_wait = min(TEAM_RETRY_MAX, 2.0 * self.retry_wait)
+                self.solo_wall = self.solo_idle = 0.0
+            elif wall > TEAM_JUDGE_S:
+                self.retry_wait = TEAM_RETRY_FIRST
+            return
+        if not self.solo or sim._team_size() < 2:
+            return
+        idle1 = idle_seconds() if idle0 is not None else None
+        if idle1 is not None:
+            self.solo_wall += wall
+            self.solo_idle += idle1 - idle0
+            if self.solo_wall < TEAM_JUDGE_S:
+                return
+            free = self.solo_idle >= TEAM_IDLE_SHARE * (sim._team_size() - 1) * self.solo_wall
+            self.solo_wall = self.solo_idle = 0.0
+            if not free:
+                return
+        if now >= self.retry_at:
+            self.solo = False
+            self.stats["to_team"] += 1
 
     def run(self, sim, n: int, due: bool, switches) -> None:
         """Advance ``sim`` by ``n`` steps in team launches of at most ``sim.steps_per_launch()``
@@ -112,21 +149,9 @@ class TeamScheduler:
         while n > 0:
             if due:
                 sim._detect()
-            chunk = min(n, per_launch)
-            size = sim._team_size()
-            ret = 0
-            if size > 1:
-                done, ret = self.choose(sim, size, chunk, flags, switches)
-                sim.step_count += done
-                n -= done
-                chunk -= done
-            if chunk > 0 and not ret & (kernels.UNSTABLE_BIT | kernels.DUE_BIT):
-                nwork = self.workers(sim)
-                ret = self.launch(sim, chunk, nwork, flags, switches)
-                if nwork == 1:
-                    self.stats["solo_steps"] += ret & _STEPS
-                sim.step_count += ret & _STEPS
-                n -= ret & _STEPS
+            ret = self.launch(sim, min(n, per_launch), self.workers(sim), flags, switches)
+            sim.step_count += ret & _STEPS
+            n -= ret & _STEPS
             due = bool(sim.model.contact and ret & kernels.DUE_BIT)
             if ret & kernels.UNSTABLE_BIT:
                 guards.raise_unstable(sim)
