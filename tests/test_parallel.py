@@ -582,9 +582,8 @@ def test_a_team_on_a_shared_cpu_switches_to_one_worker_and_back_with_the_same_bi
     assert stats["to_solo"] >= 1 and stats["to_team"] >= 1
     assert 0 < stats["solo_steps"] < sim.step_count
     _same_bits(sim, ref)
-    monkeypatch.setattr(teammod, "TEAM_RETRY_FIRST", 1e9)
     sim = _loaded_pair()
-    sim._teams.solo = True
+    sim._teams.solo, sim._teams.retry_at = True, float("inf")
     sim.run(0.01, progress=False)
     assert sim.info()["team"]["solo_steps"] == sim.step_count
     assert sim.info()["team"]["to_team"] == 0
