@@ -4,7 +4,8 @@ worker on a shared CPU.  Every choice here changes the speed, never the bits.
 
 The choice reads two counters of the operating system, never a timed trial launch:
 
-* after a team launch, the CPU time the process got: below :data:`TEAM_CPU_SHARE` of its
+* after a team launch (the first ones, and the first after one worker ran, short:
+  :data:`TEAM_TRIAL_S`), the CPU time the process got: below :data:`TEAM_CPU_SHARE` of its
   workers' wall time (a spinning worker counts as busy, so only a descheduled one lowers it),
   or a wait past its bound, means another busy process shares the cores, and one worker runs on;
 * while one worker runs, the idle time of the process's other usable cores (Linux
@@ -29,6 +30,8 @@ TEAM_CPU_SHARE = 0.85            # a team launch whose workers got less CPU time
 TEAM_IDLE_SHARE = 0.75           # one worker returns to the team when the other usable cores were idle
                                  # this share of its wall time
 TEAM_JUDGE_S = 0.05              # launches shorter than this [s] (added up while one worker runs) are not judged
+TEAM_TRIAL_S = 0.1               # a team's first launches, and its first after one worker ran, last about this
+                                 # long [s] until one is judged: a shared CPU is seen within ~0.1 s
 TEAM_RETRY_FIRST = 1.0           # the least time one worker runs after a team launch was descheduled [s],
 TEAM_RETRY_MAX = 16.0            # twice as long after each return that failed, up to this [s]
 
@@ -66,7 +69,8 @@ class TeamScheduler:
         self.solo = False          # one worker runs: the team's workers were descheduled
         self.retry_wait = TEAM_RETRY_FIRST
         self.retry_at = 0.0        # perf_counter time before which the team is not tried again
-        self.judged = False        # a team launch has run (the first one compiles: not judged)
+        self.warm = False          # a team launch has run (the first one compiles: not judged)
+        self.trial = True          # no team launch judged since the team (re)started: short launches
         self.solo_wall = 0.0       # one worker's wall time [s] and the other cores' idle time [s]
         self.solo_idle = 0.0       # since the last decision
         self.step_s = 0.0          # mean wall time of a step in the last launch [s]
@@ -113,8 +117,8 @@ class TeamScheduler:
         cores during one worker's launches (``idle0``: theirs before this one)."""
         now = _time.perf_counter()
         if nwork > 1:
-            if not self.judged:
-                self.judged = True          # (this launch compiled)
+            if not self.warm:
+                self.warm = True            # (this launch compiled)
             elif timed_out or (wall > TEAM_JUDGE_S and cpu < TEAM_CPU_SHARE * nwork * wall):
                 self.solo = True
                 self.stats["to_solo"] += 1
@@ -122,6 +126,7 @@ class TeamScheduler:
                 self.retry_wait = min(TEAM_RETRY_MAX, 2.0 * self.retry_wait)
                 self.solo_wall = self.solo_idle = 0.0
             elif wall > TEAM_JUDGE_S:
+                self.trial = False
                 self.retry_wait = TEAM_RETRY_FIRST
             return
         if not self.solo or sim._team_size() < 2:
@@ -137,19 +142,29 @@ class TeamScheduler:
             if not free:
                 return
         if now >= self.retry_at:
-            self.solo = False
+            self.solo, self.trial = False, True
             self.stats["to_team"] += 1
+
+    def launch_steps(self, nwork: int, most: int) -> int:
+        """Steps of the next launch, at most ``most``: one for the first team launch (it compiles),
+        then about TEAM_TRIAL_S of steps until a team launch is judged."""
+        if nwork == 1 or not self.trial:
+            return most
+        if not self.warm:
+            return 1
+        return max(1, min(most, int(TEAM_TRIAL_S / max(self.step_s, 1e-9))))
 
     def run(self, sim, n: int, due: bool, switches) -> None:
         """Advance ``sim`` by ``n`` steps in team launches of at most ``sim.steps_per_launch()``
-        steps; small scenes detect inside the launch (the serial task of ``Simulation._detect``),
-        large ones return to the host for the parallel broad phase."""
+        steps (:meth:`launch_steps`); small scenes detect inside the launch (the serial task of
+        ``Simulation._detect``), large ones return to the host for the parallel broad phase."""
         per_launch = sim.steps_per_launch()
         flags = int(sim._detect_serially())
         while n > 0:
             if due:
                 sim._detect()
-            ret = self.launch(sim, min(n, per_launch), self.workers(sim), flags, switches)
+            nwork = self.workers(sim)
+            ret = self.launch(sim, self.launch_steps(nwork, min(n, per_launch)), nwork, flags, switches)
             sim.step_count += ret & _STEPS
             n -= ret & _STEPS
             due = bool(sim.model.contact and ret & kernels.DUE_BIT)
