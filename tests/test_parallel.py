@@ -5,6 +5,7 @@ serial strategy to round-off."""
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import time
@@ -527,6 +528,54 @@ def test_a_team_with_more_workers_than_threads_finishes_with_the_same_bits(monke
     sim.run(0.01, progress=False)
     assert 8 in seen and 8 > backend_threads()
     _same_bits(sim, ref)
+
+
+_PINNED_TEAM = """
+import os, sys, json
+os.sched_setaffinity(0, {0})
+import numpy as np
+import taichi_fdem as fdem
+from taichi_fdem.sim.simulation import Simulation
+fdem.init(arch="cpu", cpu_max_num_threads=2)
+sys.path.insert(0, sys.argv[1])
+from test_parallel import _loaded_pair
+assert fdem.backend.usable_cores() == 1
+out = {}
+for team in (True, False):
+    Simulation._team_size = lambda self: 2       # a team of 2 on 1 usable core
+    sim = _loaded_pair()
+    sim.team_steps = team
+    seen = []
+    launch = sim._launch_cached
+    def spy(name, kernel, *args, launch=launch, seen=seen):
+        if name == "run_steps_blocks":
+            seen.append(args[1])
+        return launch(name, kernel, *args)
+    sim._launch_cached = spy
+    sim.run(0.01, progress=False)
+    out[team] = (sim, seen)
+(a, seen), (b, _) = out[True], out[False]
+print(json.dumps({"workers": max(seen), "steps": [a.step_count, b.step_count],
+                  "detections": [a.detection_count, b.detection_count],
+                  "same": bool(np.array_equal(a.node_positions(), b.node_positions())
+                               and np.array_equal(a.node_velocities(), b.node_velocities())),
+                  "team": a.info()["team"]}))
+"""
+
+
+@pytest.mark.skipif(not hasattr(os, "sched_setaffinity"), reason="needs os.sched_setaffinity (Linux)")
+def test_a_team_of_two_on_one_usable_core_finishes_with_the_same_bits():
+    """``taskset -c 0`` (a one-core cpuset): a team of two workers forced onto two Taichi threads
+    that share one core.  Every wait is bounded and no worker waits for work nobody started, so
+    the run ends (bounded waits, resumption, one worker) with the same bits as one launch per
+    step.  Run in a fresh process pinned to CPU 0."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    res = subprocess.run([sys.executable, "-c", _PINNED_TEAM, here], capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr[-3000:]
+    got = json.loads(res.stdout.strip().splitlines()[-1])
+    assert got["workers"] == 2
+    assert got["steps"][0] == got["steps"][1] > 0 and got["detections"][0] == got["detections"][1] > 1
+    assert got["same"], got
 
 
 def test_a_team_stopped_between_stages_resumes_with_the_same_bits(monkeypatch):
