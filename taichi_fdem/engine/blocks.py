@@ -35,10 +35,8 @@ def item_counts(tris: ti.template(), joints: ti.template(), step: ti.template(),
 
 @ti.func
 def add_block_force(nodes: ti.template(), asm: ti.template(), base, n, f, copy: ti.template()):
-    """Add f to node n's force: into node_f (block 0, ``copy`` False), or into the block's copy
-    of the nodal forces at asm_force[base + n] (``copy`` True, base = (b − 1) N; see
-    :func:`integrate.asm_blocks`), or at asm_force[n] (``copy`` 2: block 1, base 0 known when
-    compiled); a plain read and write (one thread runs a block)."""
+    """Add f to node n's force: into node_f (``copy`` False: block 0), the block's copy at
+    asm_force[base + n] (True; :func:`integrate.asm_blocks`) or asm_force[n] (2: block 1)."""
     if ti.static(copy == 2):
         asm.asm_force[n] = asm.asm_force[n] + f
     elif ti.static(copy):
@@ -50,13 +48,10 @@ def add_block_force(nodes: ti.template(), asm: ti.template(), base, n, f, copy: 
 @ti.func
 def couple_cost(c, growth, nodes: ti.template(), tris: ti.template(), con: ti.template(), step: ti.template(),
                 fracture: ti.template()):
-    """The estimated cost of couple c per step at the current positions (engine.groups.COST_*):
-    a bonded neighbour pair; apart by more than the rounding margin
-    (:func:`contact.couple_certificate`), so that its certificate of separation skips it until
-    D_acc, growing by ``growth`` per step, passes its gap (then it is tested again); apart by less
-    (tested every step); or touching.  A function of the state alone (not of the certificates
-    themselves, which a restart or a launch drops: the ranges, and so the sums, would depend on
-    how the steps were launched)."""
+    """The estimated cost of couple c per step (engine.groups.COST_*): a bonded neighbour pair;
+    apart by more than the rounding margin (:func:`contact.couple_certificate`: skipped until
+    D_acc, growing by ``growth`` per step, passes its gap); apart by less; or touching.  A
+    function of the positions alone, so that the ranges do not depend on how steps were launched."""
     cost = COST_BONDED
     nb_pair, on = neighbour_flag(c, tris, step, fracture)
     if not nb_pair or on != 0:
@@ -76,8 +71,7 @@ def couple_cost(c, growth, nodes: ti.template(), tris: ti.template(), con: ti.te
 
 @ti.func
 def joint_cost(j, joints: ti.template()):
-    """The estimated cost of joint j per step (engine.groups.COST_*): intact (undamaged or
-    damaged), or broken (skipped for one read)."""
+    """The estimated cost of joint j per step (engine.groups.COST_*): intact, damaged or broken."""
     cost = COST_BROKEN
     if joints.joint_state[j] == 0:
         cost = COST_JOINT
@@ -100,15 +94,12 @@ def block_fixed_cost(b, nblk, T, J, joints: ti.template(), fracture: ti.template
 @ti.func
 def rebalance_couples(nblk, C, nodes: ti.template(), tris: ti.template(), con: ti.template(),
                       joints: ti.template(), step: ti.template(), fracture: ti.template()):
-    """Split the C couples into nblk contiguous ranges so that the blocks' estimated costs,
-    their triangles and joints (:func:`block_fixed_cost`) and their couples (:func:`couple_cost`),
-    come out about equal at the current positions: step_int[SPLIT + b] is the first couple of
-    block b (SPLIT + nblk and the unused slots hold C): the first couple at which the cost of the
-    blocks before b and of the couples before it reaches b / nblk of the total.  Serial, two
-    passes over the couples and the joints (~25 ns per couple); run every REBALANCE_STEPS steps
-    and after each detection.  A function of the state only, which keeps the sums the same for
-    any thread count, and, the bounds being part of the state, a restart from a checkpoint
-    bit-identical."""
+    """Split the C couples into nblk contiguous ranges whose blocks' estimated costs (triangles and
+    joints, :func:`block_fixed_cost`; couples, :func:`couple_cost`) come out about equal:
+    step_int[SPLIT + b] is block b's first couple (SPLIT + nblk and the unused slots hold C).
+    Serial, two passes (~25 ns per couple), every REBALANCE_STEPS steps and after each
+    detection.  A function of the state only: the same sums for any thread count, and a restart
+    from a checkpoint bit-identical."""
     T = tris.tri_nodes.shape[0]
     J = 0
     if ti.static(fracture):
@@ -170,15 +161,10 @@ def _grow(n, lo, hi):
 def block_node_ranges(nblk, T, J, C, nodes: ti.template(), tris: ti.template(), con: ti.template(),
                       joints: ti.template(), step: ti.template(), contact: ti.template(), fracture: ti.template(),
                       loads: ti.template()):
-    """step_int[RANGE + 2b], [RANGE + 2b + 1] = [lo, hi): the nodes that block b's items can
-    write (block 0 into node_f, b > 0 into its copy of the nodal forces): the nodes of its
-    triangles, of its joints and of every couple of its range (:func:`couple_range`; touching or
-    not), and for block 0 the nodes of the loads (its runner adds them); the gather adds each
-    copy over its range only (:func:`integrate.integrate_span`).  Serial, one pass over the
-    items; run with the couple ranges (:func:`rebalance_blocks`) and after a restore
-    (``refresh_blocks``): a function of the couples and their split, which change only then.
-    Tracking the nodes inside the force loop instead (a loop-carried min and max per item) made
-    the blocks with a copy 5-9 % slower."""
+    """step_int[RANGE + 2b], [RANGE + 2b + 1] = [lo, hi): the nodes block b's items can write
+    (its triangles, joints and couples; for block 0 the loads' nodes too), over which the gather
+    adds its copy (:func:`integrate.integrate_span`).  Serial, one pass over the items, with the
+    couple ranges and after a restore.  Without the ranges 8 blocks ran the 100k pile at 0.6×."""
     for b in range(nblk):
         lo = 2147483647
         hi = 0
@@ -225,16 +211,13 @@ def rebalance_blocks(nblk, T, J, C, nodes: ti.template(), tris: ti.template(), c
 def block_forces(b, nblk, T, J, C, dacc, p, nodes: ti.template(), tris: ti.template(), mats: ti.template(),
                  con: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
                  contact: ti.template(), friction: ti.template(), fracture: ti.template(), many: ti.template()):
-    """Block b's share of :func:`taichi_fdem.engine.step.phase_blocks`: the triangles and the joints of its contiguous
-    range by count, and the couples of its range by cost (:func:`couple_range`), added into its
-    copy of the nodal forces; its contact work to its entry of asm_force for a step of parity p
-    (:func:`integrate.block_work_slot`).  The gather adds a
-    block's copy over the nodes its items can write (:func:`block_node_ranges`).
-    ``dacc``: step_real[DACC] at the start of the step (:func:`contact.couple_forces`).
-    Compiled for block 0 (into node_f), block 1 (into the first copy, at offset 0) and, with
-    more than two blocks (``many``), the others (into a copy at a runtime offset): a branch on
-    the block in every addition made the pile 5-7 % slower, and a runtime offset for block 1's
-    copy the 100k pile 1.12x slower on two workers."""
+    """Block b's share of :func:`taichi_fdem.engine.step.phase_blocks`: the triangles and joints of
+    its range by count and the couples of its range by cost (:func:`couple_range`), added into
+    its copy of the nodal forces; its contact work to asm_force for a step of parity p
+    (:func:`integrate.block_work_slot`).  ``dacc``: step_real[DACC] at the start of the step.
+    Compiled for block 0 (node_f), block 1 (the first copy, offset 0) and, with more than two
+    blocks (``many``), the others (a runtime offset): a runtime offset for block 1 ran the 100k
+    pile at 0.73-0.87× on two workers."""
     if b == 0:
         _block_items(b, nblk, T, J, C, dacc, p, nodes, tris, mats, con, joints, step, asm, contact, friction,
                      fracture, False)

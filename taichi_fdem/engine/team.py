@@ -1,36 +1,22 @@
 """The team launch of the block assembly on the CPU (:func:`taichi_fdem.engine.step.run_steps_blocks`,
 docs/theory/elements.md §6.1): many steps per launch, run by a team of worker threads.
 
-A step is a sequence of **stages**, each a set of independent **units**:
+A step is a sequence of **stages**, each a set of independent **units**: PRE (detection when
+due, the couple split: 1 unit), FORCE (block b's forces: one unit per block), INTEG (gather and
+integrate node chunk c: one per chunk), JWORK (block b's joints' work: one per block).  A worker
+claims a unit with an atomic max of the stage's ticket on the unit's claim slot, so each unit
+runs once and its results do not depend on who ran it; the worker that completes a stage's last
+unit ends the stage (the step's counters, from the chunks' partials in chunk order) and
+publishes the next.  So the bits are the same for any number of workers, and no worker waits
+for work nobody has started: if the runtime runs the workers one after the other, the first
+does everything.
 
-========  ===================================================  ============
-stage     unit                                                 units
-========  ===================================================  ============
-PRE       contact detection (when due) and the couple split    1
-FORCE     block b's forces (:func:`blocks.block_forces`)       blocks
-INTEG     gather and integrate node chunk c                    chunks
-JWORK     the joints' work of block b's joints (fracture)      blocks
-========  ===================================================  ============
-
-Any worker may run any unit: it claims it with an atomic max of the stage's ticket on the unit's
-claim slot, so each unit runs exactly once, and a unit's work and partial sums are the same
-whoever runs it.  The worker that completes a stage's last unit ends the stage (the step's
-counters, from the chunks' partials in chunk order) and publishes the next one.  So the results
-are the same bits for any number of workers, and **no worker ever waits for work that nobody has
-started**: a worker that finds nothing left to claim waits only for units other workers are
-running.  If the runtime runs the workers one after the other, or a worker never gets a thread,
-the first worker does every unit and the launch ends.
-
-Every wait is bounded (``spin_max`` tries): a worker that waits longer (another worker was
-descheduled: the CPU is shared with another busy process) raises the abort flag and leaves; the
-others finish the stage they are in (they never wait inside a stage's claims) and leave at its
-end.  The launch then returns with ``ABORT_BIT``, the state at a stage boundary, and the host
-resumes it with one worker (``resume``): the same bits.
-
-Memory order: every synchronising access (claims, the completion count, the stage counter, the
-abort flag) is an i32 atomic read-modify-write, which Taichi's LLVM back end emits sequentially
-consistent; what a worker wrote before completing a unit is therefore visible to every worker
-that reads the stage counter after it, on any architecture.
+Every wait is bounded (``spin_max`` tries): past it a worker raises the abort flag, the others
+finish their stage, and the launch returns with ``ABORT_BIT`` at a stage boundary, which the
+host resumes with one worker (the same bits).  Every synchronising access is an i32 atomic
+read-modify-write, which Taichi's LLVM back end emits sequentially consistent: what a worker
+wrote before completing a unit is visible to every worker that reads the stage counter after
+it, on any architecture.
 """
 import taichi as ti
 
@@ -47,8 +33,7 @@ PRE, FORCE, INTEG, JWORK, END = 0, 1, 2, 3, 4
 
 # asm_sync slots: line 0 the stage word and what it publishes, line 1 the completion count,
 # then one claim slot per unit, then each chunk's non-finite flag
-SYNC_STAGE = 0          # KINDS · (stages begun) + the current stage's kind: one atomic read gives both;
-                        # it only grows (resumed launches continue it), so it is the claims' ticket
+SYNC_STAGE = 0          # KINDS · (stages begun) + the stage's kind; only grows: the claims' ticket
 KINDS = 8
 SYNC_ABORT = 2          # a worker waited past the bound
 SYNC_STEPS = 3          # steps completed since the first launch of this batch
