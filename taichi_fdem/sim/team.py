@@ -29,7 +29,7 @@ TEAM_CPU_SHARE = 0.85            # a team launch whose workers got less CPU time
                                  # wall time was descheduled: one worker runs on
 TEAM_IDLE_SHARE = 0.75           # one worker returns to the team when the other usable cores were idle
                                  # this share of its wall time
-TEAM_JUDGE_S = 0.05              # launches shorter than this [s] (added up while one worker runs) are not judged
+TEAM_JUDGE_S = 0.05              # a verdict needs launches that span this long [s] (added up)
 TEAM_TRIAL_S = 0.1               # a team's first launches, and its first after one worker ran, last about this
                                  # long [s] until one is judged: a shared CPU is seen within ~0.1 s
 TEAM_RETRY_FIRST = 1.0           # the least time one worker runs after a team launch was descheduled [s],
@@ -71,8 +71,8 @@ class TeamScheduler:
         self.retry_at = 0.0        # perf_counter time before which the team is not tried again
         self.warm = False          # a team launch has run (the first one compiles: not judged)
         self.trial = True          # no team launch judged since the team (re)started: short launches
-        self.solo_wall = 0.0       # one worker's wall time [s] and the other cores' idle time [s]
-        self.solo_idle = 0.0       # since the last decision
+        self.span_wall = 0.0       # wall time of the launches since the last verdict [s], and their
+        self.span_x = 0.0          # CPU time (team) or the other cores' idle time (one worker) [s]
         self.step_s = 0.0          # mean wall time of a step in the last launch [s]
 
     def workers(self, sim) -> int:
@@ -112,38 +112,45 @@ class TeamScheduler:
         return (ret & ~_STEPS & ~kernels.TIMEOUT_BIT) | steps
 
     def judge(self, sim, nwork: int, wall: float, cpu: float, timed_out: bool, idle0) -> None:
-        """Team or one worker for the next launches (module docstring), from a team launch's CPU
-        time ``cpu`` [s] and a wait past its bound, or from the idle time of the other usable
-        cores during one worker's launches (``idle0``: theirs before this one)."""
+        """Team or one worker for the next launches (module docstring), from the team's CPU time
+        (``cpu`` [s] in this launch's ``wall`` [s]) and a wait past its bound, or from the idle
+        time of the other usable cores while one worker ran (``idle0``: theirs before this
+        launch).  Launches are added up until they span TEAM_JUDGE_S."""
         now = _time.perf_counter()
         if nwork > 1:
             if not self.warm:
                 self.warm = True            # (this launch compiled)
-            elif timed_out or (wall > TEAM_JUDGE_S and cpu < TEAM_CPU_SHARE * nwork * wall):
+                return
+            self.span_wall += wall
+            self.span_x += cpu
+            if timed_out or (self.span_wall >= TEAM_JUDGE_S and self.span_x < TEAM_CPU_SHARE * nwork * self.span_wall):
                 self.solo = True
                 self.stats["to_solo"] += 1
                 self.retry_at = now + self.retry_wait
                 self.retry_wait = min(TEAM_RETRY_MAX, 2.0 * self.retry_wait)
-                self.solo_wall = self.solo_idle = 0.0
-            elif wall > TEAM_JUDGE_S:
+            elif self.span_wall >= TEAM_JUDGE_S:
                 self.trial = False
                 self.retry_wait = TEAM_RETRY_FIRST
+            else:
+                return
+            self.span_wall = self.span_x = 0.0
             return
         if not self.solo or sim._team_size() < 2:
             return
         idle1 = idle_seconds() if idle0 is not None else None
         if idle1 is not None:
-            self.solo_wall += wall
-            self.solo_idle += idle1 - idle0
-            if self.solo_wall < TEAM_JUDGE_S:
+            self.span_wall += wall
+            self.span_x += idle1 - idle0
+            if self.span_wall < TEAM_JUDGE_S:
                 return
-            free = self.solo_idle >= TEAM_IDLE_SHARE * (sim._team_size() - 1) * self.solo_wall
-            self.solo_wall = self.solo_idle = 0.0
+            free = self.span_x >= TEAM_IDLE_SHARE * (sim._team_size() - 1) * self.span_wall
+            self.span_wall = self.span_x = 0.0
             if not free:
                 return
         if now >= self.retry_at:
             self.solo, self.trial = False, True
             self.stats["to_team"] += 1
+            self.span_wall = self.span_x = 0.0
 
     def launch_steps(self, nwork: int, most: int) -> int:
         """Steps of the next launch, at most ``most``: one for the first team launch (it compiles),
