@@ -765,3 +765,45 @@ def test_team_workers_cap_the_team_and_keep_the_bits(monkeypatch):
 def backend_threads():
     from taichi_fdem import backend
     return backend.cpu_threads()
+
+
+def test_team_scheduler_judges_cpu_time_and_idle_cores(monkeypatch):
+    """``TeamScheduler.judge`` from the counters alone (no launch): the compiling launch is not
+    judged; team launches that lacked CPU time hand over to one worker once they span
+    TEAM_JUDGE_S, a wait past its bound at once; one worker hands back only when the other cores
+    were idle and the back-off has passed, and the back-off doubles after each failed return."""
+    import taichi_fdem.sim.team as teammod
+
+    class Sim:
+        def _team_size(self):
+            return 2
+
+    sim, ts = Sim(), teammod.TeamScheduler()
+    clock = [100.0]
+    monkeypatch.setattr(teammod._time, "perf_counter", lambda: clock[0])
+    ts.judge(sim, 2, 5.0, 1.0, False, None)                 # compiled: no verdict
+    assert not ts.solo and ts.trial and ts.warm
+    ts.judge(sim, 2, 0.03, 0.06, False, None)               # full share, too short for a verdict
+    assert ts.trial
+    ts.judge(sim, 2, 0.03, 0.06, False, None)               # now 0.06 s at a full share: healthy
+    assert not ts.solo and not ts.trial
+    ts.judge(sim, 2, 0.1, 0.1, False, None)                 # half the CPU time: descheduled
+    assert ts.solo and ts.stats["to_solo"] == 1 and ts.retry_at == 100.0 + teammod.TEAM_RETRY_FIRST
+    idle = [0.0]
+    monkeypatch.setattr(teammod, "idle_seconds", lambda cpus=None: idle[0])
+    idle[0] = 0.01                                          # the other core busy
+    ts.judge(sim, 1, 0.1, 0.1, False, 0.0)
+    assert ts.solo
+    idle[0] = 0.1                                           # idle, but before the back-off ends
+    ts.judge(sim, 1, 0.1, 0.1, False, 0.0)
+    assert ts.solo
+    clock[0] = 101.5
+    ts.judge(sim, 1, 0.1, 0.1, False, 0.0)                  # idle and past it: the team again
+    assert not ts.solo and ts.trial and ts.stats["to_team"] == 1
+    ts.judge(sim, 2, 0.001, 0.002, True, None)              # a wait past its bound: at once
+    assert ts.solo and ts.stats["to_solo"] == 2
+    assert ts.retry_at == 101.5 + 2 * teammod.TEAM_RETRY_FIRST
+    monkeypatch.setattr(teammod, "idle_seconds", lambda cpus=None: None)
+    clock[0] = 110.0                                        # no idle counters: the back-off alone
+    ts.judge(sim, 1, 0.1, 0.1, False, None)
+    assert not ts.solo and ts.stats["to_team"] == 2
