@@ -16,12 +16,13 @@ time:
 * ``taskset``: the process may run on CPU 0 only (``os.sched_setaffinity``, as ``taskset -c 0``,
   a one-core cpuset, a Slurm job or a CI runner would give it);
 * ``pair``: two measurements of the same strategy side by side (a 2-worker sweep), each
-  reported (the row shows their mean and the slower one).
+  reported (the row shows their mean and the slowest of them).
 
 The columns: the rate of ``strategy="auto"`` and of ``strategy="serial"`` [M triangle-steps/s],
-their ratio, auto / serial, and the team's counters (``Simulation.info()["team"]``: waits past
-their bound, switches to one worker and back, steps run by one worker).  ``--scene plate`` is the plate impact of benchmarks/fracture.py
-(every interior edge jointed, hit at 50 m/s; first contact near step 3,000, so 6,000 steps run
+their ratio, auto / serial, and the team's counters summed over the auto runs
+(``Simulation.info()["team"]``: waits past their bound, switches to one worker and back, steps
+run by one worker).  ``--scene plate`` is the plate impact of benchmarks/fracture.py (every
+interior edge jointed, hit at 50 m/s; first contact near step 3,000, so 6,000 steps run
 through the impact and the fragmentation); ``--scene pile`` the pile of benchmarks/pile.py.
 """
 from __future__ import annotations
@@ -132,7 +133,7 @@ def main(argv=None) -> None:
                   "steps by one worker |")
             print("|:--|--:|--:|--:|:--|:--|")
             for cond, a, al, s, sl, ratio, strat, team in rows:
-                extra = f" (slower {al / 1e6:.2f} / {sl / 1e6:.2f})" if cond == "pair" else ""
+                extra = f" (slowest {al / 1e6:.2f} / {sl / 1e6:.2f})" if cond == "pair" else ""
                 print(f"| {cond}{extra} | {a / 1e6:.2f} | {s / 1e6:.2f} | {ratio:.2f} | {strat} | "
                       f"{team['timeouts']}, {team['to_solo']} / {team['to_team']}, {team['solo_steps']:,} |")
         else:
