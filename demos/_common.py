@@ -29,15 +29,6 @@ def init(precision: str = "f64") -> None:
         backend.init(arch="cpu", precision=precision)
 
 
-def body_kinematics(sim, body):
-    """(mass [kg], centre of mass [m], momentum [kg m/s]) of one body from its nodes."""
-    m = sim.node_masses(body)
-    x = sim.node_positions(body)
-    v = sim.node_velocities(body)
-    M = float(m.sum())
-    return M, (m[:, None] * x).sum(axis=0) / M, (m[:, None] * v).sum(axis=0)
-
-
 class Timer:
     def __init__(self):
         self.t0 = time.perf_counter()

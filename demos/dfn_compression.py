@@ -156,7 +156,8 @@ def compress(mesh, lines, short: bool, frame=None, crack_path=None):
     samples = 60 if short else 150
     rec = []
     for _ in range(samples):
-        sim.run(duration / samples, check_energy=sim.time > 5 * transit, crack_events=crack_path)
+        sim.run(duration / samples, record=[fdem.CrackEvents(crack_path)],
+                checks=fdem.Checks(energy=sim.time > 5 * transit))
         rec.append(axial_record(sim, spec, top, bot, H, W) + (sim.time,))
         if frame is not None:
             frame(sim)

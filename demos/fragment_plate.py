@@ -34,6 +34,7 @@ def main(argv=None) -> dict:
     args = _common.parse_args(NAME, __doc__.split("\n\n")[0], argv)
     clock = _common.Timer()
     _common.init(args.precision)
+    import taichi_fdem as fdem
     from taichi_fdem.render import RendererImage
 
     sim, (plate, ball), duration = build(args.short)
@@ -49,8 +50,8 @@ def main(argv=None) -> dict:
 
     def watch(s, *a, **k):
         worst[0] = max(worst[0], abs(s.energies()["total"] - e0) / e0)
-    sim.run(duration, video=args.out, fps=30, frame_dt=duration / frames, renderer=renderer, progress=False,
-            callback=watch)
+    sim.run(duration, record=[fdem.Video(args.out, fps=30, frame_dt=duration / frames, renderer=renderer)],
+            progress=False, callback=watch)
     e = sim.energies()
     result = {"broken_joints": sim.broken_joint_count, "fragments": sim.fragment_count(plate),
               "energy_rel_error_max": float(worst[0]), "fracture_energy_J": e["fracture"],

@@ -52,7 +52,7 @@ def build(short: bool):
 
 
 def centroid(sim, block) -> np.ndarray:
-    return _common.body_kinematics(sim, block)[1]
+    return sim.body_motion(block).center
 
 
 def check(sim, block, c0, down) -> dict:

@@ -165,6 +165,7 @@ def main(argv=None) -> dict:
     args = _common.parse_args(NAME, __doc__.split("\n\n")[0], argv)
     clock = _common.Timer()
     _common.init(args.precision)
+    import taichi_fdem as fdem
     from taichi_fdem.render import RendererImage
 
     sim, walls, bodies, box, duration = build(args.short)
@@ -181,7 +182,7 @@ def main(argv=None) -> dict:
     renderer = RendererImage(*size, view=view, edge_width=0.5 if not args.short else 0.0,
                              draw_edges=not args.short, supersample=1)
     monitor = Monitor(sim, bodies, box)
-    sim.run(duration, video=args.out, fps=30, frame_dt=duration / frames, renderer=renderer,
+    sim.run(duration, record=[fdem.Video(args.out, fps=30, frame_dt=duration / frames, renderer=renderer)],
             progress=None, callback=monitor)
     t_run = clock() - t_build
     result = check(sim, bodies, box, monitor, settled=not args.short)

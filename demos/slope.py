@@ -188,6 +188,7 @@ def main(argv=None) -> dict:
     args = _common.parse_args(NAME, __doc__.split("\n\n")[0], argv)
     clock = _common.Timer()
     _common.init(args.precision)
+    import taichi_fdem as fdem
     import numpy as np
     from taichi_fdem.render import RendererImage, VideoWriter
 
@@ -211,7 +212,7 @@ def main(argv=None) -> dict:
     with VideoWriter(args.out, fps=10 if args.short else 30) as video:
         video.append(renderer.render_sim(sim))
         for _ in range(frames):
-            sim.run(duration / frames, history=csv_path, crack_events=cracks_path)
+            sim.run(duration / frames, record=[fdem.History(csv_path), fdem.CrackEvents(cracks_path)])
             video.append(renderer.render_sim(sim))
     e1 = sim.energies()
     released = e0["gravity"] - e1["gravity"]

@@ -73,8 +73,8 @@ def build(short: bool):
 
 def free_state(sim, bodies):
     """Total mass, momentum and per-body centroids of the given bodies."""
-    kin = [_common.body_kinematics(sim, b) for b in bodies]
-    return sum(k[0] for k in kin), sum(k[2] for k in kin), np.array([k[1] for k in kin])
+    kin = [sim.body_motion(b) for b in bodies]
+    return sum(k.mass for k in kin), sum(k.momentum for k in kin), np.array([k.center for k in kin])
 
 
 class Monitor:
@@ -90,7 +90,7 @@ class Monitor:
         self.p_start = None             # momentum of projectile + blocks at the window start
         self.floor = None
         _, p, self.c0 = free_state(sim, blocks)
-        self.px0 = float(_common.body_kinematics(sim, ball)[2][0])
+        self.px0 = float(sim.body_motion(ball).momentum[0])
         m = sim.node_masses()
         free = np.zeros(sim.node_count, bool)
         for b in blocks:

@@ -69,6 +69,7 @@ def main(argv=None) -> dict:
     args = _common.parse_args(NAME, __doc__.split("\n\n")[0], argv)
     clock = _common.Timer()
     _common.init(args.precision)
+    import taichi_fdem as fdem
     import numpy as np
     from taichi_fdem.render import RendererImage, VideoWriter
 
@@ -85,7 +86,7 @@ def main(argv=None) -> dict:
     with VideoWriter(args.out, fps=10 if args.short else 30) as video:
         t_settle = p["t_ramp"] + 5 * p["transit"]
         for _ in range(frames // 2):
-            sim.run(t_settle / (frames // 2), history=csv_path)
+            sim.run(t_settle / (frames // 2), record=[fdem.History(csv_path)])
             video.append(renderer.render_sim(sim))
         broken_before = sim.broken_joint_count
         damaged_before = int((sim.joint_damage() > 0.5).sum())
@@ -93,7 +94,7 @@ def main(argv=None) -> dict:
         removed = sim.remove(where=lambda x, y: x * x + y * y < A * A)
         t_after = (15 if args.short else 40) * p["transit"]
         for _ in range(frames):
-            sim.run(t_after / frames, history=csv_path)
+            sim.run(t_after / frames, record=[fdem.History(csv_path)])
             video.append(renderer.render_sim(sim))
     closure = sidewalls(sim, rock) - u0
     mat = p["material"]

@@ -41,10 +41,10 @@ def build(short: bool):
 
 
 def state(sim, bodies) -> dict:
-    kin = [_common.body_kinematics(sim, b) for b in bodies]
+    kin = [sim.body_motion(b) for b in bodies]
     e = sim.energies()
-    return {"mass": [k[0] for k in kin], "com": [k[1] for k in kin], "momentum": [k[2] for k in kin],
-            "velocity": [k[2] / k[0] for k in kin], "energy": e}
+    return {"mass": [k.mass for k in kin], "com": [k.center for k in kin], "momentum": [k.momentum for k in kin],
+            "velocity": [k.velocity for k in kin], "energy": e}
 
 
 def check(sim, bodies, initial: dict | None = None) -> dict:
@@ -88,6 +88,7 @@ def main(argv=None) -> dict:
     args = _common.parse_args(NAME, __doc__.split("\n\n")[0], argv)
     clock = _common.Timer()
     _common.init(args.precision)
+    import taichi_fdem as fdem
     from taichi_fdem.render import RendererImage
 
     sim, bodies, duration = build(args.short)
@@ -102,7 +103,8 @@ def main(argv=None) -> dict:
     info = sim.info()
     print(f"{NAME}: {info['triangles']} triangles, dt = {info['dt']:.3g} s, {duration:.3g} s simulated "
           f"({int(round(duration / sim.dt)):,} steps), strategy {info['strategy']}")
-    sim.run(duration, video=args.out, fps=15, frame_dt=duration / frames, renderer=renderer, progress=False)
+    sim.run(duration, record=[fdem.Video(args.out, fps=15, frame_dt=duration / frames, renderer=renderer)],
+            progress=False)
     result = check(sim, bodies, initial)
     result["video"] = os.path.abspath(args.out)
     result["wall_s"] = clock()

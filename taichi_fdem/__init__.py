@@ -44,10 +44,12 @@ from .sim.guards import SimulationError
 from .material import Fluid, Material
 from .scene import Body, Curve, Scene
 from .sim.simulation import Simulation
+from .sim.recorders import Callback, Checks, CrackEvents, History
 
 __version__ = "0.1.0"
 __all__ = ["init", "mesh", "render", "export", "checkpoint", "scenefile", "sweep", "lab", "Material", "Fluid", "Scene", "Body", "Curve",
-           "Weibull", "NormalStrength", "Simulation", "SimulationError", "calibrate", "__version__"]
+           "Weibull", "NormalStrength", "Simulation", "SimulationError", "Video", "History", "CrackEvents", "Callback", "Checks",
+           "calibrate", "__version__"]
 
 # driver modules, loaded on first attribute access (PEP 562)
 _LAZY = {"render": "taichi_fdem.render", "export": "taichi_fdem.io.vtu", "checkpoint": "taichi_fdem.io.checkpoint",
@@ -61,30 +63,12 @@ def __getattr__(name):
         from .sweep.calibrate import calibrate
         globals()[name] = calibrate
         return calibrate
+    if name == "Video":                          # the renderer's recorder (loads the renderer)
+        from .render.recorder import Video
+        globals()[name] = Video
+        return Video
     if name in _LAZY:
         module = importlib.import_module(_LAZY[name])
         globals()[name] = module
         return module
     raise AttributeError(f"module 'taichi_fdem' has no attribute {name!r}")
-
-
-def _video_sink(sim, video, fps, png_dir, renderer, cracks=False):
-    """The frame sink of ``Simulation.run(video=...)``: (writer context, draw()); ``cracks``:
-    draw the broken joints with the default renderer."""
-    from .render import RendererImage, VideoWriter, body_colors
-    renderer = renderer or RendererImage(cracks=bool(cracks))
-    writer = VideoWriter(video, fps=fps, png_dir=png_dir)
-    if hasattr(renderer, "render_sim"):
-        return writer, lambda: writer.append(renderer.render_sim(sim))
-    colors = body_colors(sim.model.tri_body_np)
-    return writer, lambda: writer.append(renderer.render(sim.state.node_x, sim.model.tri_nodes, colors))
-
-
-class _LazyCheckpoint:
-    def __getattr__(self, name):
-        return getattr(importlib.import_module("taichi_fdem.io.checkpoint"), name)
-
-
-# the drivers above the simulation hand themselves in (the simulation imports neither)
-Simulation.video_sink_factory = staticmethod(_video_sink)
-Simulation.checkpoint_io = _LazyCheckpoint()

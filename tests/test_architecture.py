@@ -13,8 +13,8 @@ PKG = pathlib.Path(__file__).resolve().parent.parent / "taichi_fdem"
 LAYERS = [
     ("backend", "material", "mesh", "discontinuity"),
     ("engine",),
-    ("timestep", "arrays", "fluid", "model", "state"),
-    ("guards", "energies", "cracks", "ae", "results", "outputs", "settings", "profiling", "excavation", "team",
+    ("timestep", "arrays", "fluid", "model", "state", "motion"),
+    ("guards", "energies", "cracks", "ae", "results", "recorders", "outputs", "settings", "profiling", "excavation", "team",
      "simulation"),
     ("scene", "scene_fluid"),
     ("render", "io", "cli", "sweep", "verification", "lab", "__init__"),

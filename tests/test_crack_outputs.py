@@ -141,7 +141,7 @@ def test_overlay_options_validated():
 
 
 def test_run_video_cracks(tmp_path):
-    """run(video=..., video_cracks=True) draws the broken joint on the frames; False does not."""
+    """run(record=[Video(..., cracks=True)]) draws the broken joint on the frames; False does not."""
     from PIL import Image
     from taichi_fdem.render import RendererImage
     counts = {}
@@ -150,16 +150,16 @@ def test_run_video_cracks(tmp_path):
         dp, dn = 2.0 * p.L * p.ft / p.pf, 3.0 * p.gI / p.ft
         p.move_A(p.n * (dp + dn) / 100 / p.dt)                      # broken after ~100 steps
         out = tmp_path / f"frames_{flag}"
-        p.sim.run(150 * p.dt, video=str(out), frame_dt=50 * p.dt, video_cracks=flag, progress=False,
-                  check_energy=False)
+        p.sim.run(150 * p.dt, record=[fdem.Video(out, frame_dt=50 * p.dt, cracks=flag)], progress=False,
+                  checks=fdem.Checks(energy=False))
         assert p.sim.broken_joint_count == 1
         last = np.asarray(Image.open(sorted(out.glob("*.png"))[-1]).convert("RGB"))
         counts[flag] = int(np.all(last == _u8(RendererImage().crack_color), axis=-1).sum())
     assert counts[True] > 50 and counts[False] == 0
-    with pytest.raises(ValueError, match="video_cracks"):
+    with pytest.raises(ValueError, match="cracks"):
+        fdem.Video(tmp_path / "x", renderer=RendererImage(), cracks=True)
+    with pytest.deprecated_call(), pytest.raises(ValueError, match="video_cracks"):
         p.sim.run(p.dt, video_cracks=True, progress=False)
-    with pytest.raises(ValueError, match="video_cracks"):
-        p.sim.run(p.dt, video=str(tmp_path / "x"), renderer=RendererImage(), video_cracks=True, progress=False)
 
 
 def test_crack_events_file_must_be_a_crack_event_csv(tmp_path):
@@ -167,7 +167,7 @@ def test_crack_events_file_must_be_a_crack_event_csv(tmp_path):
     path.write_text("time,step\n0.0,0\n")
     sim = V.JointPair().sim
     with pytest.raises(ValueError, match="not a crack-event file"):
-        sim.run(sim.dt, crack_events=str(path), progress=False)
+        sim.run(sim.dt, record=[fdem.CrackEvents(path)], progress=False)
     assert path.read_text() == "time,step\n0.0,0\n"                  # left untouched
 
 
@@ -184,8 +184,8 @@ def plate_run(tmp_path_factory):
     def watch(s):
         with open(stream) as fh:
             seen.append((s.broken_joint_count, sum(1 for _ in fh) - 1))
-    sim.run(0.003, crack_events=str(stream), history=str(hist), callback=watch, progress=False)
-    sim.run(0.003, crack_events=str(stream), history=str(hist), callback=watch, progress=False)  # appended
+    sim.run(0.003, record=[fdem.CrackEvents(stream), fdem.History(hist)], callback=watch, progress=False)
+    sim.run(0.003, record=[fdem.CrackEvents(stream), fdem.History(hist)], callback=watch, progress=False)  # appended
     return {"sim": sim, "plate": plate, "ball": ball, "stream": stream, "history": hist, "seen": seen, "dir": d}
 
 
@@ -241,7 +241,7 @@ def test_stream_keeps_events_when_the_run_stops_with_an_error(tmp_path):
         if s.broken_joint_count >= 5:
             raise RuntimeError("stop here")
     with pytest.raises(RuntimeError, match="stop here"):
-        sim.run(0.006, crack_events=str(path), callback=stop, progress=False)
+        sim.run(0.006, record=[fdem.CrackEvents(path)], callback=stop, progress=False)
     assert sim.broken_joint_count >= 5
     _same_events(read_crack_events(path), sim.crack_events())
 

@@ -117,7 +117,7 @@ def test_run_callback_every(tmp_path):
     sim = sliding_block()
     exp = ExporterVtu(tmp_path, every=2)
     exp.write(sim)                                    # t = 0
-    sim.run(6 * 20 * sim.dt, frame_dt=20 * sim.dt, callback=exp.callback)   # 6 frame intervals
+    sim.run(6 * 20 * sim.dt, record=[fdem.Callback(exp.callback, frame_dt=20 * sim.dt)])   # 6 frame intervals
     assert exp.calls == 6 and exp.frame_count == 4
     entries = read_pvd(exp.pvd_path)
     np.testing.assert_allclose([t for t, _ in entries], np.array([0, 2, 4, 6]) * 20 * sim.dt, rtol=1e-12)

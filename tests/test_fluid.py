@@ -130,7 +130,7 @@ def test_cubic_law_mass_balance(cubic):
 def test_history_has_the_fluid_columns(cubic, tmp_path):
     sim, v0 = cubic
     path = tmp_path / "h.csv"
-    sim.run(5 * sim.dt, history=str(path))
+    sim.run(5 * sim.dt, record=[fdem.History(path)])
     rows = list(csv.DictReader(open(path)))
     last = rows[-1]
     for key in ("fluid_injection_pressure", "fluid_injected_volume", "fluid_stored_volume", "fluid_rate_0",

@@ -105,7 +105,7 @@ def test_bar_under_end_pressure_reaches_static_strain_and_reaction():
     p = 1e4
     scene.apply_pressure(lambda x, y: x > 0.499, p, curve=fdem.Curve.ramp(0.02))
     sim = scene.build(quasi_static=True)
-    sim.run(0.15, check_energy=True)
+    sim.run(0.15, checks=fdem.Checks(energy=True))
     X = sim.model.node_rest
     u = sim.node_displacements()[X[:, 0] > 0.499, 0].mean()
     assert abs(u - (-p / E * 1.0)) < 0.01 * p / E                           # σ = E ε (plane stress, free sides)
@@ -307,7 +307,7 @@ def test_history_csv_and_checkpoint(tmp_path):
     scene.apply_pressure(lambda x, y: x > 0.499, 1e3, curve=c)
     sim = scene.build(quasi_static=0.6)
     path = tmp_path / "out" / "h.csv"
-    sim.run(0.01, history=str(path), history_every=50)
+    sim.run(0.01, record=[fdem.History(path, every=50)])
     rows = list(csv.DictReader(open(path)))
     n = int(round(0.01 / sim.dt))
     assert len(rows) == 1 + math.ceil(n / 50)

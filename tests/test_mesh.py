@@ -477,3 +477,38 @@ def test_load_unreadable(tmp_path):
     path.write_text("this is not a mesh\n")
     with pytest.raises(ValueError, match="junk.msh"):
         M.load(path)
+
+
+@pytest.mark.parametrize("ratio", [0.5, 1.0, 2.5, 7.3, 10.0, 33.0])
+def test_disk_symmetric_layout_is_mirror_exact(ratio):
+    m = M.disk(1.0, 1.0 / ratio)
+    check_valid(m, euler=1)
+    local = m.points
+    # every node's mirror images about both axes through the centre are nodes, bit for bit
+    keys = {tuple(p) for p in local.tolist()}
+    for sx, sy in ((-1.0, 1.0), (1.0, -1.0), (-1.0, -1.0)):
+        assert {tuple(p) for p in (local * (sx, sy)).tolist()} == keys
+    # and so are the triangles (as sets of node positions)
+    tris = {frozenset(map(tuple, local[t].tolist())) for t in m.triangles}
+    mirrored = {frozenset(map(tuple, (local[t] * (-1.0, 1.0)).tolist())) for t in m.triangles}
+    assert tris == mirrored
+    # nodes on both axes at every ring: the lowest node lies on the vertical axis
+    low = local[np.argmin(local[:, 1])]
+    assert low[0] == 0.0 and low[1] == -1.0
+    c = np.array([0.7, -2.5])
+    moved = M.disk(1.0, 1.0 / ratio, center=c)
+    np.testing.assert_allclose(moved.points, m.points + c, rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(moved.triangles, m.triangles)
+
+
+def test_disk_layouts_quality_and_errors():
+    for ratio in np.linspace(0.5, 100.0, 40):
+        for layout in ("symmetric", "spiral"):
+            m = M.disk(1.0, 1.0 / ratio, layout=layout)
+            assert min_angle_deg(m) > (37.0 if layout == "symmetric" else 35.0), (ratio, layout)
+    assert M.disk(0.05, 0.02, layout="spiral").point_count == 25
+    for bad in ("golden", None, 1):
+        with pytest.raises(ValueError, match="layout"):
+            M.disk(1.0, 0.1, layout=bad)
+        with pytest.raises(ValueError, match="layout"):
+            M.annulus(0.5, 1.0, 0.1, layout=bad)

@@ -624,8 +624,8 @@ def test_run_video_von_mises_frame_count(tmp_path):
     sim = sc.build()
     out = tmp_path / "x.mp4"
     steps, per_frame = 60, 15
-    sim.run(steps * sim.dt, video=out, frame_dt=per_frame * sim.dt,
-            renderer=render.RendererImage(160, 120, color_by="von_mises"))
+    sim.run(steps * sim.dt, record=[fdem.Video(out, frame_dt=per_frame * sim.dt,
+                                               renderer=render.RendererImage(160, 120, color_by="von_mises"))])
     frames = list(iio.imiter(out))
     assert len(frames) == 1 + steps // per_frame
     assert frames[0].shape == (120, 160, 3)

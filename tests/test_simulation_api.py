@@ -74,7 +74,7 @@ def test_model_values_are_read_only_and_other_names_raise():
 def test_restore_last_good_restores_the_time_step():
     sim = _falling_disk()
     dt = sim.dt
-    sim.run(20 * dt, check_every=10)
+    sim.run(20 * dt, checks=fdem.Checks(every=10))
     sim.dt = dt / 4
     sim.step(8)
     assert sim.time == pytest.approx(22 * dt)

@@ -89,7 +89,7 @@ def test_energy_growth_is_detected():
             s.set_node_velocities(2.0 * s.node_velocities())
 
     with pytest.raises(fdem.SimulationError, match="energy growth") as err:
-        sim.run(duration, callback=inject, frame_dt=duration / 20, progress=False)
+        sim.run(duration, record=[fdem.Callback(inject, frame_dt=duration / 20)], progress=False)
     assert err.value.step > calls[2]
     assert sim.restore_last_good() <= calls[2]          # the last check before the injection
     assert sim.energies()["kinetic"] == pytest.approx(ke0, rel=0.05)
@@ -130,10 +130,10 @@ def test_penetration_bound_is_checked():
     pen = r["max_penetration"]
     assert r["stable"] and 0.002 < pen < 0.1, r
     sim, duration, _ = S.scenario_disks(speed=5.0, penalty_factor=1.0)
-    sim.run(duration, max_penetration=2.0 * pen, check_every=5, progress=False)
+    sim.run(duration, checks=fdem.Checks(max_penetration=2.0 * pen, every=5), progress=False)
     sim, duration, _ = S.scenario_disks(speed=5.0, penalty_factor=1.0)
     with pytest.raises(fdem.SimulationError, match="penetration"):
-        sim.run(duration, max_penetration=0.5 * pen, check_every=5, progress=False)
+        sim.run(duration, checks=fdem.Checks(max_penetration=0.5 * pen, every=5), progress=False)
 
 
 def test_run_check_options():
@@ -141,10 +141,10 @@ def test_run_check_options():
     with pytest.raises(RuntimeError, match="no good state"):
         sim.restore_last_good()
     with pytest.raises(ValueError, match="energy_tol"):
-        sim.run(duration, energy_tol=0.0)
+        sim.run(duration, checks=fdem.Checks(energy_tol=0.0))
     with pytest.raises(ValueError, match="max_penetration"):
-        sim.run(duration, max_penetration=-1.0)
-    sim.run(duration, check_energy=False, max_penetration=None, progress=False)   # checks off
+        sim.run(duration, checks=fdem.Checks(max_penetration=-1.0))
+    sim.run(duration, checks=fdem.Checks(energy=False, max_penetration=None), progress=False)   # checks off
     assert sim.step_count > 0
 
 

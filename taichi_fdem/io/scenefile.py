@@ -68,6 +68,7 @@ radius               m       disk: radius, > 0
 width, height        m       rectangle: size, > 0
 pattern              —       rectangle: "alternating", "crossed" or "right" ["alternating"]
 r_inner, r_outer     m       annulus: radii, 0 < r_inner < r_outer
+layout               —       disk, annulus: "symmetric" or "spiral" (``fdem.mesh.disk``) ["symmetric"]
 vertices             m       polygon: [[x, y], ...], a simple polygon
 h                    m       target element edge length, > 0 (required for disk, rectangle,
                              annulus; polygon: [none: the vertices alone are triangulated])
@@ -155,8 +156,8 @@ crack_events   —       CSV file of crack events, appended as joints break [non
 vtu            —       folder of a VTU series with a .pvd index (needs taichi_fdem.io.vtu)
 vtu_every      —       write one VTU file every this many frames [1]
 checkpoint     —       file written at the end of the run (needs Simulation.save)
-history        —       CSV of the energy/reaction history (``Simulation.run(history=...)``) [none]
-history_every  —       steps between history rows (``run(history_every=...)``) [the run's default]
+history        —       CSV of the energy/reaction history (``fdem.History``) [none]
+history_every  —       steps between history rows (``fdem.History(every=...)``) [about 200 rows]
 =============  ======  ===================================================================
 
 ``[lab]`` (a standard lab test instead of ``[[bodies]]``, ``[[constraints]]``, ``[solver]`` and
@@ -241,6 +242,7 @@ BODY_KEYS = {
     "width": _POS("m"),
     "height": _POS("m"),
     "pattern": _Key("choice", "alternating", choices=("alternating", "crossed", "right")),
+    "layout": _Key("choice", "symmetric", choices=("symmetric", "spiral")),
     "r_inner": _POS("m"),
     "r_outer": _POS("m"),
     "vertices": _Key("vertices", unit="m"),
@@ -261,9 +263,9 @@ BODY_KEYS = {
 }
 #: mesh parameters of each built-in shape: (required, optional)
 SHAPE_KEYS = {
-    "disk": (("radius", "h"), ()),
+    "disk": (("radius", "h"), ("layout",)),
     "rectangle": (("width", "height", "h"), ("pattern",)),
-    "annulus": (("r_inner", "r_outer", "h"), ()),
+    "annulus": (("r_inner", "r_outer", "h"), ("layout",)),
     "polygon": (("vertices",), ("h",)),
     "file": (("file",), ("cell_block",)),
 }

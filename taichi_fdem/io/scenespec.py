@@ -42,25 +42,25 @@ class RunSettings:
     def run(self, sim, progress: bool | None = None, duration: float | None = None) -> None:
         """Run ``sim`` for ``duration`` [s] (default: the file's) with the configured outputs."""
         duration = self.duration if duration is None else float(duration)
-        renderer = None
+        from ..sim.recorders import CrackEvents, History
+        record = []
+        # frames every frame_dt (default: the video's, or 100 over the run); VTU every vtu_every-th
+        frame_dt = self.frame_dt or (duration / max(1, 5 * self.fps) if self.video else duration / 100)
         if self.video:
             from ..render import RendererImage
+            from ..render.recorder import Video
             renderer = RendererImage(self.width, self.height, color_by=self.color_by, cracks=self.cracks)
             folder = os.path.dirname(os.path.abspath(self.video))
             os.makedirs(folder, exist_ok=True)
-        exporter = None
+            record.append(Video(self.video, fps=self.fps, frame_dt=frame_dt or None, renderer=renderer))
         if self.vtu:
-            from .vtu import ExporterVtu           # checked to exist by load()
-            exporter = ExporterVtu(self.vtu, every=self.vtu_every)
-            exporter.write(sim)                       # the initial state
-        try:
-            sim.run(duration, video=self.video or None, fps=self.fps, frame_dt=self.frame_dt, renderer=renderer,
-                    progress=progress, callback=exporter.callback if exporter is not None else None,
-                    crack_events=self.crack_events or None, history=self.history or None,
-                    history_every=self.history_every)
-        finally:
-            if exporter is not None:
-                exporter.close()
+            from .vtu import VTU                   # checked to exist by load()
+            record.append(VTU(self.vtu, frame_dt=(frame_dt * self.vtu_every) or None))
+        if self.crack_events:
+            record.append(CrackEvents(self.crack_events))
+        if self.history:
+            record.append(History(self.history, every=self.history_every))
+        sim.run(duration, record=record, progress=progress)
         if self.checkpoint:
             folder = os.path.dirname(os.path.abspath(self.checkpoint))
             os.makedirs(folder, exist_ok=True)
@@ -139,11 +139,11 @@ class SceneSpec:
             if shape == "file":
                 return mesh.load(b["file"], cell_block=b["cell_block"])
             if shape == "disk":
-                return mesh.disk(b["radius"], b["h"])
+                return mesh.disk(b["radius"], b["h"], layout=b["layout"])
             if shape == "rectangle":
                 return mesh.rectangle(b["width"], b["height"], b["h"], pattern=b["pattern"])
             if shape == "annulus":
-                return mesh.annulus(b["r_inner"], b["r_outer"], b["h"])
+                return mesh.annulus(b["r_inner"], b["r_outer"], b["h"], layout=b["layout"])
             lines = [mesh.Polyline(line) for line in b["cracks"]] if b.get("cracks") else None
             return mesh.polygon(b["vertices"], h=b["h"], lines=lines)
         except (ValueError, TypeError, OSError) as exc:

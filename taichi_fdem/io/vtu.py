@@ -2,10 +2,14 @@
 
 ::
 
+    sim.run(1.0, record=[VTU("out", frame_dt=0.01)])   # t = 0, every 0.01 s and the end
+
+or, driven by hand::
+
     exporter = ExporterVtu("out", every=1)
     with exporter:
         exporter.write(sim)                       # the initial state, t = 0
-        sim.run(1.0, frame_dt=0.01, callback=exporter.callback)
+        sim.run(1.0, callback=exporter.callback)
 
 Each call to :meth:`ExporterVtu.write` writes one ``<prefix>_NNNNNN.vtu`` file (through meshio)
 and then rewrites ``<prefix>.pvd``, the ParaView collection listing every frame written so far
@@ -39,7 +43,9 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-__all__ = ["ExporterVtu", "frame_fields", "write_cracks_vtu", "write_ae_vtu"]
+from ..sim.recorders import Recorder
+
+__all__ = ["ExporterVtu", "VTU", "frame_fields", "write_cracks_vtu", "write_ae_vtu"]
 
 
 def _to_numpy(a) -> np.ndarray:
@@ -240,6 +246,33 @@ class ExporterVtu:
 
     def __repr__(self):
         return f"ExporterVtu({self.directory!r}, every={self.every}, prefix={self.prefix!r}, frames={self.frame_count})"
+
+
+class VTU(Recorder):
+    """The VTU-series recorder of :meth:`Simulation.run`: ``sim.run(duration,
+    record=[fdem.export.VTU("out/vtu", frame_dt=0.01)])`` writes the state at the start,
+    every ``frame_dt`` seconds of simulated time (default: 100 frames over the run) and at the
+    end through an :class:`ExporterVtu` (``directory``, ``prefix``, ``binary``, ``resume`` as
+    there; :attr:`exporter` is it).  A recorder used for several runs continues one series
+    without repeating the frame at the time where the last run ended."""
+
+    def __init__(self, directory, frame_dt: float | None = None, prefix: str = "frame", binary: bool = True,
+                 resume: bool = False):
+        if frame_dt is not None and not (isinstance(frame_dt, (int, float, np.floating)) and not isinstance(frame_dt, bool)
+                                         and np.isfinite(frame_dt) and frame_dt > 0):
+            raise ValueError(f"VTU: frame_dt must be a positive time [s] or None, got {frame_dt!r}")
+        self.exporter = ExporterVtu(directory, every=1, prefix=prefix, binary=binary, resume=resume)
+        self.requested_dt = frame_dt
+        self.frame_dt = frame_dt
+
+    def open(self, sim, steps, duration):
+        if self.requested_dt is None:
+            self.frame_dt = duration / 100 if duration > 0 else sim.dt
+        if not self.exporter.frames or self.exporter.frames[-1][0] != float(sim.time) or self.exporter._resumed:
+            self.exporter.write(sim)
+
+    def frame(self, sim, done):
+        self.exporter.write(sim)
 
 
 def write_cracks_vtu(path, sim, binary: bool = True) -> str:

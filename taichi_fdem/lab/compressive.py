@@ -10,6 +10,7 @@ import numpy as np
 from .. import mesh as _mesh
 from ..material import Material
 from ..scene import Curve
+from ..sim.recorders import Checks, History
 from .specimens import axial_record, check_joint_sets, jointed_specimen_mesh, mohr_coulomb_peak, platen_scene
 from .results import LabResult, check_rate, elastic_constants, specimen_kinetic, warn_kinetic
 
@@ -132,7 +133,8 @@ def compression(material, width: float, height: float, h: float, confinement: fl
         for _ in range(samples):
             # a specimen at rest has contact-energy round-off the energy guard would call growth:
             # check once the platens move (or the confinement works)
-            sim.run(duration / samples, history=history, check_energy=confinement > 0 or sim.time > t1 + 5 * transit)
+            sim.run(duration / samples, record=[History(history)] if history else [],
+                    checks=Checks(energy=confinement > 0 or sim.time > t1 + 5 * transit))
             rec.append(axial_record(sim, spec, top, bot, H, W) + (sim.time,))
             en = sim.energies()
             kin.append(specimen_kinetic(sim, spec) / max(en["strain"], 1e-300))

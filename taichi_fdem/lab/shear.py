@@ -10,6 +10,7 @@ import numpy as np
 
 from .. import mesh as _mesh
 from ..scene import Curve, Scene
+from ..sim.recorders import Checks
 from .compressive import _first, _positive, video_frames
 from .results import LabResult, check_rate, warn_kinetic
 
@@ -112,7 +113,7 @@ def direct_shear(material, width: float, height: float, h: float, normal_stress:
     t0 = _time.perf_counter()
     try:
         for _ in range(samples):
-            sim.run((t1 + t_shear) / samples, check_energy=False)
+            sim.run((t1 + t_shear) / samples, checks=Checks(energy=False))
             tau = abs(float(sim.reaction(upper, where=held)[0])) / W
             dil = float(sim.node_displacements(upper)[top, 1].mean())
             d = float(sim.node_positions(lower)[low_sel, 0].mean() - x_low0)

@@ -132,8 +132,10 @@ def _zip_rings(pts: np.ndarray, center: np.ndarray, inner: range, outer: range, 
             j += 1
 
 
-def _rings_mesh(center: np.ndarray, radii: Sequence[float], h: float) -> TriMesh:
+def _rings_mesh(center: np.ndarray, radii: Sequence[float], h: float, layout: str = "symmetric") -> TriMesh:
     """Concentric rings (radius 0 = a single centre node) zipped into triangles."""
+    if layout == "symmetric":
+        return _symmetric_rings_mesh(center, radii, h)
     blocks, ranges, start = [], [], 0
     for k, r in enumerate(radii):
         if r == 0.0:
@@ -151,46 +153,128 @@ def _rings_mesh(center: np.ndarray, radii: Sequence[float], h: float) -> TriMesh
     return TriMesh(pts, np.array(tris, dtype=np.int32))
 
 
-def disk(radius: float, h: float, center=(0.0, 0.0)) -> TriMesh:
+def _symmetric_rings_mesh(center: np.ndarray, radii: Sequence[float], h: float) -> TriMesh:
+    """Concentric rings with D2 symmetry: mirror images of one quadrant about both axes.
+
+    Ring ``k`` of radius ``r_k > 0`` has ``4 m_k`` nodes at angles ``t pi / (2 m_k)``,
+    ``m_k = max(2, round(pi r_k / (2 h)))``, so every ring has nodes on both axes.  The
+    quadrant ``0 <= angle <= 90 deg`` is zipped ring to ring (shorter diagonal first) and
+    mirrored about the y axis, then the upper half about the x axis; mirrored coordinates
+    are exact negations before the translation by ``center``.
+    """
+    m = np.array([0 if r == 0.0 else max(2, _nround(0.5 * math.pi * r / h)) for r in radii])
+    count = np.maximum(1, 4 * m)
+    base = np.concatenate([[0], np.cumsum(count)[:-1]])
+    local = np.zeros((int(count.sum()), 2))
+    for k, (r, mk) in enumerate(zip(radii, m)):
+        if mk == 0:
+            continue
+        th = 0.5 * math.pi * np.arange(mk + 1) / mk
+        q = np.stack([r * np.cos(th), r * np.sin(th)], axis=1)
+        q[0] = (r, 0.0)
+        q[-1] = (0.0, r)
+        ring = local[base[k]:base[k] + 4 * mk]
+        ring[:mk + 1] = q
+        t = np.arange(mk + 1, 2 * mk + 1)
+        ring[t] = q[2 * mk - t] * (-1.0, 1.0)
+        t = np.arange(2 * mk + 1, 4 * mk)
+        ring[t] = ring[4 * mk - t] * (1.0, -1.0)
+
+    def d2(p, q):
+        return float(((local[p] - local[q]) ** 2).sum())
+
+    quad: list = []  # triangles of the first quadrant as (ring, angular index) triples
+    for k in range(len(radii) - 1):
+        outer = [(k + 1, j) for j in range(m[k + 1] + 1)]
+        if m[k] == 0:
+            quad.extend(((k, 0), outer[j], outer[j + 1]) for j in range(m[k + 1]))
+            continue
+        inner = [(k, i) for i in range(m[k] + 1)]
+        i = j = 0
+        while i < m[k] or j < m[k + 1]:
+            ai, bj = base[k] + i, base[k + 1] + j
+            if j == m[k + 1] or (i < m[k] and d2(ai + 1, bj) <= d2(ai, bj + 1)):
+                quad.append((inner[i], outer[j], inner[i + 1]))
+                i += 1
+            else:
+                quad.append((inner[i], outer[j], outer[j + 1]))
+                j += 1
+    q = np.array(quad)                                    # (T, 3, 2): ring, angular index
+    ring, t = q[..., 0], q[..., 1]
+    mk, n = m[ring], count[ring]
+    tris = []
+    for flip_x, flip_y in ((False, False), (True, False), (False, True), (True, True)):
+        tt = t.copy()
+        if flip_x:
+            tt = (2 * mk - tt) % n
+        if flip_y:
+            tt = (n - tt) % n
+        ids = np.where(mk == 0, base[ring], base[ring] + tt)
+        tris.append(ids[:, ::-1] if flip_x != flip_y else ids)
+    return TriMesh(local + center, np.vstack(tris).astype(np.int32))
+
+
+def disk(radius: float, h: float, center=(0.0, 0.0), layout: str = "symmetric") -> TriMesh:
     """A disk of ``radius`` [m] meshed with triangles of edge length about ``h`` [m].
 
     Nodes lie on concentric rings: ring 0 is the centre, ring ``k`` has radius
-    ``k * radius / nr`` with ``nr = max(1, round(radius / h))`` and about
-    ``2 pi r_k / h`` (at least 6) nodes, rings rotated by golden-ratio phases so that no
-    radial line runs through the mesh.  The outer ring lies exactly on the circle, so the
-    mesh is the inscribed polygon.  Neighbouring rings are zipped together choosing the
-    shorter diagonal at each step; the smallest angle is above 35 degrees for every
-    ``radius / h`` from 0.5 to 100.
+    ``k * radius / nr`` with ``nr = max(1, round(radius / h))``.  The outer ring lies exactly
+    on the circle, so the mesh is the inscribed polygon.  ``layout``:
 
-    Example: ``disk(0.05, 0.02)`` has 25 nodes and 32 triangles.
+    - ``"symmetric"`` (default): ring ``k`` has ``4 m_k`` nodes, ``m_k = max(2, round(pi r_k
+      / (2 h)))``, with nodes on both axes through ``center``; the mesh is the mirror image of
+      one quadrant about both axes (bit for bit about ``center = (0, 0)``; the nodes are then
+      translated by ``center``), so its centre of mass is ``center`` and a normal impact on a
+      flat surface along an axis exerts no torque.  The smallest angle is above 37 degrees for every
+      ``radius / h`` from 0.5 to 100.
+    - ``"spiral"``: rings of about ``2 pi r_k / h`` (at least 6) nodes rotated by golden-ratio
+      phases, so that no radial line runs through the mesh (no mirror symmetry): the layout
+      for a fracturing specimen, whose crack would otherwise follow the straight lines of edges
+      along the axes; the smallest angle is above 35 degrees for every ``radius / h`` from 0.5
+      to 100.
 
-    Raises ValueError for a non-positive radius or h, or h > 2 radius (the diameter).
+    Neighbouring rings are zipped together choosing the shorter diagonal at each step.
+
+    Example: ``disk(0.05, 0.02)`` has 25 nodes and 32 triangles in either layout.
+
+    Raises ValueError for a non-positive radius or h, h > 2 radius (the diameter), or an
+    unknown ``layout``.
     """
     where = "disk"
     r = _positive("radius", radius, where)
     h = _positive("h", h, where)
     c = _vec2("center", center, where)
+    _check_layout(layout, where)
     if h > 2.0 * r * (1.0 + 1e-9):
         raise ValueError(f"{where}: h={h:g} is larger than the diameter {2 * r:g}; use h <= {2 * r:g}")
     _guard_size(2.4 * math.pi * r * r / (h * h), where, h)
     nr = max(1, _nround(r / h))
     radii = [r * k / nr for k in range(nr)] + [r]
-    return _rings_mesh(c, radii, h)
+    return _rings_mesh(c, radii, h, layout)
 
 
-def annulus(r_inner: float, r_outer: float, h: float, center=(0.0, 0.0)) -> TriMesh:
+_LAYOUTS = ("symmetric", "spiral")
+
+
+def _check_layout(layout, where: str) -> None:
+    if layout not in _LAYOUTS:
+        raise ValueError(f"{where}: layout={layout!r} is not one of {', '.join(map(repr, _LAYOUTS))}")
+
+
+def annulus(r_inner: float, r_outer: float, h: float, center=(0.0, 0.0), layout: str = "symmetric") -> TriMesh:
     """A ring ``r_inner < |x - center| < r_outer`` [m] meshed with triangles of size ~``h`` [m].
 
-    Same construction as :func:`disk`: ``nr = max(1, round((r_outer - r_inner) / h))``
-    bands of equal width between rings of about ``2 pi r / h`` (at least 6) nodes; the
-    nodes of the inner and outer rings lie exactly on the two circles.  Triangles are
+    Same construction and ``layout`` as :func:`disk`: ``nr = max(1, round((r_outer -
+    r_inner) / h))`` bands of equal width between rings; the nodes of the inner and outer
+    rings lie exactly on the two circles.  Triangles are
     well shaped when ``r_inner`` is at least about ``h`` (smallest angle above 25
     degrees); a hole much smaller than ``h`` gives slender triangles around it.
 
-    Raises ValueError unless ``0 < r_inner < r_outer``, for a non-positive h, or for
-    h > 2 (r_outer - r_inner).
+    Raises ValueError unless ``0 < r_inner < r_outer``, for a non-positive h, for
+    h > 2 (r_outer - r_inner), or an unknown ``layout``.
     """
     where = "annulus"
+    _check_layout(layout, where)
     ri = _positive("r_inner", r_inner, where)
     ro = _positive("r_outer", r_outer, where)
     h = _positive("h", h, where)
@@ -203,7 +287,7 @@ def annulus(r_inner: float, r_outer: float, h: float, center=(0.0, 0.0)) -> TriM
     _guard_size(2.4 * math.pi * (ro * ro - ri * ri) / (h * h), where, h)
     nr = max(1, _nround((ro - ri) / h))
     radii = [ri + (ro - ri) * k / nr for k in range(nr)] + [ro]
-    return _rings_mesh(c, radii, h)
+    return _rings_mesh(c, radii, h, layout)
 
 
 # --------------------------------------------------------------------------- polygon

@@ -1,5 +1,5 @@
-"""Grain-based specimens: Voronoi grains meshed with triangles (NumPy; SciPy for the Voronoi
-diagram, ``pip install scipy``).
+"""Grain-based specimens: Voronoi grains meshed with triangles (NumPy; SciPy, a dependency of
+the package, for the Voronoi diagram).
 
 :func:`voronoi_grains` draws ``round(area / grain_size**2)`` seeds uniformly in the specimen
 (a seeded :class:`numpy.random.Generator`), moves them by a few Lloyd iterations towards the
@@ -69,8 +69,8 @@ def _import_scipy():
         import scipy.spatial  # noqa: F401
         import scipy.sparse.csgraph  # noqa: F401
     except ImportError as exc:  # pragma: no cover - depends on the installation
-        raise ImportError("voronoi_grains needs SciPy: pip install scipy "
-                          "(or pip install \"taichi-fdem[grains]\")") from exc
+        raise ImportError("voronoi_grains needs SciPy, a dependency of taichi-fdem that is missing "
+                          "from this environment: pip install scipy") from exc
     import scipy
     return scipy
 

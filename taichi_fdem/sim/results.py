@@ -14,6 +14,7 @@ import os
 from .cracks import CrackResults
 from .energies import compute_energies
 from .fluid import FluidResults
+from .motion import BodyMotion, body_motion_of
 from ..engine.groups import BROKEN
 from ..engine.loads import LOAD_ABSORB, LOAD_FORCE, LOAD_VELOCITY
 from .model import counter
@@ -54,6 +55,14 @@ class SimulationResults(CrackResults, FluidResults):
     def node_masses(self, body=None) -> np.ndarray:
         """Lumped node masses [kg] (ρ A0 t / 3 per triangle), shape (n,)."""
         return self.model.node_mass_np[self._body(body)] * self.thickness
+
+    def body_motion(self, body) -> BodyMotion:
+        """Mass, centre of mass, its velocity, angular velocity and the kinetic energy split into
+        translation, rotation and vibration of ``body`` (a Body or its index), at the last
+        half step: a :class:`~taichi_fdem.sim.motion.BodyMotion` (SI units, thickness included).
+        The parts of a body that has broken are summed as one set of nodes."""
+        nodes = self._body(self._body_obj(body))
+        return body_motion_of(self.node_masses(body), self.node_positions()[nodes], self.node_velocities()[nodes])
 
     def node_displacements(self, body=None) -> np.ndarray:
         """x − X [m], shape (n, 2)."""
@@ -115,7 +124,9 @@ class SimulationResults(CrackResults, FluidResults):
         constrained nodes when both are None).  For a platen driven by a prescribed velocity,
         ``reaction(platen)`` is the force it transmits to what it pushes (at equilibrium, minus the
         load on that side), plus what holds the platen itself against gravity.  Zeros before the
-        first step.
+        first step.  A component whose sum lies within the round-off of summing its terms
+        (``|Σ R_i| <= 2 n ε Σ |R_i|``, ε of the state's precision) is exactly 0: a fixed body
+        that nothing touches reacts with no force.
         """
         sel = self._node_selection(body, where, "reaction")
         md = self.model
@@ -126,8 +137,13 @@ class SimulationResults(CrackResults, FluidResults):
         sel &= np.any(free == 0.0, axis=1) & ~getattr(self, "_orphans", np.zeros_like(sel))
         if not sel.any():
             raise ValueError("reaction: the selection holds no node with a prescribed velocity")
-        r = self.state.node_react.to_numpy().astype(np.float64)
-        return r[sel].sum(axis=0) * self.thickness
+        r = self.state.node_react.to_numpy()
+        eps = float(np.finfo(r.dtype).eps)
+        r = r.astype(np.float64)[sel]
+        total = r.sum(axis=0)
+        # a component within the round-off of its own sum is no force: report exactly 0
+        total[np.abs(total) <= 2.0 * len(r) * eps * np.abs(r).sum(axis=0)] = 0.0
+        return total * self.thickness
 
     def load_forces(self) -> np.ndarray:
         """Nodal forces of the applied pressure, tractions and point forces at the last step [N],
@@ -245,8 +261,9 @@ def _curve_name(curve, k: int) -> str:
     return getattr(curve, "name", None) or f"curve{k}"
 
 
-class History:
-    """A CSV history of a run, appended row by row and flushed (``Simulation.run(history=...)``).
+class HistoryFile:
+    """A CSV history of a run, appended row by row and flushed (the file of the
+    :class:`~taichi_fdem.sim.recorders.History` recorder).
 
     Columns: time [s], step, the reaction (x, y) [N] of each prescribed body (by name) and of
     each ``fix_nodes`` group (fix0, fix1, ...), the amplitude of each curve, the mean
@@ -277,3 +294,8 @@ class History:
 
     def close(self) -> None:
         self.fh.close()
+
+
+
+#: the name of :class:`HistoryFile` in version 0.1.0
+History = HistoryFile

@@ -32,6 +32,7 @@ from ..engine.groups import COUPLES, DACC, DETECTIONS, FORCE_BLOCKS, FOUND, MAX_
 from .model import build_model, counter, set_counter
 from .state import allocate_scratch, allocate_state, grow_couples, pack_groups, size_assembly, size_couple_scratch
 from .outputs import RunOutputs
+from .recorders import Checks, CrackEvents, History, Recorder
 from .results import SimulationResults
 from .settings import ModelValues
 from .team import TeamScheduler
@@ -45,6 +46,63 @@ SERIAL_TRI_STEPS = 2_000_000     # ~50 ms of work per serial launch: responsive 
 TEAM_TRI_STEPS = 10_000_000      # the same for a team launch (Simulation.steps_per_launch)
 AUTO_PARALLEL_ITEMS = 600        # triangles + joints + couples from which "auto" runs parallel on >= 2 CPU threads
 DETECT_SERIAL_TRIS = 15_000      # up to this many contact triangles, detection runs as one serial launch
+
+_LEGACY_VIDEO = ("video", "fps", "frame_dt", "renderer", "png_dir", "video_cracks")
+_LEGACY_CHECKS = {"check_energy": "energy", "energy_tol": "energy_tol", "max_penetration": "max_penetration",
+                  "check_every": "every"}
+_LEGACY_RUN = _LEGACY_VIDEO + ("history", "history_every", "crack_events") + tuple(_LEGACY_CHECKS)
+
+
+def _legacy_run_arguments(record, checks, kw: dict):
+    """(recorders, checks, callback interval [s] or None) of a :meth:`Simulation.run` call that
+    used the keywords of version 0.1.0 (or a video path as its second argument); each such use
+    warns once per call."""
+    import warnings
+    if isinstance(record, Recorder):
+        record = [record]
+    elif isinstance(record, (str, bytes)) or hasattr(record, "__fspath__"):
+        kw = dict(kw, video=record)
+        record = []
+    else:
+        try:
+            record = list(record)
+        except TypeError:
+            raise TypeError(f"run: record must be a list of recorders, got {record!r}") from None
+    unknown = sorted(set(kw) - set(_LEGACY_RUN))
+    if unknown:
+        raise TypeError(f"run() got unexpected keyword argument(s) {', '.join(unknown)}")
+    used = [k for k in _LEGACY_RUN if k in kw]
+    if not used:
+        return record, checks, None
+    callback_dt = None
+    warnings.warn(f"run({', '.join(k + '=' for k in used)}...) is deprecated: pass recorders, "
+                  f"run(duration, record=[fdem.Video(...), fdem.History(...), fdem.CrackEvents(...)]), and "
+                  f"checks=fdem.Checks(...)", DeprecationWarning, stacklevel=3)
+    if kw.get("video") is not None:
+        import importlib
+        video_cls = importlib.import_module("taichi_fdem.render.recorder").Video   # the render layer's recorder
+        record.append(video_cls(kw["video"], fps=kw.get("fps") or 30, frame_dt=kw.get("frame_dt"),
+                                renderer=kw.get("renderer"), png_dir=kw.get("png_dir"),
+                                cracks=bool(kw.get("video_cracks"))))
+    else:
+        callback_dt = kw.get("frame_dt")         # without a video, frame_dt spaced the callbacks
+        orphans = [k for k in ("fps", "renderer", "png_dir", "video_cracks") if kw.get(k) not in (None, False)]
+        if orphans:
+            raise ValueError(f"run: {', '.join(k + '=' for k in orphans)} set(s) a video, but no video= is given")
+    if kw.get("history") is None and kw.get("history_every") is not None:
+        raise ValueError("run: history_every= needs history=")
+    if kw.get("history") is not None:
+        record.append(History(kw["history"], every=kw.get("history_every")))
+    if kw.get("crack_events") is not None:
+        record.append(CrackEvents(kw["crack_events"]))
+    legacy = {new: kw[old] for old, new in _LEGACY_CHECKS.items() if old in kw}
+    if legacy:
+        if checks is not None:
+            raise TypeError(f"run: give checks= or {', '.join(k + '=' for k in _LEGACY_CHECKS if k in kw)}, "
+                            f"not both")
+        checks = Checks(**legacy)
+    return record, checks, callback_dt
+
 
 class Simulation(SimulationResults, ModelValues):
     """A built scene: model, state and the stepping loop.  Create with :meth:`Scene.build`.
@@ -61,23 +119,17 @@ class Simulation(SimulationResults, ModelValues):
     the model or the state on the simulation raises (it would change nothing).
     """
 
-    #: ``factory(sim, video, fps, png_dir, renderer, cracks=False) -> (writer, draw)`` used by :meth:`run`
-    #: for ``video=``; installed by the package (the renderer sits above the simulation).
-    video_sink_factory = None
     #: parallel strategy on the CPU: run many steps per launch in a team of
     #: at most min(:attr:`force_blocks`, threads, usable cores) workers
     #: (:func:`taichi_fdem.engine.step.run_steps_blocks`); False: one launch per step.  The same
     #: bits either way.
     team_steps = True
-    #: the checkpoint module (``save(sim, path)``, ``load(path)``); installed by the package,
-    #: since checkpoints (I/O) sit above the simulation and rebuild it from its scene
-    checkpoint_io = None
-
-    @classmethod
-    def _checkpoint_io(cls):
-        if cls.checkpoint_io is None:
-            raise RuntimeError("checkpoints: no checkpoint module installed (import taichi_fdem installs one)")
-        return cls.checkpoint_io
+    @staticmethod
+    def _checkpoint_io():
+        """The checkpoint module (``save(sim, path)``, ``load(path)``), which sits above the
+        simulation (it rebuilds one from its scene), imported by name when first used."""
+        import importlib
+        return importlib.import_module("taichi_fdem.io.checkpoint")
 
     def __init__(self, scene, dt=None, safety=0.2, force_dt=False, buffer=None, strategy="auto", check_overlap=True,
                  speed_limit=None, quasi_static=0.0, joined_pairs="joint", handover_damage=None):
@@ -486,84 +538,68 @@ class Simulation(SimulationResults, ModelValues):
     # ------------------------------------------------------------------------------------------
     # run
     # ------------------------------------------------------------------------------------------
-    def run(self, duration: float, video: str | None = None, fps: int = 30, frame_dt: float | None = None,
-            renderer=None, png_dir: str | None = None, progress: bool | None = None, callback=None,
-            check_energy: bool = True, energy_tol: float = 0.1, max_penetration: float | None = 0.5,
-            check_every: int | None = None, history: str | None = None, history_every: int | None = None,
-            crack_events: str | None = None, video_cracks: bool = False) -> None:
+    def run(self, duration: float, record=(), *, progress: bool | None = None, callback=None,
+            checks: Checks | None = None, **deprecated) -> None:
         """Advance by ``duration`` seconds of simulated time.
 
         Every step the kernels stop on non-finite values, inverted elements and node speeds above
-        ``speed_limit``.  In addition, ``run`` checks after every chunk of steps (at least
-        ``check_every`` steps; default: adaptive, as often as keeps the checks' cost near 10 % of
-        the stepping time, between every 20 and every 500 steps):
-
-        * ``check_energy``: the total energy of :meth:`energies` (which books the work of
-          damping, friction and prescribed velocities) must not rise above its value at the start
-          of the run by more than ``energy_tol`` × the energy scale (the largest
-          kinetic + strain + contact + dissipated + ``|boundary work|`` seen so far);
-        * ``max_penetration``: no contact couple may overlap by more than this fraction of its
-          element size (overlap area / mean edge length, divided by the mean edge length;
-          :func:`taichi_fdem.sim.guards.max_couple_penetration`); None switches the check off.
-
-        A failed check raises :class:`SimulationError` (cause, step, time, suggested dt), like
-        the per-step checks.  The state of the last check that passed (or of the start of the
-        run) is kept: :meth:`restore_last_good` rolls back to it, e.g. to save it.
+        ``speed_limit``.  In addition, ``run`` checks the energy balance and the contact
+        penetration after every chunk of steps, as ``checks`` (a :class:`~taichi_fdem.sim.recorders.Checks`,
+        default ``Checks()``) sets.  A failed check raises :class:`SimulationError` (cause,
+        step, time, suggested dt), like the per-step checks.  The state of the last check that
+        passed (or of the start of the run) is kept: :meth:`restore_last_good` rolls back to it,
+        e.g. to save it.
 
         Parameters
         ----------
-        video : path of a video to write while running (.mp4, .gif, or a directory for PNGs).
-            Frames are rendered every ``frame_dt`` seconds of simulated time (default: the run
-            spread over 5 s of video at ``fps``), never every step, and streamed to the file.
-        renderer : a :class:`~taichi_fdem.render.RendererImage` (default: fitted view, body colours).
-        png_dir : also write every frame as PNG into this directory.
+        record : recorders, written as the run goes (:mod:`taichi_fdem.sim.recorders`):
+            ``fdem.Video(path, ...)`` (frames), ``fdem.History(path, every=None)`` (a CSV row
+            every ``every`` steps), ``fdem.CrackEvents(path)`` (a CSV row per broken joint),
+            ``fdem.export.VTU(directory, frame_dt=None)`` (a VTU series), or any
+            :class:`~taichi_fdem.sim.recorders.Recorder`.  Each writes at the start, on its
+            own schedule and at the end, and is closed also when the run stops with an error.
         progress : show a progress bar (default: when stdout is a terminal).
-        callback : ``callback(sim)`` called after every frame interval (or chunk without video).
-        history : path of a CSV file that receives a row at the start, every ``history_every``
-            steps (default: about 200 rows over the run) and at the end: time, reactions of the
-            prescribed bodies and ``fix_nodes`` groups, curve amplitudes, mean displacement of
-            each body, energies (:class:`taichi_fdem.sim.results.History`).  Each row is flushed;
-            an existing file is appended to.
-        crack_events : path of a CSV file of crack events (:meth:`crack_events`, columns
-            ``joint, time_s, x_m, y_m, mode, energy_J, length_m, set, pressure_Pa``): the joints broken so
-            far are written at the start, new ones after every chunk of steps (at least as
-            often as the history rows and checks) and at the end, also when the run stops
-            with an error; each write is flushed.  An existing file is appended to, without
-            repeating the joints it lists (:class:`taichi_fdem.sim.cracks.CrackEventLog`).  After
-            :meth:`restore_last_good` the file may list joints that broke after the restored state.
-        video_cracks : draw the broken joints (both crack faces) on the video frames of
-            the default renderer; with ``renderer=``, set its ``cracks`` option instead.
+        callback : ``callback(sim)`` called at every frame of the first recorder that takes
+            frames, or 100 times over the run without one.
+        checks : the run's checks (:class:`~taichi_fdem.sim.recorders.Checks`).
+
+        The keywords of version 0.1.0 (``video``, ``fps``, ``frame_dt``, ``renderer``,
+        ``png_dir``, ``video_cracks``, ``history``, ``history_every``, ``crack_events``,
+        ``check_energy``, ``energy_tol``, ``max_penetration``, ``check_every``) still work and
+        warn (DeprecationWarning); any other keyword raises TypeError.
         """
+        record, checks, callback_dt = _legacy_run_arguments(record, checks, deprecated)
         duration = float(duration)
         if not (math.isfinite(duration) and duration >= 0):
             raise ValueError(f"run: duration must be a finite time >= 0 s, got {duration}")
         total = int(round(duration / self.dt))
-        if video is not None or callback is not None:
-            if frame_dt is None:
-                frame_dt = duration / max(1, 5 * fps) if video is not None else duration / 100
-            per_frame = max(1, int(round(float(frame_dt) / self.dt)))
-        else:
-            per_frame = self.steps_per_launch()
-        outputs = RunOutputs(self, total, video=video, fps=fps, png_dir=png_dir, renderer=renderer, progress=progress,
-                             history=history, history_every=history_every, crack_events=crack_events,
-                             video_cracks=video_cracks)
+        checks = Checks() if checks is None else checks
+        if not isinstance(checks, Checks):
+            raise TypeError(f"run: checks must be a taichi_fdem.Checks, got {checks!r}")
+        outputs = RunOutputs(self, total, duration, record, progress)
         with outputs:
+            framed = [fs for fs in outputs.frame_steps if fs is not None]
+            if callback is not None:
+                if callback_dt is not None:
+                    every_cb = max(1, int(round(float(callback_dt) / self.dt)))
+                else:
+                    every_cb = framed[0] if framed else max(1, int(round(duration / 100 / self.dt)))
+            per_launch = self.steps_per_launch()
             done = 0
-            guard = guards.RunGuard(self, check_energy, energy_tol, max_penetration, check_every)
+            guard = guards.RunGuard(self, checks.energy, checks.energy_tol, checks.max_penetration, checks.every)
             while done < total:
-                k = min(per_frame, total - done)
-                while k > 0:                       # checks (and history rows) on their own schedule
-                    j = outputs.steps_to_next_row(done, min(k, guard.steps_to_next_check()))
-                    t_step = _time.perf_counter()
-                    self.step(j)
-                    guard.step_wall = (_time.perf_counter() - t_step) / j
-                    k -= j
-                    done += j
-                    outputs.after_steps()
-                    guard.check(j, last=done >= total)
-                    outputs.after_check(done)
-                outputs.after_frame(done)
+                k = min(per_launch, total - done)
                 if callback is not None:
+                    k = min(k, every_cb - done % every_cb)
+                j = outputs.steps_to_next(done, min(k, guard.steps_to_next_check()))
+                t_step = _time.perf_counter()
+                self.step(j)
+                guard.step_wall = (_time.perf_counter() - t_step) / j
+                done += j
+                outputs.after_steps(done)
+                guard.check(j, last=done >= total)
+                outputs.after_check(done)
+                if callback is not None and (done % every_cb == 0 or done >= total):
                     callback(self)
 
     # ------------------------------------------------------------------------------------------
@@ -599,7 +635,7 @@ class Simulation(SimulationResults, ModelValues):
         :meth:`load` rebuilds the model from the scene and continues the run exactly.  See
         :mod:`taichi_fdem.io.checkpoint`.
         """
-        self._checkpoint_io().save(self, path)
+        Simulation._checkpoint_io().save(self, path)
 
     @classmethod
     def load(cls, path) -> "Simulation":
@@ -609,4 +645,4 @@ class Simulation(SimulationResults, ModelValues):
         file, another format version or another precision.  Only load files you trust (the
         scene is unpickled).
         """
-        return cls._checkpoint_io().load(path)
+        return Simulation._checkpoint_io().load(path)

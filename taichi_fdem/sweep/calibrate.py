@@ -11,7 +11,7 @@
     cal.best, cal.history, cal.plot("convergence.png"), cal.to_csv("history.csv")
 
 The optimiser is SciPy's differential evolution (Storn & Price 1997;
-:func:`scipy.optimize.differential_evolution`, ``pip install "taichi-fdem[calibrate]"``),
+:func:`scipy.optimize.differential_evolution`; SciPy is a dependency of the package),
 with a Latin-hypercube initial population and deferred updating, so that each generation is one batch
 of evaluations: the batch runs on the sweep runner's local worker processes (kept for the whole
 calibration, so that each initialises Taichi once), or as a :class:`~taichi_fdem.sweep.Sweep` on
@@ -270,7 +270,8 @@ def calibrate(model, params: dict, targets: dict, budget: int = 200, seed: int =
     try:
         from scipy.optimize import differential_evolution
     except ImportError as exc:  # pragma: no cover - depends on the installation
-        raise ImportError('calibrate needs SciPy: pip install "taichi-fdem[calibrate]"') from exc
+        raise ImportError("calibrate needs SciPy, a dependency of taichi-fdem that is missing from this "
+                          "environment: pip install scipy") from exc
     if not callable(model):
         raise TypeError(f"calibrate: model must be a callable model(params) -> dict, got {model!r}")
     bounds, tg = _check(params, targets, weights, budget, workers)

@@ -364,18 +364,20 @@ def case_incline(resolution: int = 2, safety: float = 0.2, penalty_factor: float
 # ------------------------------------------------------------------------------------------------
 def two_disks_scene(radius: float = 0.05, h: float | None = None, velocity_a=(2.0, 0.0), velocity_b=(-2.0, 0.0),
                     offset: float = 0.0, gap: float = 0.006, material: dict | None = None, mirror: bool = True,
-                    names=("A", "B"), **build_kw):
+                    names=("A", "B"), layout: str = "spiral", **build_kw):
     """Two equal elastic disks (``radius``, mesh size ``h``, default radius/3), centres 2·radius
     + ``gap`` apart along x and ±``offset`` in y (A below, left), with initial velocities
     ``velocity_a``, ``velocity_b``; no gravity.  ``mirror``: B is A's mesh mirrored about the y
     axis, so a head-on impact is mirror-symmetric and the contact force exactly along x (the
     meshed disks are polygons).  ``material``: Material keywords (default E = 10 MPa,
-    ρ = 1000 kg/m³, ν = 0.25, penalty 10·E).  Returns (sim, a, b); ``build_kw`` go to build()."""
+    ρ = 1000 kg/m³, ν = 0.25, penalty 10·E).  ``layout``: of :func:`~taichi_fdem.mesh.disk`
+    (the scene of the verification and stability tables: ``"spiral"``).  Returns (sim, a, b);
+    ``build_kw`` go to build()."""
     kw = dict(density=1000.0, young=1e7, poisson=NU)
     kw.update(material or {})
     kw.setdefault("penalty", 10.0 * kw["young"])
     mat = Material(**kw)
-    dm = mesh.disk(radius, radius / 3 if h is None else h)
+    dm = mesh.disk(radius, radius / 3 if h is None else h, layout=layout)
     dmb = mesh.TriMesh(dm.points * np.array([-1.0, 1.0]), dm.triangles) if mirror else dm
     scene = Scene(gravity=(0.0, 0.0))
     a = scene.add_body(dm, mat, position=(-radius - 0.5 * gap, -offset), velocity=tuple(velocity_a), name=names[0])

@@ -175,7 +175,7 @@ def brazilian_scene(elements: int = 40, load_time: float = 100.0, D: float = 0.1
     takes ``load_time`` × D/c_p.  ``strength``: a joint-strength distribution (``fdem.Weibull``,
     ``fdem.NormalStrength``) for a heterogeneous disc.  ``material``: the disc's Material (default
     ``BRAZILIAN_MATERIAL``) or a dict of Materials with ``groups`` (one label per triangle of
-    ``disc_mesh``, a disc of diameter D centred on the origin; default ``mesh.disk``);
+    ``disc_mesh``, a disc of diameter D centred on the origin; default ``mesh.disk(..., layout="spiral")``);
     ``platen``: the platens' Material (default: E = 10 × the disc's, contact penalty 3 × the
     disc's E); ``joint_sets``: (name, selector, Material) triples added to the disc with
     :meth:`Scene.add_joint_set`.  The platen speed scales with the expected approach at the peak, 5.6 D f_t/E
@@ -192,7 +192,8 @@ def brazilian_scene(elements: int = 40, load_time: float = 100.0, D: float = 0.1
     stiff = max(m.young for m in mat.values()) if isinstance(mat, dict) else mat.young
     if platen is None:
         platen = Material(density=first.density, young=10 * stiff, poisson=0.2, penalty=3 * stiff, name="steel")
-    d0 = mesh.disk(R, h) if disc_mesh is None else disc_mesh
+    # the spiral layout: no straight line of edges through the centre for the split to follow
+    d0 = mesh.disk(R, h, layout="spiral") if disc_mesh is None else disc_mesh
     yc = R * math.cos(math.radians(alpha_deg))
     pts = d0.points.copy()
     pts[:, 1] = np.clip(pts[:, 1], -yc, yc)
@@ -311,13 +312,15 @@ def case_brazilian(resolution: int = 40, safety: float = 0.35, penalty_factor: f
 def fragment_plate_scene(h_plate: float = 0.02, h_ball: float = 0.015, speed: float = 30.0,
                          friction: float = 0.0):
     """A free brittle plate (0.4 × 0.1 m, every interior edge a cohesive joint, mesh size
-    ``h_plate``) hit in its middle by a stiff disc (R = 3 cm, mesh size ``h_ball``) at ``speed``
-    [m/s], no gravity; Coulomb ``friction`` on every contact.  Returns (sim, (plate, ball))."""
+    ``h_plate``) hit in its middle by a stiff disc (R = 3 cm, mesh size ``h_ball``, the
+    ``"spiral"`` layout of :func:`~taichi_fdem.mesh.disk`, the scene of the fracture benchmark)
+    at ``speed`` [m/s], no gravity; Coulomb ``friction`` on every contact.  Returns
+    (sim, (plate, ball))."""
     plate_mat = Material(density=1000.0, young=1e8, poisson=0.25, tensile_strength=2e5, fracture_energy=20.0,
                          friction=friction, name="brittle")
     proj_mat = Material(density=3000.0, young=1e8, poisson=0.25, friction=friction, name="projectile")
     scene = Scene(gravity=(0.0, 0.0))
     plate = scene.add_body(mesh.rectangle(0.4, 0.1, h_plate), plate_mat, fracture=True, name="plate")
-    ball = scene.add_body(mesh.disk(0.03, h_ball), proj_mat, position=(0.0, 0.085), velocity=(0.0, -speed),
+    ball = scene.add_body(mesh.disk(0.03, h_ball, layout="spiral"), proj_mat, position=(0.0, 0.085), velocity=(0.0, -speed),
                           name="projectile")
     return scene.build(), (plate, ball)

@@ -23,6 +23,7 @@ import taichi as ti
 
 from ..engine.diagnostics import couple_penetrations  # noqa: F401  (re-exported)
 from ..sim.guards import max_couple_penetration  # noqa: F401  (re-exported)
+from ..sim.recorders import Callback
 
 
 # ------------------------------------------------------------------------------------------------
@@ -44,7 +45,7 @@ def stress_run(sim, duration: float, samples: int = 100, **run_kw) -> dict:
     ``|E_total − E_total(0)|`` / energy scale seen, the scale being the largest
     kinetic + strain + contact + dissipated energy), "max_penetration" (largest couple
     penetration fraction seen), "inverted" (an element with J ≤ 0 at the end or as the cause),
-    "wall" [s]}.  ``run_kw`` go to ``run`` (``check_energy``, ``max_penetration``, ...).
+    "wall" [s]}.  ``run_kw`` go to ``run`` (``checks=fdem.Checks(...)``).
     """
     from ..sim.simulation import SimulationError
     e0 = sim.energies()
@@ -59,7 +60,7 @@ def stress_run(sim, duration: float, samples: int = 100, **run_kw) -> dict:
     out = {"stable": True, "cause": None, "kind": None, "step": None, "time": None, "suggested_dt": None}
     t0 = _time.perf_counter()
     try:
-        sim.run(duration, callback=sample, frame_dt=duration / samples, progress=False, **run_kw)
+        sim.run(duration, record=[Callback(sample, frame_dt=duration / samples)], progress=False, **run_kw)
     except SimulationError as err:
         out.update(stable=False, cause=err.cause, kind=_classify(err.cause), step=err.step, time=err.time,
                    suggested_dt=err.suggested_dt)
@@ -171,12 +172,13 @@ def scenario_fan(count: int = 32, speed: float = 1.0):
 def scenario_pile(count: int = 200, seed: int = 0, friction: float = 0.3, v_random: float = 0.5,
                   damping: float = 0.0):
     """``count`` disks (r = 2 cm, 32 triangles each) in a loose hexagonal packing inside a fixed
-    box, falling under gravity with random velocities: a dense, settling pile."""
+    box, falling under gravity with random velocities: a dense, settling pile (the ``"spiral"``
+    disk layout, as in every scenario of the stability table)."""
     from .. import mesh
     from ..scene import Scene
     mat = _material(friction=friction, damping=damping)
     r = 0.02
-    disk = mesh.disk(r, 0.4 * r)
+    disk = mesh.disk(r, 0.4 * r, layout="spiral")
     cols = max(4, int(round(math.sqrt(count))))
     rows = int(math.ceil(count / cols))
     sx, sy = 2.05 * r, math.sqrt(3.0) * 1.025 * r
@@ -224,7 +226,7 @@ def scenario_spin(rim_fraction: float = 0.2):
     R = 0.05
     omega = rim_fraction * mat.p_wave_speed("strain") / R
     scene = Scene(gravity=(0.0, 0.0))
-    scene.add_body(mesh.disk(R, R / 4), mat, angular_velocity=omega)
+    scene.add_body(mesh.disk(R, R / 4, layout="spiral"), mat, angular_velocity=omega)
     sim = _build(scene)
     return sim, 4 * math.pi / omega, f"spinning disk, rim speed {rim_fraction:g} c_p"
 
