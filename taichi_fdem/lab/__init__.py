@@ -12,15 +12,18 @@
 
 Each test returns a :class:`LabResult` (``.curve`` columns, ``.summary`` scalars readable as
 attributes, ``.to_csv(path)``, ``.sim``); ``video=path`` writes a video coloured by joint
-damage.  Quasi-static loading is checked two ways: a loading that reaches the expected peak in
+damage.  Each test chooses what a quasi-static run needs (local damping, loading rate,
+time-step safety, joint penalty, platens) and reports it in ``.settings``; ``check="rate"``,
+``"mesh"`` or ``"both"`` reruns it at half the rate and/or mesh size and reports the change of
+the peak in ``.convergence``.  Quasi-static loading is checked two ways: a loading that reaches the expected peak in
 fewer than ``MIN_TRANSITS`` P-wave transits of the specimen is refused, and the specimen's
 kinetic/strain energy ratio at half the peak is reported (``kinetic_ratio``) and warns above
 ``MAX_KINETIC_RATIO``.
 """
 from .tensile import brazilian
 from .compressive import compression, triaxial, ucs
-from .results import MAX_KINETIC_RATIO, MIN_TRANSITS, Envelope, LabResult, elastic_constants, fit_envelope
+from .results import JOINT_PENALTY_FACTOR, MAX_KINETIC_RATIO, MIN_TRANSITS, Envelope, LabResult, elastic_constants, fit_envelope
 from .shear import direct_shear
 
 __all__ = ["ucs", "triaxial", "compression", "brazilian", "direct_shear", "fit_envelope", "Envelope", "LabResult",
-           "elastic_constants", "MIN_TRANSITS", "MAX_KINETIC_RATIO"]
+           "elastic_constants", "MIN_TRANSITS", "MAX_KINETIC_RATIO", "JOINT_PENALTY_FACTOR"]

@@ -12,7 +12,9 @@ from ..material import Material
 from ..scene import Curve
 from ..sim.recorders import Checks, History
 from .specimens import axial_record, check_joint_sets, jointed_specimen_mesh, mohr_coulomb_peak, platen_scene
-from .results import LabResult, check_rate, elastic_constants, specimen_kinetic, warn_kinetic
+from ..scene import quasi_static_alpha
+from .results import (JOINT_PENALTY_FACTOR, LabResult, check_keyword, check_rate, convergence, elastic_constants,
+                      lab_materials, specimen_kinetic, warn_kinetic)
 
 
 def _first(material):
@@ -45,9 +47,9 @@ def compression(material, width: float, height: float, h: float, confinement: fl
                 plane: str = "strain", fracture=None, mesh=None, groups=None, platen=None,
                 rate_transits: float = 60.0, settle_transits: float | None = None,
                 max_strain: float | None = None, samples: int = 150, stop_drop: float = 0.8,
-                safety: float = 0.2, quasi_static: bool = True, handover_damage: float | None = None,
-                penalty_factor: float = 10.0, video: str | None = None, history: str | None = None,
-                frame=None, joint_sets=(), test: str = "triaxial") -> LabResult:
+                safety: float = 0.2, quasi_static=True, handover_damage: float | None = None,
+                penalty_factor: float | None = None, video: str | None = None, history: str | None = None,
+                frame=None, joint_sets=(), check=None, test: str = "triaxial") -> LabResult:
     """A compression test of a ``width`` × ``height`` [m] specimen (mesh size ``h`` [m]) between
     frictionless platens, confined by a pressure ``confinement`` = σ3 [Pa] on its sides.
 
@@ -64,7 +66,16 @@ def compression(material, width: float, height: float, h: float, confinement: fl
     :meth:`Scene.add_joint_set`, e.g. ``[("grain_boundaries", "interfaces", weak)]`` on a
     :func:`~taichi_fdem.mesh.voronoi_grains` specimen.  ``mesh``: the specimen's TriMesh centred on the origin (default: the
     triangular lattice of ``verification.jointed_specimen_mesh`` with fracture, else
-    ``mesh.rectangle``).  The joint penalty defaults to ``penalty_factor`` × E.
+    ``mesh.rectangle``).  The joint penalty, where the material leaves it unset, is
+    ``penalty_factor`` × E (default :data:`~taichi_fdem.lab.results.JOINT_PENALTY_FACTOR` =
+    50: the jointed specimen's E and ν then match the material's; the material given is not
+    changed, the test builds on a copy).  What the test chose (local damping α, loading rate,
+    time-step safety, joint penalty and whether it was raised above the Material default,
+    platens) is in ``result.settings``.
+
+    ``check``: None, "rate", "mesh" or "both": rerun at half the loading rate
+    (``rate_transits`` × 2) and/or half ``h`` with the same settings, and put the relative
+    change of ``peak_stress`` in ``result.convergence``.
 
     Quasi-static: ``rate_transits`` < ``lab.results.MIN_TRANSITS`` raises ValueError; the
     specimen's kinetic/strain energy at half the peak is in the summary (``kinetic_ratio``) and
@@ -74,23 +85,24 @@ def compression(material, width: float, height: float, h: float, confinement: fl
     lateral_strain (compression positive; stress = the platens' mean reaction / width) and
     summary peak_stress [Pa], peak_strain, young [Pa], poisson (tangent at 50 % of the peak,
     corrected for the plane condition, see :func:`~taichi_fdem.lab.results.elastic_constants`),
+    young_initial, poisson_initial (the same over 5–30 % of the peak),
     plane_modulus E', plane_poisson ν', confinement, peak_mc (joints' Mohr–Coulomb), broken.
     """
     where = f"lab.{test}"
+    given = material
     first = _first(material)
     _positive(where, width=width, height=height, h=h)
     if not (math.isfinite(confinement) and confinement >= 0):
         raise ValueError(f"{where}: confinement must be a pressure >= 0 Pa (compression positive), got {confinement}")
     check_rate(rate_transits, where)
+    reruns = check_keyword(check, where)
+    if reruns and mesh is not None and "mesh" in reruns:
+        raise ValueError(f"{where}: check='mesh' needs the default mesh (mesh=None): a given mesh cannot be refined here")
     fracture = first.can_fracture if fracture is None else fracture
-    if fracture and first.joint_penalty is None:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            if isinstance(material, dict):
-                material = {k: m if m.joint_penalty is not None else m.with_(joint_penalty=penalty_factor * m.young)
-                            for k, m in material.items()}
-            else:
-                material = material.with_(joint_penalty=penalty_factor * material.young)
+    factor = JOINT_PENALTY_FACTOR if penalty_factor is None else penalty_factor
+    pf, raised = math.nan, False
+    if fracture:
+        material, pf, raised = lab_materials(material, factor, where)
         first = _first(material)
     if mesh is None:
         mesh = jointed_specimen_mesh(width, height, h) if fracture else _mesh.rectangle(width, height, h)
@@ -156,15 +168,37 @@ def compression(material, width: float, height: float, h: float, confinement: fl
         young, poisson, e_p, nu_p = elastic_constants(eps, sig, lat, plane)
     except ValueError as err:
         warnings.warn(f"{where}: {err}", RuntimeWarning, stacklevel=2)
+    young0 = poisson0 = math.nan
+    try:
+        young0, poisson0, _, _ = elastic_constants(eps, sig, lat, plane, level=0.175, band=0.125)
+    except ValueError:
+        pass
     half = int(np.argmin(np.abs(sig[: k + 1] - 0.5 * sig[k])))
     kinetic_ratio = float(kin[half])
     warn_kinetic(kinetic_ratio, where)
     summary = dict(peak_stress=float(sig[k]), peak_strain=float(eps[k]), young=young, poisson=poisson,
-                   plane_modulus=e_p, plane_poisson=nu_p, confinement=float(confinement), peak_mc=peak_mc,
+                   young_initial=young0, poisson_initial=poisson0, plane_modulus=e_p, plane_poisson=nu_p, confinement=float(confinement), peak_mc=peak_mc,
                    broken=sim.broken_joint_count, kinetic_ratio=kinetic_ratio, rate_transits=float(rate_transits),
                    strain_rate=float(rate), wall=wall, build=build, steps=sim.step_count, dt=sim.dt)
     curve = dict(time_s=times, axial_strain=eps, axial_stress_Pa=sig, lateral_strain=lat)
-    return LabResult(test, curve, summary, sim=sim, bodies=(spec, top, bot), material=material)
+    settings = dict(quasi_static=quasi_static_alpha(quasi_static), damping=float(first.damping),
+                    rate_transits=float(rate_transits), strain_rate=float(rate), safety=float(safety), dt=float(sim.dt),
+                    joint_penalty=pf, joint_penalty_factor=pf / first.young if fracture else math.nan,
+                    joint_penalty_raised=raised, platen_friction=float(top.material.friction),
+                    platen_penalty=float(top.material.contact_penalty), settle_transits=float(settle))
+    result = LabResult(test, curve, summary, sim=sim, bodies=(spec, top, bot), material=material, settings=settings)
+    if reruns:
+        kw = dict(plane=plane, fracture=fracture, mesh=mesh, groups=groups, platen=platen, rate_transits=rate_transits,
+                  settle_transits=settle_transits, max_strain=max_strain, samples=samples, stop_drop=stop_drop,
+                  safety=safety, quasi_static=quasi_static, handover_damage=handover_damage, penalty_factor=factor,
+                  joint_sets=joint_sets, test=test)
+        runs = {}
+        if "rate" in reruns:
+            runs["rate"] = compression(given, width, height, h, confinement, **dict(kw, rate_transits=2 * rate_transits))
+        if "mesh" in reruns:
+            runs["mesh"] = compression(given, width, height, 0.5 * h, confinement, **kw)
+        result.convergence = convergence(result, runs)
+    return result
 
 
 def ucs(material, width: float, height: float, h: float, **kw) -> LabResult:

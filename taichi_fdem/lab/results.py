@@ -15,6 +15,14 @@ MIN_TRANSITS = 10.0
 #: Specimen kinetic energy / strain energy at half the peak above which a run warns that it was
 #: not quasi-static (RuntimeWarning).
 MAX_KINETIC_RATIO = 0.05
+#: Joint penalty p_f of a lab specimen whose material leaves it unset, in units of the
+#: material's E (``Material``'s own default is 10 E).  Intact joints add a compliance L/p_f
+#: beside each element's h/E and their end-point tractions scatter about the continuum stress;
+#: at 10 E a 20-element Brazilian disc splits at 0.86 f_t, at 50 E at 1.00 f_t
+#: (benchmarks/results.md).  The time step shrinks as 1/√p_f.
+JOINT_PENALTY_FACTOR = 50.0
+#: ``check=`` values of the lab tests: which convergence reruns to make.
+CHECKS = (None, "rate", "mesh", "both")
 
 
 @dataclass
@@ -25,7 +33,12 @@ class LabResult:
     columns (1-D arrays of one length; names carry their unit, e.g. ``axial_stress_Pa``);
     ``summary``: the scalar results (also readable as attributes: ``result.peak_stress``);
     ``sim``: the :class:`~taichi_fdem.sim.simulation.Simulation` at the end of the test;
-    ``bodies``: its bodies (specimen first).
+    ``bodies``: its bodies (specimen first); ``material``: the material(s) the specimen was
+    built with (a copy of the one given, with the settings the test chose);
+    ``settings``: what the test chose for a quasi-static run (damping, loading rate, time-step
+    safety, joint penalty, platens), each one a keyword that overrides it;
+    ``convergence``: with ``check=``, the relative change of the peak when the test is rerun
+    at half the loading rate (``"rate"``) and/or half the mesh size (``"mesh"``).
     """
 
     test: str
@@ -35,6 +48,8 @@ class LabResult:
     bodies: tuple = ()
     material: object = None
     notes: list = field(default_factory=list)
+    settings: dict = field(default_factory=dict)
+    convergence: dict = field(default_factory=dict)
 
     def __getattr__(self, name):
         summary = self.__dict__.get("summary", {})
@@ -92,6 +107,46 @@ def elastic_constants(strain, stress, lateral, plane: str = "strain", level: flo
     if plane == "stress":
         return e_p, nu_p, e_p, nu_p
     raise ValueError(f"lab: plane must be 'strain' or 'stress', got {plane!r}")
+
+
+def lab_materials(material, factor: float, where: str):
+    """(the material(s) with the joint penalty of a lab specimen, the penalty [Pa] of the first,
+    whether it was raised): a Material, or a dict of them, with ``joint_penalty`` = ``factor`` × E
+    wherever the material leaves it unset (copies: the Materials given are not changed)."""
+    from ..material import Material
+    if not (isinstance(factor, (int, float)) and math.isfinite(factor) and factor > 0):
+        raise ValueError(f"{where}: joint_penalty_factor must be a positive number (× E), got {factor!r}")
+
+    def one(m):
+        if m.joint_penalty is not None or not m.can_fracture:
+            return m
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            return m.with_(joint_penalty=factor * m.young)
+    if isinstance(material, dict):
+        out = {k: one(m) for k, m in material.items()}
+        first_in, first = next(iter(material.values())), next(iter(out.values()))
+    elif isinstance(material, Material):
+        out = first = one(material)
+        first_in = material
+    else:
+        raise TypeError(f"{where}: material must be a Material or a dict of Materials, got {type(material).__name__}")
+    pf = first.joint_penalty if first.joint_penalty is not None else 10.0 * first.young
+    return out, float(pf), first_in.joint_penalty is None and first_in.can_fracture
+
+
+def check_keyword(check, where: str):
+    """The convergence reruns that ``check`` asks for: () for None, ("rate",), ("mesh",) or both."""
+    if check not in CHECKS:
+        raise ValueError(f"{where}: check must be None, 'rate', 'mesh' or 'both', got {check!r}")
+    return {None: (), "rate": ("rate",), "mesh": ("mesh",), "both": ("rate", "mesh")}[check]
+
+
+def convergence(result: LabResult, reruns: dict, key: str = "peak_stress") -> dict:
+    """Relative change of ``result.summary[key]`` in each rerun ({name: LabResult}), signed:
+    (rerun − result) / result."""
+    base = result.summary[key]
+    return {name: float((r.summary[key] - base) / base) for name, r in reruns.items()}
 
 
 def check_rate(transits: float, where: str) -> None:
