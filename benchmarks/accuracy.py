@@ -70,7 +70,7 @@ CASES = {
     "triaxial": dict(default=dict(resolution=6), res=([4, 6, 8], [6]), contact=True, penalties=[10.0],
                      order_h=None, order_dt=None, note="jointed specimen: peak against Mohr–Coulomb, σ3 = 0, 0.1 MPa (§12.6)"),
 }
-# safety > 0.4 is refused by Scene.build (above sim.dt_limit) unless forced: the sweep stops at 0.4
+# safety > 0.4 is refused by Scene.build (above sim.model.dt_limit) unless forced: the sweep stops at 0.4
 SAFETIES = ([0.05, 0.1, 0.2, 0.4], [0.1, 0.2, 0.4])
 PENALTIES = [1.0, 10.0, 100.0]
 

@@ -75,7 +75,7 @@ def touching(sim) -> int:
     import taichi as ti
     from taichi_fdem import backend
     from taichi_fdem.engine.diagnostics import overlap_areas
-    n = sim.couple_count
+    n = sim.solver.couple_count
     if n == 0:
         return 0
     st, md = sim.state, sim.model
@@ -112,13 +112,13 @@ def main() -> None:
     for case in ("certified", "box", "apart", "touching"):
         sim = scene(fdem, args.pairs, case, friction=args.friction).build(strategy="serial", check_overlap=False,
                                                                           force_dt=True)
-        sim.profile(5)                                        # compile
-        prof = sim.profile(args.steps)
-        n = max(1, sim.couple_count)
+        sim.solver.profile(5)                                        # compile
+        prof = sim.solver.profile(args.steps)
+        n = max(1, sim.solver.couple_count)
         ns = prof["contact"] / args.steps / n * 1e9
         t_case, moved, still = step_time(case)
         ns_step = (t_case - base) / n * 1e9
-        print(f"| {case} | {sim.couple_count:,} | {ns:.0f} | {ns_step:.0f} | {moved / H:.1e} | {still:,} |")
+        print(f"| {case} | {sim.solver.couple_count:,} | {ns:.0f} | {ns_step:.0f} | {moved / H:.1e} | {still:,} |")
 
 
 if __name__ == "__main__":

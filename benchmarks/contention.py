@@ -56,7 +56,7 @@ def worker(scene_kind: str, size: int, steps: int, strategy: str) -> None:
     sim.step(steps)
     wall = time.perf_counter() - t0
     info = sim.info()
-    print(json.dumps({"rate": sim.tri_count * steps / wall, "wall": wall, "strategy": sim.strategy,
+    print(json.dumps({"rate": sim.model.tri_count * steps / wall, "wall": wall, "strategy": sim.solver.strategy,
                       "team": info["team"], "threads": info["threads"]}))
 
 

@@ -64,7 +64,7 @@ def scene_for(fdem, n_tri: int):
     h = math.sqrt(2.0 * PLATE_W * PLATE_H / n_tri)          # 2 triangles per h x h cell
     plate_mat, disk_mat = materials(fdem)
     plate = fdem.mesh.rectangle(PLATE_W, PLATE_H, h, pattern="alternating")
-    disk = fdem.mesh.disk(DISK_R, h)
+    disk = fdem.mesh.disk(DISK_R, h, layout="spiral")
     scene = fdem.Scene(gravity=(0.0, 0.0), plane="strain")
     scene.add_body(plate, plate_mat, fracture=True, name="plate")
     # ``position`` places the disk's centroid; put its lowest node one element size above the top edge
@@ -91,7 +91,7 @@ def worker(args) -> dict:
     small, small_dt, _ = scene_for(fdem, 400)
     s = small.build(dt=small_dt, strategy=args.strategy)
     s.step(2)
-    s.profile(2)
+    s.solver.profile(2)
     s.energies()
     compile_s = time.perf_counter() - t0
 
@@ -99,14 +99,14 @@ def worker(args) -> dict:
     scene, dt, lay = scene_for(fdem, args.worker_size)
     sim = scene.build(dt=dt, strategy=args.strategy, handover_damage=args.handover_damage)
     if args.force_blocks:
-        sim.force_blocks = args.force_blocks
+        sim.solver.force_blocks = args.force_blocks
     build_s = time.perf_counter() - t0
-    if sim.strategy != s.strategy:
+    if sim.solver.strategy != s.solver.strategy:
         # "auto" resolved otherwise for the real scene than for the small copy: compile (or load)
         # that strategy's kernels too, before the timed run (otherwise the first timed chunk pays
         # the compile)
         t0 = time.perf_counter()
-        s.strategy = sim.strategy
+        s.solver.strategy = sim.solver.strategy
         s.step(2)
         compile_s += time.perf_counter() - t0
     del s, small
@@ -117,21 +117,21 @@ def worker(args) -> dict:
     chunk = args.chunk
     total = max(args.steps, contact_step + args.after_contact) if args.after_contact > 0 else args.steps
     total = chunk * int(math.ceil(total / chunk))
-    print(f"  [{ntri:,} triangles, {threads} thread(s), strategy {sim.strategy}] {info['joints']:,} joints, "
+    print(f"  [{ntri:,} triangles, {threads} thread(s), strategy {sim.solver.strategy}] {info['joints']:,} joints, "
           f"dt = {dt:.4g} s, first contact at step ~{contact_step:,}, {total:,} steps in chunks of {chunk:,}; "
           f"kernels ready in {compile_s:.1f} s, build {build_s:.2f} s", flush=True)
 
     chunks = []
-    det_prev = sim.detection_count
+    det_prev = sim.solver.detection_count
     for k in range(total // chunk):
         t0 = time.perf_counter()
         sim.step(chunk)
         wall = time.perf_counter() - t0
-        det = sim.detection_count
+        det = sim.solver.detection_count
         e = sim.energies()
         c = {"first": k * chunk + 1, "last": (k + 1) * chunk, "seconds": wall,
-             "mtri_steps_per_s": chunk * ntri / wall / 1e6, "couples": sim.couple_count,
-             "broken": sim.broken_joint_count, "detections": det - det_prev,
+             "mtri_steps_per_s": chunk * ntri / wall / 1e6, "couples": sim.solver.couple_count,
+             "broken": sim.cracks.broken_count, "detections": det - det_prev,
              "energy_error": abs(e["total"] - e0) / e0, "contact_started": (k + 1) * chunk >= contact_step}
         det_prev = det
         chunks.append(c)
@@ -149,10 +149,10 @@ def worker(args) -> dict:
 
     prof = None
     if args.profile_steps > 0:
-        p = sim.profile(args.profile_steps)
+        p = sim.solver.profile(args.profile_steps)
         tot = sum(p[k] for k in PHASES) or 1.0
         prof = {"steps": args.profile_steps, "ms_per_step": 1e3 * tot / args.profile_steps,
-                "couples": sim.couple_count, "broken": sim.broken_joint_count,
+                "couples": sim.solver.couple_count, "broken": sim.cracks.broken_count,
                 "first": sim.step_count - args.profile_steps + 1, "last": sim.step_count,
                 "shares": {k: p[k] / tot for k in PHASES},
                 "ms": {k: 1e3 * p[k] / args.profile_steps for k in PHASES}}
@@ -160,15 +160,15 @@ def worker(args) -> dict:
               + ", ".join(f"{k} {prof['shares'][k]:.0%}" for k in PHASES), flush=True)
 
     return {"triangles": ntri, "joints": info["joints"], "nodes": info["nodes"], "threads": threads,
-            "requested_threads": args.worker_threads, "strategy": sim.strategy, "precision": args.precision,
-            "handover_damage": args.handover_damage, "force_blocks": sim.force_blocks,
+            "requested_threads": args.worker_threads, "strategy": sim.solver.strategy, "precision": args.precision,
+            "handover_damage": args.handover_damage, "force_blocks": sim.solver.force_blocks,
             "dt": dt, "h": lay["h"], "contact_step": contact_step, "steps": total, "chunk": chunk,
             "compile_s": compile_s, "build_s": build_s, "run_s": sum(c["seconds"] for c in chunks),
             "rate_all": rate(chunks), "rate_first_window": rate(first_window) if first_window else None,
             "first_window_steps": len(first_window) * chunk, "rate_after_contact": rate(after) if after else None,
             "after_contact_steps": len(after) * chunk,
             "rate_min_chunk": min(c["mtri_steps_per_s"] for c in chunks),
-            "couples_max": max(c["couples"] for c in chunks), "broken": sim.broken_joint_count,
+            "couples_max": max(c["couples"] for c in chunks), "broken": sim.cracks.broken_count,
             "broken_at_end_of_run": chunks[-1]["broken"],
             "energy_error_end": abs(e_end["total"] - e0) / e0,
             "energy_error_max": max(c["energy_error"] for c in chunks),

@@ -39,10 +39,10 @@ def ndarray_bytes(arr) -> int:
 
 
 def array_bytes(sim) -> int:
-    """Bytes of the Taichi ndarrays of ``sim.model``, ``sim.state`` and ``sim.scratch``."""
+    """Bytes of the Taichi ndarrays of ``sim.model``, ``sim.state`` and ``sim.solver.scratch``."""
     import taichi as ti
     seen, total = set(), 0
-    for holder in (sim.model, sim.state, sim.scratch):
+    for holder in (sim.model, sim.state, sim.solver.scratch):
         for v in vars(holder).values():
             if isinstance(v, ti.lang._ndarray.Ndarray) and id(v) not in seen:
                 seen.add(id(v))
@@ -71,8 +71,8 @@ def worker(a) -> dict:
     sim.node_positions()                     # waits for the device
     t3 = time.perf_counter()
     sps = a.steps / (t3 - t2)
-    return {"device": sim.info()["device"], "scene": a.scene, "precision": a.precision, "triangles": sim.tri_count,
-            "steps_per_s": sps, "tri_steps_per_s": sps * sim.tri_count, "compile_s": max(0.0, (t1 - t0) - (t2 - t1)),
+    return {"device": sim.info()["device"], "scene": a.scene, "precision": a.precision, "triangles": sim.model.tri_count,
+            "steps_per_s": sps, "tri_steps_per_s": sps * sim.model.tri_count, "compile_s": max(0.0, (t1 - t0) - (t2 - t1)),
             "device_memory_GB": a.device_memory_GB, "array_bytes": array_bytes(sim),
             "pool": (f"{a.device_memory_GB} GB" if a.device_memory_GB else "default fraction")
             if sim.info()["device"] == "cuda" else "-",

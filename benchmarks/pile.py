@@ -5,7 +5,7 @@
     python benchmarks/pile.py --strategy serial,parallel --csv out/bench.csv
     python benchmarks/pile.py --threads 2 --sizes 100000 --no-startup
 
-Every scene is a hexagonal packing of equal disks (``fdem.mesh.disk(r, 0.4 r)``: 32 triangles
+Every scene is a hexagonal packing of equal disks (``fdem.mesh.disk(r, 0.4 r, layout="spiral")``: 32 triangles
 each) at centre spacing exactly 2r, so each disk touches its six neighbours (the meshed disk is
 the inscribed polygon: gaps of < 1 % of r, inside the contact buffer), resting on a fixed floor
 between two fixed side walls, under gravity, with a small random initial velocity.  That gives
@@ -59,7 +59,7 @@ def build_scene(fdem, target_triangles: int, seed: int = 0, v_random: float = V_
 
     Returns (scene, dict with the layout numbers).
     """
-    disk = fdem.mesh.disk(RADIUS, H_FACTOR * RADIUS)
+    disk = fdem.mesh.disk(RADIUS, H_FACTOR * RADIUS, layout="spiral")
     per_disk = disk.triangle_count
     dy = math.sqrt(3.0) * RADIUS                     # row spacing of the hexagonal packing
     s = 2.0 * RADIUS                                 # centre spacing in a row
@@ -117,7 +117,7 @@ def startup_main(args) -> None:
     print("STARTUP " + json.dumps({
         "import": t_import - t_proc, "build": t_build - t_import, "first_step": t_first - t_build,
         "second_step": t_second - t_first, "to_first_step": t_first - t_proc,
-        "strategy": sim.strategy, "triangles": sim.tri_count}), flush=True)
+        "strategy": sim.solver.strategy, "triangles": sim.model.tri_count}), flush=True)
 
 
 def measure_startup(strategy: str, precision: str, size: int) -> dict:
@@ -159,8 +159,8 @@ def recompile_check(fdem, strategy: str) -> dict:
         t2 = time.perf_counter()
         sim.step(1)
         t3 = time.perf_counter()
-        out[label] = {"triangles": sim.tri_count, "build": t1 - t0, "first_step": t2 - t1, "second_step": t3 - t2}
-    out["strategy"] = sim.strategy
+        out[label] = {"triangles": sim.model.tri_count, "build": t1 - t0, "first_step": t2 - t1, "second_step": t3 - t2}
+    out["strategy"] = sim.solver.strategy
     # a recompile costs seconds; a step of 2.5k triangles (plus one detection) well under 0.1 s
     out["recompiled"] = out["second"]["first_step"] > 0.25
     return out
@@ -174,7 +174,7 @@ def bench_size(fdem, size: int, strategy: str, steps: int | None, seconds: float
     sim = scene.build(strategy=strategy)
     t2 = time.perf_counter()
     info = sim.info()
-    couples0 = sim.couple_count
+    couples0 = sim.solver.couple_count
 
     sim.step(1)                                          # first step: compiles (or loads) kernels
     t3 = time.perf_counter()
@@ -189,7 +189,7 @@ def bench_size(fdem, size: int, strategy: str, steps: int | None, seconds: float
         probe *= 4
     per_step = el / probe
     n = steps if steps else max(5, int(math.ceil(seconds / per_step)))
-    det0 = sim.detection_count
+    det0 = sim.solver.detection_count
     step0 = sim.step_count
     paused0 = sim.info()["team"]["solo_steps"]
     # the timed run in WINDOWS equal windows: the whole run's rate, and its best window's (the
@@ -205,7 +205,7 @@ def bench_size(fdem, size: int, strategy: str, steps: int | None, seconds: float
         wall += el
         best = max(best, m / el)
     assert sim.step_count - step0 == n, (sim.step_count, step0, n)
-    dets = sim.detection_count - det0
+    dets = sim.solver.detection_count - det0
     # steps run by one worker because it timed faster than the team (a busy host;
     # sim.team.TeamScheduler.choose)
     paused = sim.info()["team"]["solo_steps"] - paused0
@@ -213,19 +213,19 @@ def bench_size(fdem, size: int, strategy: str, steps: int | None, seconds: float
     if not np.all(np.isfinite(x)):
         raise RuntimeError(f"size {size}: non-finite positions after {sim.step_count} steps")
 
-    row = {"triangles": sim.tri_count, "nodes": sim.node_count, "bodies": len(sim.bodies),
-           "couples": sim.couple_count, "couples_per_tri": sim.couple_count / sim.tri_count,
-           "couples_at_build": couples0, "strategy": sim.strategy, "precision": info["precision"],
+    row = {"triangles": sim.model.tri_count, "nodes": sim.model.node_count, "bodies": len(sim.bodies),
+           "couples": sim.solver.couple_count, "couples_per_tri": sim.solver.couple_count / sim.model.tri_count,
+           "couples_at_build": couples0, "strategy": sim.solver.strategy, "precision": info["precision"],
            "dt": sim.dt, "steps": n, "seconds": wall, "steps_per_s": n / wall, "steps_per_s_best": best,
-           "mtri_steps_per_s": n * sim.tri_count / wall / 1e6,
+           "mtri_steps_per_s": n * sim.model.tri_count / wall / 1e6,
            "detections_per_1k_steps": 1000.0 * dets / n, "paused_steps": paused,
            "scene_s": t1 - t0, "build_s": t2 - t1, "first_step_s": t3 - t2}
     for ph in ("elastic", "detection", "contact", "integration"):
         row[ph] = None
-    if profile and sim.strategy == "parallel":
+    if profile and sim.solver.strategy == "parallel":
         # phases as separate launches: ~1/3 of the timed run, at least 5 steps
         psteps = max(5, min(n, int(math.ceil(0.5 * seconds / per_step))))
-        p = sim.profile(psteps)
+        p = sim.solver.profile(psteps)
         for ph in ("elastic", "detection", "contact", "integration"):
             row[ph] = p[ph] / p["total"] if p["total"] > 0 else float("nan")
         row["profile_steps"] = psteps

@@ -107,7 +107,7 @@ def frame_costs(sizes, frames, modes=None):
             total = (time.perf_counter() - t0) / frames
             labels = acc.t.get("labels", 0.0) / frames
             copies = acc.t.get("copies", 0.0) / frames
-            rows.append({"triangles": sim.tri_count, "mode": mode, "total_ms": 1e3 * total,
+            rows.append({"triangles": sim.model.tri_count, "mode": mode, "total_ms": 1e3 * total,
                          "kernels_ms": 1e3 * (total - labels - copies), "labels_ms": 1e3 * labels,
                          "copies_ms": 1e3 * copies, "copy_calls": acc.n.get("copies", 0) / frames})
         del sim

@@ -61,8 +61,8 @@ def unused_features(fdem, seconds: float) -> list:
         sim = scene.build()
         r = sim.info()
         sim.step(10)                                 # compile outside the timing
-        rows.append(dict(variant=name, triangles=sim.tri_count, moving_triangles=body.mesh.triangle_count,
-                         contact=r["contact"], friction=r["friction"], couples=sim.couple_count,
+        rows.append(dict(variant=name, triangles=sim.model.tri_count, moving_triangles=body.mesh.triangle_count,
+                         contact=r["contact"], friction=r["friction"], couples=sim.solver.couple_count,
                          steps_per_s=0.0, sim=sim))
     # interleaved rounds, best of each: the machine is shared, so take the least disturbed round
     for _ in range(3):
@@ -81,7 +81,7 @@ def sparse_contact(fdem, pairs=(0, 1, 4, 16, 32), steps: int = 500) -> list:
     rows = []
     R = 0.05
     mat = fdem.Material(density=1000.0, young=1e7, poisson=0.25)
-    disk = fdem.mesh.disk(R, R / 4)
+    disk = fdem.mesh.disk(R, R / 4, layout="spiral")
     for k in pairs:
         scene = fdem.Scene(gravity=(0.0, 0.0))
         x = 0.0
@@ -92,11 +92,11 @@ def sparse_contact(fdem, pairs=(0, 1, 4, 16, 32), steps: int = 500) -> list:
             scene.add_body(disk, mat, position=(x, 0.0), velocity=(-0.01, 0.0))
             x += 1.0
         sim = scene.build(strategy="parallel")
-        sim.profile(20)                              # warm up
-        prof = min((sim.profile(steps) for _ in range(3)), key=lambda p: p["total"])
+        sim.solver.profile(20)                              # warm up
+        prof = min((sim.solver.profile(steps) for _ in range(3)), key=lambda p: p["total"])
         serial = scene.build()
         sps = max(steps_per_second(serial, 0.5) for _ in range(3))
-        rows.append(dict(touching_pairs=k, bodies=64, triangles=sim.tri_count, couples=sim.couple_count,
+        rows.append(dict(touching_pairs=k, bodies=64, triangles=sim.model.tri_count, couples=sim.solver.couple_count,
                          contact_ms_per_step=1e3 * prof["contact"] / steps,
                          total_ms_per_step=1e3 * prof["total"] / steps, serial_steps_per_s=sps))
         print(rows[-1], flush=True)

@@ -32,7 +32,7 @@ def fine_dt_rows(S, factors=(0.3, 0.4, 0.45, 0.5, 0.8, 1.0, 1.1, 1.25, 1.5, 2.0,
             sim, duration, desc = make()
             r = S.stress_run(sim, duration)
             r.update(group="time step, fine", parameter=f"{f:g} × limit", description=name,
-                     dt_ratio=sim.dt / sim.dt_limit, triangles=sim.tri_count, duration=duration)
+                     dt_ratio=sim.dt / sim.model.dt_limit, triangles=sim.model.tri_count, duration=duration)
             rows.append(r)
             print(f"{name:24s} {f:5g} × limit  {'stable' if r['stable'] else 'STOPPED: ' + r['kind']:20s} "
                   f"step {r['step']}", flush=True)
@@ -42,7 +42,7 @@ def fine_dt_rows(S, factors=(0.3, 0.4, 0.45, 0.5, 0.8, 1.0, 1.1, 1.25, 1.5, 2.0,
 def _spin_dt(S, f):
     sim, duration, desc = S.scenario_spin(rim_fraction=0.2)
     scene = sim.scene
-    sim = scene.build(dt=f * sim.dt_limit, force_dt=f > 1)
+    sim = scene.build(dt=f * sim.model.dt_limit, force_dt=f > 1)
     return sim, duration, desc
 
 

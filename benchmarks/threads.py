@@ -51,7 +51,7 @@ def measure(fdem, scene_kind: str, size: int, window: int, reps: int, warmup: in
     for key, strategy, workers in (("serial", "serial", None), (1, "parallel", 1), (2, "parallel", 2)):
         sim = build(fdem, scene_kind, size, strategy)
         if workers is not None:
-            sim.team_workers = workers
+            sim.solver.team_workers = workers
         sim.step(warmup)
         sims[key] = sim
     order = ["serial", 1, 2]
@@ -67,7 +67,7 @@ def measure(fdem, scene_kind: str, size: int, window: int, reps: int, warmup: in
     med = {k: float(np.median(v)) for k, v in rates.items()}
     best = {k: float(max(v)) for k, v in rates.items()}
     pair = lambda x, y: float(np.median(np.asarray(rates[x]) / np.asarray(rates[y])))   # noqa: E731
-    return {"scene": scene_kind, "triangles": a.tri_count, "couples": a.couple_count, "window": window,
+    return {"scene": scene_kind, "triangles": a.model.tri_count, "couples": a.solver.couple_count, "window": window,
             "reps": reps, "first": warmup + 1, "last": a.step_count, "median": med, "best": best,
             "ratio_team": pair(2, 1), "ratio_auto": pair(2, "serial"), "ratio_best": best[2] / best[1],
             "ratio_best_auto": best[2] / best["serial"], "same_bits": same, "paused": b.info()["team"]["solo_steps"]}

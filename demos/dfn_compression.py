@@ -156,7 +156,7 @@ def compress(mesh, lines, short: bool, frame=None, crack_path=None):
     samples = 60 if short else 150
     rec = []
     for _ in range(samples):
-        sim.run(duration / samples, record=[fdem.CrackEvents(crack_path)],
+        sim.run(duration / samples, record=[fdem.CrackEvents(crack_path)] if crack_path else [],
                 checks=fdem.Checks(energy=sim.time > 5 * transit))
         rec.append(axial_record(sim, spec, top, bot, H, W) + (sim.time,))
         if frame is not None:
@@ -167,7 +167,7 @@ def compress(mesh, lines, short: bool, frame=None, crack_path=None):
     eps, sig, lat, times = (np.array(c) for c in zip(*rec))
     k = int(np.argmax(sig))
     return dict(sim=sim, spec=spec, strain=eps, stress=sig, lateral=lat, time=times, peak=float(sig[k]),
-                peak_strain=float(eps[k]), peak_mc=peak_mc, broken=sim.broken_joint_count)
+                peak_strain=float(eps[k]), peak_mc=peak_mc, broken=sim.cracks.broken_count)
 
 
 def main(argv=None) -> dict:
@@ -218,7 +218,7 @@ def main(argv=None) -> dict:
     # (what cracks starting anywhere would give)
     dfn = results["dfn"]
     sim = dfn["sim"]
-    ev = sim.crack_events()
+    ev = sim.cracks.events()
     pts = np.column_stack([ev["x"], ev["y"]])[:FIRST]
     jn = dfn["spec"].joint_nodes
     every = sim.model.node_rest[dfn["spec"].nodes][jn].mean(axis=1)

@@ -82,7 +82,7 @@ def fracture_pressures(sim, h) -> dict:
     """The largest fluid pressure [Pa] on each fracture's network nodes (by initial position)
     farther than 1.5 h from fracture A, whose own value is taken over all its nodes (B's
     crossing with A is then not counted as B's)."""
-    _, p = sim.fluid_pressures()
+    _, p = sim.fluid.pressures()
     rest = sim.model.fluid_node_rest
     off_a = ~_on_segment(rest, FRACTURES["A"], 1.5 * h)
     return {k: float(p[_on_segment(rest, seg, 1e-3 * h) & (off_a | (k == "A"))].max()) for k, seg in FRACTURES.items()}
@@ -101,7 +101,7 @@ def main(argv=None) -> dict:
     os.makedirs(out_dir, exist_ok=True)
     scene, lines = rock_mass(h)
     sim = scene.build(strategy="serial", quasi_static=True)
-    print(f"{NAME}: {sim.tri_count} triangles (h = {h * 1e3:g} mm), {sim.model.joint_count} joints, "
+    print(f"{NAME}: {sim.model.tri_count} triangles (h = {h * 1e3:g} mm), {sim.model.joint_count} joints, "
           f"{sim.model.fluid_edge_count} network edges, dt = {sim.dt:.3g} s")
     hist_path = os.path.join(out_dir, f"{NAME}_history.csv")
     cracks_path = os.path.join(out_dir, f"{NAME}_cracks.csv")
@@ -128,8 +128,8 @@ def main(argv=None) -> dict:
                 sim.step(chunk)
                 history.write()
                 fp = fracture_pressures(sim, h)
-                broken = sim.joint_damage() >= 1.0
-                rows.append((sim.time, sim.broken_joint_count, sim.injection_pressure(), *fp.values()))
+                broken = sim.cracks.joint_damage() >= 1.0
+                rows.append((sim.time, sim.cracks.broken_count, sim.fluid.injection_pressure(), *fp.values()))
                 for k, v in fp.items():
                     if v > P_WET and k not in first_wet:
                         first_wet[k] = sim.time
@@ -141,16 +141,16 @@ def main(argv=None) -> dict:
             history.close()
         for _ in range(3):
             video.append(renderer.render_sim(sim))
-    sim.write_crack_events(cracks_path)
+    sim.cracks.write_events(cracks_path)
     with open(frac_path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["time_s", "broken_joints", "injection_pressure_Pa"] + [f"pressure_{k}_Pa" for k in FRACTURES])
         for r in rows:
             w.writerow([f"{v:.6g}" for v in r])
     final = fracture_pressures(sim, h)
-    out = dict(triangles=sim.tri_count, h=h, steps=sim.step_count, time=sim.time, broken=sim.broken_joint_count,
+    out = dict(triangles=sim.model.tri_count, h=h, steps=sim.step_count, time=sim.time, broken=sim.cracks.broken_count,
                first_wet=first_wet, broken_near_when_wet=broken_near, final_pressures=final,
-               injected=float(sim.injected_volumes()[0]), stored=sim.fluid_volume(), history=hist_path,
+               injected=float(sim.fluid.injected_volumes()[0]), stored=sim.fluid.volume(), history=hist_path,
                cracks=cracks_path, fractures_csv=frac_path, video=os.path.abspath(args.out), sim=sim,
                wall_s=clock())
     print(f"  {out['broken']} joints broken in {out['steps']} steps ({out['time'] * 1e3:.3f} ms); fractures wet at "

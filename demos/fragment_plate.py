@@ -53,7 +53,7 @@ def main(argv=None) -> dict:
     sim.run(duration, record=[fdem.Video(args.out, fps=30, frame_dt=duration / frames, renderer=renderer)],
             progress=False, callback=watch)
     e = sim.energies()
-    result = {"broken_joints": sim.broken_joint_count, "fragments": sim.fragment_count(plate),
+    result = {"broken_joints": sim.cracks.broken_count, "fragments": sim.cracks.fragment_count(plate),
               "energy_rel_error_max": float(worst[0]), "fracture_energy_J": e["fracture"],
               "initial_energy_J": e0, "triangles": info["triangles"], "joints": info["joints"]}
     assert result["broken_joints"] >= 5, "too few joints broke"

@@ -90,21 +90,21 @@ def grow(sigma_h_along_x: bool, short: bool, out_dir: str, label: str, frame=Non
         while sim.step_count < budget:
             sim.step(chunk)
             history.write()
-            peak = max(peak, sim.injection_pressure())
+            peak = max(peak, sim.fluid.injection_pressure())
             if frame is not None:
                 frame(sim)
-            ev = sim.crack_events()
+            ev = sim.cracks.events()
             if len(ev["x"]) and float(np.hypot(ev["x"], ev["y"]).max()) > reach:
                 break
     finally:
         history.close()
-    sim.write_crack_events(cracks_path)
-    ev = sim.crack_events()
+    sim.cracks.write_events(cracks_path)
+    ev = sim.cracks.events()
     angle, spread = fracture_axis(ev["x"], ev["y"])
-    return dict(sim=sim, angle_deg=angle, spread=spread, broken=sim.broken_joint_count, steps=sim.step_count,
-                time=sim.time, peak_pressure=peak, injected=float(sim.injected_volumes()[0]),
-                stored=sim.fluid_volume(), history=hist_path, cracks=cracks_path, size=size, h=h, seed=seed,
-                triangles=sim.tri_count)
+    return dict(sim=sim, angle_deg=angle, spread=spread, broken=sim.cracks.broken_count, steps=sim.step_count,
+                time=sim.time, peak_pressure=peak, injected=float(sim.fluid.injected_volumes()[0]),
+                stored=sim.fluid.volume(), history=hist_path, cracks=cracks_path, size=size, h=h, seed=seed,
+                triangles=sim.model.tri_count)
 
 
 def main(argv=None) -> dict:

@@ -88,7 +88,7 @@ class Monitor:
 
     def __init__(self, sim, bodies, box):
         self.sim, self.bodies, self.box = sim, bodies, box
-        free = np.zeros(sim.node_count, bool)
+        free = np.zeros(sim.model.node_count, bool)
         for b in bodies:
             free[b.nodes] = True
         self.free = free
@@ -142,13 +142,13 @@ def check(sim, bodies, box, monitor: Monitor | None = None, settled: bool = True
     rise = float((total - total[0]).max())
     released = pe0 - mon.potential[-1]
     ke_end = mon.kinetic[-1]
-    out = {"bodies": len(bodies), "triangles": sim.tri_count, "steps": sim.step_count,
+    out = {"bodies": len(bodies), "triangles": sim.model.tri_count, "steps": sim.step_count,
            "time": sim.time, "max_excursion_m": mon.max_excursion, "final_excursion_m": final_excursion,
            "potential_initial_J": pe0, "potential_released_J": released,
            "energy_rise_max_frac_pe0": rise / pe0, "energy_drift_end_frac_pe0": float(total[-1] - total[0]) / pe0,
            "kinetic_end_J": ke_end, "kinetic_end_frac_released": ke_end / released if released > 0 else float("nan"),
            "kinetic_max_J": float(max(mon.kinetic)), "dissipated_J": mon.dissipated[-1],
-           "couples_end": sim.couple_count, "samples": len(mon.times)}
+           "couples_end": sim.solver.couple_count, "samples": len(mon.times)}
     assert np.all(np.isfinite(x)), "non-finite node positions"
     assert mon.max_excursion <= tol, f"a node left the box by {mon.max_excursion:.3g} m (tolerance {tol:.3g} m)"
     assert rise <= 0.03 * pe0, (f"the total energy grew by {rise:.4g} J = {100 * rise / pe0:.2f} % of the "
@@ -187,7 +187,7 @@ def main(argv=None) -> dict:
     t_run = clock() - t_build
     result = check(sim, bodies, box, monitor, settled=not args.short)
     result.update(video=os.path.abspath(args.out), wall_s=clock(), build_s=t_build, run_s=t_run)
-    print(f"  {result['steps']:,} steps in {t_run:.1f} s ({result['steps'] * sim.tri_count / t_run / 1e6:.1f} M "
+    print(f"  {result['steps']:,} steps in {t_run:.1f} s ({result['steps'] * sim.model.tri_count / t_run / 1e6:.1f} M "
           f"triangle-steps/s); nodes stayed inside the box (worst excursion {result['max_excursion_m']:+.2e} m)")
     print(f"  energy: potential {result['potential_initial_J']:.1f} J at start, {result['potential_released_J']:.1f} J "
           f"released; total energy rose at most {100 * result['energy_rise_max_frac_pe0']:.2f} % of it "

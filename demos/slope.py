@@ -193,7 +193,7 @@ def main(argv=None) -> dict:
     from taichi_fdem.render import RendererImage, VideoWriter
 
     sim, body, p = build(args.short)
-    print(f"{NAME}: {sim.tri_count} triangles, {sim.joint_count} joints "
+    print(f"{NAME}: {sim.model.tri_count} triangles, {sim.model.joint_count} joints "
           f"({len(p['j1'])} J1 and {len(p['j2'])} J2 lines), dt = {sim.dt:.3g} s")
     out_dir = os.path.dirname(os.path.abspath(args.out))
     os.makedirs(out_dir, exist_ok=True)
@@ -229,9 +229,9 @@ def main(argv=None) -> dict:
     lowest = min(day, key=lambda s: max(s[:, 1].min(), 0.0) + s[:, 1].max())    # nearest the toe
     above_day = above(cen, lowest)
     frac_above = float(above_day[moved].mean()) if moved.any() else 0.0
-    ev = sim.crack_events()
+    ev = sim.cracks.events()
     on_sets = float(np.isin(ev["set"], ["J1", "J2"]).mean()) if len(ev["set"]) else 0.0
-    out = dict(triangles=sim.tri_count, joints=sim.joint_count, broken=int(len(ev["set"])),
+    out = dict(triangles=sim.model.tri_count, joints=sim.model.joint_count, broken=int(len(ev["set"])),
                broken_on_sets=on_sets, moved_triangles=int(moved.sum()), moved_above_daylight=frac_above,
                max_displacement=float(u.max()), stable_displacement=float(u_tri[~above_day].max()),
                released_gravity_J=float(released), energy_drift_over_released=float(drift),

@@ -92,7 +92,7 @@ class Monitor:
         _, p, self.c0 = free_state(sim, blocks)
         self.px0 = float(sim.body_motion(ball).momentum[0])
         m = sim.node_masses()
-        free = np.zeros(sim.node_count, bool)
+        free = np.zeros(sim.model.node_count, bool)
         for b in blocks:
             free[b.nodes] = True
         self.pe0 = float(G * np.sum(m[free] * sim.node_positions()[free][:, 1]))
@@ -165,7 +165,7 @@ def check(sim, blocks, ball, mon: Monitor, full: bool) -> dict:
     dp_rel = float(np.linalg.norm(p_after - predicted) / p0)     # momentum balance with the floor's impulse
     px_after = float(p_after[0])
     ratio_x = px_after / mon.px0                                   # x momentum kept by projectile + blocks
-    out = {"blocks": len(blocks), "triangles": sim.tri_count, "steps": sim.step_count, "time": sim.time,
+    out = {"blocks": len(blocks), "triangles": sim.model.tri_count, "steps": sim.step_count, "time": sim.time,
            "max_block_speed_before_mps": mon.max_block_speed_before,
            "momentum_x_before": mon.px0, "momentum_x_after": px_after, "momentum_time_s": t_after,
            "momentum_balance_rel_error": dp_rel, "momentum_x_kept": ratio_x,

@@ -81,7 +81,7 @@ def main(argv=None) -> dict:
             results.append(r)
             print(f"{name}: σ3 = {s3 / 1e6:.2f} MPa: peak σ1 = {r['peak'] / 1e6:.4f} MPa at ε = {r['peak_strain']:.4f} "
                   f"(Mohr–Coulomb {r['peak_mc'] / 1e6:.4f} MPa); {r['broken']} joints broken, "
-                  f"{r['sim'].tri_count} triangles, {r['sim'].step_count} steps, {r['wall']:.0f} s")
+                  f"{r['sim'].model.tri_count} triangles, {r['sim'].step_count} steps, {r['wall']:.0f} s")
     csv_path = os.path.join(os.path.dirname(os.path.abspath(args.out)), f"{name}_curves.csv")
     with open(csv_path, "w", newline="") as fh:
         w = csv.writer(fh)

@@ -74,7 +74,7 @@ def main(argv=None) -> dict:
     from taichi_fdem.render import RendererImage, VideoWriter
 
     sim, rock, p = build(args.short)
-    print(f"{NAME}: {sim.tri_count} triangles, dt = {sim.dt:.3g} s")
+    print(f"{NAME}: {sim.model.tri_count} triangles, dt = {sim.dt:.3g} s")
     size = (320, 320) if args.short else (720, 720)
     renderer = RendererImage(*size, view=(-1.05, 1.05, -1.05, 1.05), color_by="damage", vmin=0.0, vmax=1.0,
                              colorbar=not args.short, stamp=not args.short)
@@ -88,8 +88,8 @@ def main(argv=None) -> dict:
         for _ in range(frames // 2):
             sim.run(t_settle / (frames // 2), record=[fdem.History(csv_path)])
             video.append(renderer.render_sim(sim))
-        broken_before = sim.broken_joint_count
-        damaged_before = int((sim.joint_damage() > 0.5).sum())
+        broken_before = sim.cracks.broken_count
+        damaged_before = int((sim.cracks.joint_damage() > 0.5).sum())
         u0 = sidewalls(sim, rock)
         removed = sim.remove(where=lambda x, y: x * x + y * y < A * A)
         t_after = (15 if args.short else 40) * p["transit"]
@@ -105,19 +105,19 @@ def main(argv=None) -> dict:
     u_wall = SV * A / (4 * G) * ((1 + K) - (1 - K) * (3 - 4 * mat.poisson))
     elastic_closure = 2 * u_wall
     # damaged joints (D > 0.5 or broken) and where they are: the failure pattern
-    D = sim.joint_damage()
+    D = sim.cracks.joint_damage()
     jn = rock.joint_nodes                                  # (k, 4) node indices within the body
     mid = sim.model.node_rest[rock.nodes][jn].mean(axis=1)
     dist = np.hypot(mid[:, 0], mid[:, 1])
     failed = D > 0.5
     near = float(np.mean(dist[failed] < 3 * A)) if failed.any() else 0.0
-    out = dict(removed=removed, broken_before=broken_before, broken_after=sim.broken_joint_count,
+    out = dict(removed=removed, broken_before=broken_before, broken_after=sim.cracks.broken_count,
                damaged_before=damaged_before, damaged_after=int(failed.sum()),
                fraction_near=near, closure=closure, elastic_closure=elastic_closure,
                steps=sim.step_count, video=os.path.abspath(args.out), csv=csv_path, wall_s=clock(),
                energies=sim.energies())
     print(f"  excavated {removed} triangles; joints damaged over 0.5: {damaged_before} before, {int(failed.sum())} after "
-          f"({near:.0%} within 3 radii), {sim.broken_joint_count} broken; sidewall closure {closure * 1e3:.3f} mm (elastic Kirsch "
+          f"({near:.0%} within 3 radii), {sim.cracks.broken_count} broken; sidewall closure {closure * 1e3:.3f} mm (elastic Kirsch "
           f"{elastic_closure * 1e3:.3f} mm); {sim.step_count} steps")
     assert damaged_before == 0, "joints failed before the excavation"
     assert failed.any() and near > 0.5, "no failure around the opening"

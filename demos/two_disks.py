@@ -76,7 +76,7 @@ def check(sim, bodies, initial: dict | None = None) -> dict:
     out = {"momentum_rel_error": dp_rel, "exchange_error_A": exch_a, "exchange_error_B": exch_b,
            "velocity_A": va1.tolist(), "velocity_B": vb1.tolist(), "energy_rel_error": de_rel,
            "kinetic_fraction_kept": float(e1["kinetic"] / e0["kinetic"]),
-           "couples_end": sim.couple_count, "separated": separated}
+           "couples_end": sim.solver.couple_count, "separated": separated}
     assert dp_rel < 1e-10, f"momentum not conserved: relative error {dp_rel:.3g}"
     assert separated, "the disks did not separate"
     assert exch_a < 0.05 and exch_b < 0.05, f"velocities not exchanged: A {va1}, B {vb1} (V = {V})"

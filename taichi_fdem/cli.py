@@ -101,7 +101,7 @@ def cmd_run(args) -> int:
         print(f"resumed from {args.resume_from} at t = {sim.time:.6g} s (step {sim.step_count:,})")
     info = sim.info()
     print(f"{os.path.basename(args.scene)}: {len(sim.bodies)} bodies, {info['triangles']} triangles, "
-          f"{info['nodes']} nodes; dt = {sim.dt:.4g} s (stable limit {sim.dt_limit:.4g} s), "
+          f"{info['nodes']} nodes; dt = {sim.dt:.4g} s (stable limit {sim.model.dt_limit:.4g} s), "
           f"{settings.duration:g} s simulated ({int(round(settings.duration / sim.dt)):,} steps), "
           f"strategy {info['strategy']}, {info['precision']}", flush=True)
     e0 = sim.energies()
@@ -110,7 +110,7 @@ def cmd_run(args) -> int:
     wall = time.perf_counter() - t0
     e1 = sim.energies()
     print(f"done: t = {sim.time:.6g} s, {sim.step_count:,} steps in {wall:.2f} s wall "
-          f"({sim.step_count / max(wall, 1e-9):,.0f} steps/s), {sim.couple_count} contact couples")
+          f"({sim.step_count / max(wall, 1e-9):,.0f} steps/s), {sim.solver.couple_count} contact couples")
     print("  energies at the end:")
     print(_fmt_energy(e1))
     drift = e1["total"] - e0["total"]

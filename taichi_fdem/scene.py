@@ -586,7 +586,7 @@ class Scene(FluidScene):
         ----------
         dt : time step [s].  None (default): ``safety`` × the book's estimate ``sim.model.dt_estimate``
             (docs/theory/elements.md §6.2: elements h/c_p with damping, contact h√(ρ/p), joints L√(ρ/p_f)).
-            A dt above the stable limit ``sim.dt_limit`` (the same with contact and joint terms
+            A dt above the stable limit ``sim.model.dt_limit`` (the same with contact and joint terms
             × 0.4 and damping rated on the element size, as measured in the stress tests) raises
             ValueError unless ``force_dt=True``.
         safety : fraction of the estimate used when dt is None (default 0.2, which keeps a margin

@@ -97,8 +97,8 @@ class FluidScene:
         that conduct (the fluid it adds or takes out, as a source or a drain, is its rate).
         ``curve`` is a :class:`Curve` multiplying the rate or the pressure.
 
-        Several calls make several sources, reported in order by ``sim.injection_rates()``
-        (positive into the network); ``sim.injection_pressure()`` is the pressure at the first.
+        Several calls make several sources, reported in order by ``sim.fluid.injection_rates()``
+        (positive into the network); ``sim.fluid.injection_pressure()`` is the pressure at the first.
         Needs :meth:`set_fluid` first.  A predicate that selects no network node is an error at
         build.
         """

@@ -74,14 +74,14 @@ def fluid_scene():
 def snapshot(sim, arch):
     from taichi_fdem.render import RendererImage
     e = sim.energies()
-    ev = sim.crack_events()
-    fr = sim.fragments()
+    ev = sim.cracks.events()
+    fr = sim.cracks.fragments()
     img = RendererImage(width=96, height=64).render_sim(sim)
     frames = {"body_cracks": RendererImage(width=96, height=64, cracks=True).render_sim(sim),
               "damage": RendererImage(width=96, height=64, color_by="damage").render_sim(sim)}
     out = {"x": sim.node_positions().tolist(), "couples": sorted(map(list, {(int(min(a, b)), int(max(a, b)))
                                                                          for a, b in sim.couples()})),
-           "broken": int(sim.broken_joint_count), "energies": {k: float(v) for k, v in e.items()},
+           "broken": int(sim.cracks.broken_count), "energies": {k: float(v) for k, v in e.items()},
            "events": int(len(ev["index"])), "event_joints": sorted(int(i) for i in ev["index"]),
            "fragments": int(fr["count"]), "image_mean": float(np.asarray(img, dtype=np.float64).mean()),
            "image_shape": list(np.shape(img)), "device": sim.info().get("device", arch),
@@ -110,7 +110,7 @@ def run_case(name, arch):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         sim = scene.build(strategy="parallel", quasi_static=(0.3 if name == "rock" else False))
-    sim.assembly = os.environ.get("FDEM_PROBE_ASSEMBLY", "slots")
+    sim.solver.assembly = os.environ.get("FDEM_PROBE_ASSEMBLY", "slots")
     sim.step(STEPS // 2)
     if name == "rock":
         sim.remove(where=lambda x, y: (x > 0.12) & (y > 0.06))
@@ -123,14 +123,14 @@ def run_case(name, arch):
         loaded = state_arrays(back)
         state_same = sorted(saved) == sorted(loaded) and all(
             saved[k].shape == loaded[k].shape and np.array_equal(saved[k], loaded[k]) for k in saved)
-        back.assembly = sim.assembly
+        back.solver.assembly = sim.solver.assembly
         back.step(STEPS // 2)
         same = bool(np.array_equal(back.node_positions(), sim.node_positions()))
     out = snapshot(sim, arch)
     out["checkpoint_same"] = same
     if name == "fluid":
-        out["fluid_pressures"] = sim.fluid_pressures()[1].tolist()
-        out["injected"] = sim.injected_volumes().tolist()
+        out["fluid_pressures"] = sim.fluid.pressures()[1].tolist()
+        out["injected"] = sim.fluid.injected_volumes().tolist()
     out["checkpoint_state_same"] = bool(state_same)
     return out
 

@@ -23,7 +23,7 @@ def main(arch, precision):
     sim.step(200)
     e1 = sim.energies()
     print(json.dumps({"strain0": e0["strain"], "strain200": e1["strain"], "kinetic200": e1["kinetic"],
-                      "gravity200": e1["gravity"], "triangles": sim.tri_count, "couples": sim.couple_count, "device": arch}))
+                      "gravity200": e1["gravity"], "triangles": sim.model.tri_count, "couples": sim.solver.couple_count, "device": arch}))
 
 
 if __name__ == "__main__":

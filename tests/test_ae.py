@@ -102,12 +102,12 @@ def test_sim_ae_events_csv_and_vtu(tmp_path):
     v[:, 0] = np.sign(x[:, 0]) * 2.0
     sim.state.node_v.from_numpy(v.astype(sim.state.node_v.to_numpy().dtype))
     sim.step(400)
-    cr = sim.crack_events()
+    cr = sim.cracks.events()
     assert len(cr["time"]) > 0
-    out = sim.ae_events()
+    out = sim.cracks.ae_events()
     assert out["cracks"].sum() == len(cr["time"])
     np.testing.assert_allclose(out["energy"].sum(), cr["energy"].sum(), rtol=1e-12)
-    p = sim.write_ae_events(tmp_path / "ae.csv")
+    p = sim.cracks.write_ae_events(tmp_path / "ae.csv")
     rows = open(p).read().splitlines()
     assert rows[0].split(",") == list(ae.AE_CSV_COLUMNS) and len(rows) == len(out["time"]) + 1
     q = fdem.export.write_ae_vtu(str(tmp_path / "ae.vtu"), out)

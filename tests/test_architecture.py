@@ -13,8 +13,9 @@ PKG = pathlib.Path(__file__).resolve().parent.parent / "taichi_fdem"
 LAYERS = [
     ("backend", "material", "mesh", "discontinuity"),
     ("engine",),
-    ("timestep", "arrays", "fluid", "model", "state", "motion"),
+    ("timestep", "arrays", "views", "fluid", "model", "state", "motion"),
     ("guards", "energies", "cracks", "ae", "results", "recorders", "outputs", "settings", "profiling", "excavation", "team",
+     "solver",
      "simulation"),
     ("scene", "scene_fluid"),
     ("render", "io", "cli", "sweep", "verification", "lab", "__init__"),
@@ -177,20 +178,46 @@ def test_cycle_search_finds_circles():
     assert _find_cycle({"x": {"y"}, "y": {"y2"}, "y2": {"y"}}) == ["y", "y2", "y"]
 
 
-@pytest.mark.parametrize("where", ["sim/simulation.py", "sim/results.py", "sim/settings.py", "sim/model.py", "sim/state.py"])
+#: the one ``__getattr__`` allowed: the deprecated names of version 0.1.0 (sim.settings.MOVED)
+DEPRECATION_ONLY = {"sim/settings.py": {"ModelValues.__getattr__"}}
+
+
+@pytest.mark.parametrize("where", ["sim/simulation.py", "sim/results.py", "sim/settings.py", "sim/model.py", "sim/state.py",
+                                   "sim/views.py", "sim/cracks.py", "sim/fluid.py", "sim/solver.py"])
 def test_no_attribute_forwarding(where):
     """No class of the simulation layer forwards unknown attributes (``__getattr__`` or
-    ``__getattribute__``): Simulation, Model and State answer only the names they declare.  (A
-    module-level PEP 562 loader, as in taichi_fdem/__init__.py, is not a class's.)"""
+    ``__getattribute__``): Simulation, its views, Model and State answer only the names they
+    declare, apart from the table of deprecated names (tested below).  (A module-level PEP 562
+    loader, as in taichi_fdem/__init__.py, is not a class's.)"""
     tree = ast.parse((PKG / where).read_text())
     bad = [f"{cls.name}.{fn.name}" for cls in ast.walk(tree) if isinstance(cls, ast.ClassDef)
            for fn in cls.body if isinstance(fn, ast.FunctionDef) and fn.name in ("__getattr__", "__getattribute__")]
+    bad = [b for b in bad if b not in DEPRECATION_ONLY.get(where, ())]
     assert not bad, f"{where}: attribute forwarding in {bad}"
 
 
 def test_simulation_model_state_classes_do_not_forward():
     from taichi_fdem.sim.model import Model, State
+    from taichi_fdem.sim.settings import ModelValues
     from taichi_fdem.sim.simulation import Simulation
     for cls in (Simulation, Model, State):
         for klass in cls.__mro__[:-1]:
-            assert "__getattr__" not in vars(klass), f"{klass.__name__} defines __getattr__"
+            assert "__getattr__" not in vars(klass) or klass is ModelValues, f"{klass.__name__} defines __getattr__"
+
+
+def test_the_deprecated_names_are_the_only_ones_answered():
+    import warnings
+    import taichi_fdem as fdem
+    from taichi_fdem.sim.settings import MOVED
+    scene = fdem.Scene()
+    scene.add_body(fdem.mesh.disk(0.05, 0.02), fdem.Material(density=1000.0, young=1e6, poisson=0.2))
+    sim = scene.build()
+    for name in ("no_such_name", "model_values", "node_x", "crack_event"):
+        with pytest.raises(AttributeError):
+            getattr(sim, name)
+    public = [n for n in dir(sim) if not n.startswith("_")]
+    assert len(public) <= 31 and not set(public) & set(MOVED), public
+    for name, (where, new) in MOVED.items():
+        with pytest.warns(DeprecationWarning, match=f"sim.{where}.{new}"):
+            value = getattr(sim, name)
+        assert value == getattr(getattr(sim, where), new) or callable(value)

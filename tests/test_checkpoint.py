@@ -32,7 +32,7 @@ def block_on_floor(strategy="serial"):
 def ndarrays(sim) -> dict:
     """Every Taichi array of the simulation: model, state and detection scratch."""
     out = {}
-    for part in (sim.model, sim.state, sim.scratch):
+    for part in (sim.model, sim.state, sim.solver.scratch):
         out.update({k: v.to_numpy() for k, v in vars(part).items() if isinstance(v, ti.Ndarray)})
     return out
 
@@ -55,7 +55,7 @@ def test_restart_continues_exactly(tmp_path, strategy):
 
     assert b.step_count == a.step_count and b.time == a.time and b.dt == a.dt
     assert [x.name for x in b.bodies] == ["floor", "block"]
-    assert a.friction and a.damping and a.contact_damping and a.model.has_bc and a.couple_count > 0
+    assert a.model.friction and a.model.damping and a.model.contact_damping and a.model.has_bc and a.solver.couple_count > 0
     ea, eb = a.energies(), b.energies()         # (before comparing arrays: fills the _energy_out scratch)
     for key in ea:
         assert eb[key] == pytest.approx(ea[key], rel=1e-12, abs=1e-15), key
@@ -213,7 +213,7 @@ def test_scene_pickle_is_plain_data(tmp_path):
     scene = bundle["scene"]
     assert [b.name for b in scene.bodies] == ["floor", "block"]
     assert scene.bodies[1].material.damping == 0.05
-    assert scene.node_count == sim.node_count and scene.tri_count == sim.tri_count
+    assert scene.node_count == sim.model.node_count and scene.tri_count == sim.model.tri_count
 
 
 def test_checkpoint_after_run_keeps_last_good_state(tmp_path):

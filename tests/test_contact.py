@@ -178,7 +178,7 @@ def test_shared_edge_gives_no_force():
         configs.append((np.array([a, b, apex1]), np.array([b, a, apex2])))
     scene, bodies = pair_scene(configs)
     sim = scene.build()                          # no overlap, so no warning either
-    assert sim.couple_count == len(configs)
+    assert sim.solver.couple_count == len(configs)
     f = sim.forces(contact_only=True)
     L = 2.0                                      # triangle size [m]
     assert np.abs(f).max() < 1e-12 * P * L       # relative to the force scale p·L

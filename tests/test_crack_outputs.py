@@ -54,7 +54,7 @@ def pulled():
 def test_single_joint_pull_one_mode_I_event(pulled):
     p = pulled
     sim = p.sim
-    ev = sim.crack_events()
+    ev = sim.cracks.events()
     assert list(ev["index"]) == [0] and list(ev["mode"]) == ["I"] and list(ev["mode_id"]) == [1]
     assert list(ev["set"]) == ["default"]
     # released energy = area under the traction–opening curve × L (§7.6, §7.9):
@@ -63,31 +63,31 @@ def test_single_joint_pull_one_mode_I_event(pulled):
     assert ev["energy"][0] == pytest.approx(w_ref, rel=2e-3)
     assert ev["energy"][0] == pytest.approx(sim.energies()["fracture"], rel=1e-12)
     assert ev["length"][0] == pytest.approx(math.sqrt(2.0), rel=1e-12)     # the unit square's diagonal
-    assert ev["time"][0] == sim.broken_joints()["time"][0]
+    assert ev["time"][0] == sim.cracks.broken()["time"][0]
     assert 0.0 < ev["time"][0] < sim.time
     assert np.allclose([ev["x"][0], ev["y"][0]], [0.5, 0.5], atol=0.05)
-    assert sim.crack_length() == pytest.approx(math.sqrt(2.0), rel=1e-12)
-    t, L = sim.crack_length_history()
+    assert sim.cracks.length() == pytest.approx(math.sqrt(2.0), rel=1e-12)
+    t, L = sim.cracks.length_history()
     assert np.array_equal(t, ev["time"]) and np.allclose(L, [math.sqrt(2.0)])
 
 
 def test_event_energy_scales_with_thickness(pulled):
     sim = pulled.sim
-    e1 = sim.crack_events()["energy"][0]
-    m1 = sim.fragments()["mass"].copy()
+    e1 = sim.cracks.events()["energy"][0]
+    m1 = sim.cracks.fragments()["mass"].copy()
     old = sim.thickness
     try:
         sim.thickness = 0.25
-        assert sim.crack_events()["energy"][0] == pytest.approx(0.25 * e1, rel=1e-12)
-        assert sim.crack_events()["energy"].sum() == pytest.approx(sim.energies()["fracture"], rel=1e-12)
-        assert np.allclose(sim.fragments()["mass"], 0.25 * m1, rtol=1e-12)
+        assert sim.cracks.events()["energy"][0] == pytest.approx(0.25 * e1, rel=1e-12)
+        assert sim.cracks.events()["energy"].sum() == pytest.approx(sim.energies()["fracture"], rel=1e-12)
+        assert np.allclose(sim.cracks.fragments()["mass"], 0.25 * m1, rtol=1e-12)
     finally:
         sim.thickness = old
 
 
 def test_single_joint_fragments(pulled):
-    f = pulled.sim.fragments()
-    assert f["count"] == 2 == pulled.sim.fragment_count()
+    f = pulled.sim.cracks.fragments()
+    assert f["count"] == 2 == pulled.sim.cracks.fragment_count()
     assert np.allclose(f["area"], [0.5, 0.5], rtol=1e-12)
     assert np.allclose(f["mass"], 1000.0 * 0.5, rtol=1e-12)          # ρ = 1000 kg/m³, t = 1 m
     x = pulled.sim.node_positions()
@@ -104,7 +104,7 @@ def test_crack_overlay_draws_exactly_the_crack_faces(pulled):
     plain = RendererImage(**kw).render_sim(sim)
     r = RendererImage(cracks=True, crack_width=2.0, **kw)
     img = r.render_sim(sim)
-    seg = sim.crack_segments()
+    seg = sim.cracks.segments()
     assert seg.shape == (1, 4)
     # crack_segments: the midline from ½(x_j0 + x_j3) to ½(x_j1 + x_j2), from the nodes themselves
     x = sim.node_positions()
@@ -152,7 +152,7 @@ def test_run_video_cracks(tmp_path):
         out = tmp_path / f"frames_{flag}"
         p.sim.run(150 * p.dt, record=[fdem.Video(out, frame_dt=50 * p.dt, cracks=flag)], progress=False,
                   checks=fdem.Checks(energy=False))
-        assert p.sim.broken_joint_count == 1
+        assert p.sim.cracks.broken_count == 1
         last = np.asarray(Image.open(sorted(out.glob("*.png"))[-1]).convert("RGB"))
         counts[flag] = int(np.all(last == _u8(RendererImage().crack_color), axis=-1).sum())
     assert counts[True] > 50 and counts[False] == 0
@@ -183,7 +183,7 @@ def plate_run(tmp_path_factory):
 
     def watch(s):
         with open(stream) as fh:
-            seen.append((s.broken_joint_count, sum(1 for _ in fh) - 1))
+            seen.append((s.cracks.broken_count, sum(1 for _ in fh) - 1))
     sim.run(0.003, record=[fdem.CrackEvents(stream), fdem.History(hist)], callback=watch, progress=False)
     sim.run(0.003, record=[fdem.CrackEvents(stream), fdem.History(hist)], callback=watch, progress=False)  # appended
     return {"sim": sim, "plate": plate, "ball": ball, "stream": stream, "history": hist, "seen": seen, "dir": d}
@@ -191,8 +191,8 @@ def plate_run(tmp_path_factory):
 
 def test_plate_event_energies_sum_to_fracture_energy(plate_run):
     sim = plate_run["sim"]
-    ev = sim.crack_events()
-    assert len(ev["index"]) == sim.broken_joint_count >= 10
+    ev = sim.cracks.events()
+    assert len(ev["index"]) == sim.cracks.broken_count >= 10
     assert np.all(np.diff(ev["time"]) >= 0.0)
     assert set(ev["mode"]) <= {"I", "II", "I+II", "mixed"}
     assert np.all(ev["energy"] > 0.0)
@@ -200,23 +200,23 @@ def test_plate_event_energies_sum_to_fracture_energy(plate_run):
     X = sim.model.node_rest
     jn = sim.model.joint_nodes.to_numpy()[ev["index"]]
     assert np.allclose(ev["length"], np.linalg.norm(X[jn[:, 1]] - X[jn[:, 0]], axis=1), rtol=1e-12)
-    t, L = sim.crack_length_history()
-    assert np.all(np.diff(L) > 0) and L[-1] == pytest.approx(sim.crack_length(), rel=1e-12)
-    assert sim.broken_joints()["index"].tolist() == ev["index"].tolist()
+    t, L = sim.cracks.length_history()
+    assert np.all(np.diff(L) > 0) and L[-1] == pytest.approx(sim.cracks.length(), rel=1e-12)
+    assert sim.cracks.broken()["index"].tolist() == ev["index"].tolist()
 
 
 def test_crack_csv_roundtrip(plate_run, tmp_path):
     sim = plate_run["sim"]
-    path = sim.write_crack_events(tmp_path / "events.csv")
+    path = sim.cracks.write_events(tmp_path / "events.csv")
     with open(path) as fh:
         header = next(csv.reader(fh))
     assert tuple(header) == CSV_COLUMNS and "time_s" in header and "energy_J" in header
-    _same_events(read_crack_events(path), sim.crack_events())
+    _same_events(read_crack_events(path), sim.cracks.events())
 
 
 def test_streamed_csv_equals_final_write(plate_run, tmp_path):
     sim, seen = plate_run["sim"], plate_run["seen"]
-    final = sim.write_crack_events(tmp_path / "final.csv")
+    final = sim.cracks.write_events(tmp_path / "final.csv")
     assert plate_run["stream"].read_text() == open(final).read()      # two runs appended, no repeats
     # streamed as the joints broke: at every callback the file held every event so far
     assert all(broken == rows for broken, rows in seen)
@@ -228,8 +228,8 @@ def test_history_has_crack_columns(plate_run):
     with open(plate_run["history"]) as fh:
         rows = list(csv.DictReader(fh))
     assert int(rows[0]["broken_joints"]) == 0 and float(rows[0]["crack_length"]) == 0.0
-    assert int(rows[-1]["broken_joints"]) == sim.broken_joint_count
-    assert float(rows[-1]["crack_length"]) == pytest.approx(sim.crack_length(), rel=1e-12)
+    assert int(rows[-1]["broken_joints"]) == sim.cracks.broken_count
+    assert float(rows[-1]["crack_length"]) == pytest.approx(sim.cracks.length(), rel=1e-12)
     assert np.all(np.diff([int(r["broken_joints"]) for r in rows]) >= 0)
 
 
@@ -238,19 +238,19 @@ def test_stream_keeps_events_when_the_run_stops_with_an_error(tmp_path):
     path = tmp_path / "cracks.csv"
 
     def stop(s):
-        if s.broken_joint_count >= 5:
+        if s.cracks.broken_count >= 5:
             raise RuntimeError("stop here")
     with pytest.raises(RuntimeError, match="stop here"):
         sim.run(0.006, record=[fdem.CrackEvents(path)], callback=stop, progress=False)
-    assert sim.broken_joint_count >= 5
-    _same_events(read_crack_events(path), sim.crack_events())
+    assert sim.cracks.broken_count >= 5
+    _same_events(read_crack_events(path), sim.cracks.events())
 
 
 def test_cracks_vtu_lines(plate_run, tmp_path):
     import meshio
     from taichi_fdem.io.vtu import write_cracks_vtu
     sim = plate_run["sim"]
-    ev = sim.crack_events()
+    ev = sim.cracks.events()
     path = write_cracks_vtu(str(tmp_path / "cracks.vtu"), sim)
     m = meshio.read(path)
     assert [c.type for c in m.cells] == ["line"] and len(m.cells[0].data) == len(ev["index"])
@@ -304,10 +304,10 @@ def _same_partition(label, roots):
 
 def test_plate_fragments_match_union_find(plate_run):
     sim, plate = plate_run["sim"], plate_run["plate"]
-    f = sim.fragments(plate)
+    f = sim.cracks.fragments(plate)
     _same_partition(f["label"], _union_find_labels(sim, plate))
-    assert f["count"] == len(set(_union_find_labels(sim, plate))) == sim.fragment_count(plate) >= 2
-    assert sim.fragment_count() == f["count"] + 1                     # the projectile is one piece
+    assert f["count"] == len(set(_union_find_labels(sim, plate))) == sim.cracks.fragment_count(plate) >= 2
+    assert sim.cracks.fragment_count() == f["count"] + 1                     # the projectile is one piece
     assert f["area"].sum() == pytest.approx(0.4 * 0.1, rel=1e-12)
     assert f["mass"].sum() == pytest.approx(1000.0 * 0.4 * 0.1, rel=1e-12)
     # mass-weighted centroid, brute force
@@ -318,15 +318,15 @@ def test_plate_fragments_match_union_find(plate_run):
         sel = f["label"] == k
         c = (x[tn[sel]].mean(axis=1) * a0[sel, None]).sum(axis=0) / a0[sel].sum()
         assert np.allclose(f["centroid"][k], c, atol=1e-12)
-    s = sim.fragment_sizes(plate)
+    s = sim.cracks.fragment_sizes(plate)
     assert np.all(np.diff(s["area"]) <= 0) and np.allclose(s["diameter"], np.sqrt(4 * s["area"] / np.pi))
     assert np.array_equal(np.sort(s["area"]), np.sort(f["area"]))
-    d, frac = sim.fragment_passing(body=plate)
+    d, frac = sim.cracks.fragment_passing(body=plate)
     assert np.all(np.diff(d) >= 0) and np.all(np.diff(frac) >= 0) and frac[-1] == pytest.approx(1.0)
     mid = float(np.median(d))
     ref = f["mass"][np.sqrt(4 * f["area"] / np.pi) <= mid].sum() / f["mass"].sum()
-    assert sim.fragment_passing(mid, body=plate) == pytest.approx(ref, rel=1e-12)
-    assert np.allclose(sim.fragment_passing([0.0, 10.0], body=plate), [0.0, 1.0])
+    assert sim.cracks.fragment_passing(mid, body=plate) == pytest.approx(ref, rel=1e-12)
+    assert np.allclose(sim.cracks.fragment_passing([0.0, 10.0], body=plate), [0.0, 1.0])
 
 
 def _two_triangles(points, tris, fracture=False):
@@ -338,25 +338,25 @@ def _two_triangles(points, tris, fracture=False):
 
 def test_two_triangles_sharing_a_node_are_one_fragment():
     bow_tie = _two_triangles([[0, 0], [1, 0], [0.5, 0.5], [1, 1], [0, 1]], [[0, 1, 2], [2, 3, 4]])
-    f = bow_tie.fragments()
-    assert f["count"] == 1 == bow_tie.fragment_count() and list(f["label"]) == [0, 0]
+    f = bow_tie.cracks.fragments()
+    assert f["count"] == 1 == bow_tie.cracks.fragment_count() and list(f["label"]) == [0, 0]
     assert f["area"][0] == pytest.approx(0.5, rel=1e-12)
     apart = _two_triangles([[0, 0], [1, 0], [0, 1], [2, 0], [3, 0], [2, 1]], [[0, 1, 2], [3, 4, 5]])
-    assert apart.fragment_count() == 2 and list(apart.fragments()["label"]) == [0, 1]
+    assert apart.cracks.fragment_count() == 2 and list(apart.cracks.fragments()["label"]) == [0, 1]
 
 
 def test_intact_joint_joins_and_broken_joint_or_removal_separates():
     sq = _two_triangles([[0, 0], [1, 0], [1, 1], [0, 1]], [[0, 1, 2], [0, 2, 3]], fracture=True)
-    assert sq.joint_count == 1 and sq.fragment_count() == 1        # exploded mesh: joined by the joint
+    assert sq.model.joint_count == 1 and sq.cracks.fragment_count() == 1        # exploded mesh: joined by the joint
     st = sq.state.joint_state.to_numpy()
     st[0] = 1
     sq.state.joint_state.from_numpy(st)
-    assert sq.fragment_count() == 2
-    assert sq.crack_length() == pytest.approx(math.sqrt(2.0))
+    assert sq.cracks.fragment_count() == 2
+    assert sq.cracks.length() == pytest.approx(math.sqrt(2.0))
     st[0] = 0
     sq.state.joint_state.from_numpy(st)
     sq.remove(where=lambda x, y: x > y)                              # the lower-right triangle
-    f = sq.fragments()
+    f = sq.cracks.fragments()
     assert f["count"] == 1 and sorted(f["label"]) == [-1, 0] and f["area"][0] == pytest.approx(0.5)
 
 
@@ -405,7 +405,7 @@ def test_joint_set_names_from_the_model():
     st = sim.state.joint_state.to_numpy()
     st[0] = 2
     sim.state.joint_state.from_numpy(st)
-    ev = sim.crack_events()
+    ev = sim.cracks.events()
     assert list(ev["set"]) == ["fault"] and list(ev["set_id"]) == [1] and list(ev["mode"]) == ["II"]
 
 
@@ -426,20 +426,20 @@ def _injected_block():
 def test_crack_events_carry_the_fluid_pressure_at_breakage(tmp_path):
     """An event's pressure is the mean of the pressures of its joint's two network nodes at the
     start of the step that broke it: re-run to the step of the first wet break, read the network's
-    pressures there (sim.fluid_pressures()), take one step, and compare.  The pressure survives a
+    pressures there (sim.fluid.pressures()), take one step, and compare.  The pressure survives a
     CSV round trip; a scene without a fluid has NaN."""
     first = _injected_block()
     first.step(1500)
-    ev = first.crack_events()
+    ev = first.cracks.events()
     assert len(ev["index"]) > 0 and np.all(np.isfinite(ev["pressure"])) and ev["pressure"].max() > 0
     wet = int(np.nonzero(ev["pressure"] > 0)[0][0])          # the first joint broken by a wet edge
     k = int(round(ev["time"][wet] / first.dt))
     sim = _injected_block()
     sim.step(k)
-    assert sim.broken_joint_count == wet
-    _, p_before = sim.fluid_pressures()
+    assert sim.cracks.broken_count == wet
+    _, p_before = sim.fluid.pressures()
     sim.step(1)
-    now = sim.crack_events()
+    now = sim.cracks.events()
     now = {key: v[wet:] for key, v in now.items()}             # the joints broken in this step
     assert len(now["index"]) > 0 and np.all(now["time"] == ev["time"][wet])
     fe = sim.model.fluid_edge.to_numpy()
@@ -448,10 +448,10 @@ def test_crack_events_carry_the_fluid_pressure_at_breakage(tmp_path):
     expect = 0.5 * (p_before[rows[:, 4]] + p_before[rows[:, 5]])
     assert expect.max() > 0
     np.testing.assert_allclose(now["pressure"], expect, rtol=1e-12, atol=0)
-    back = read_crack_events(first.write_crack_events(tmp_path / "c.csv"))
+    back = read_crack_events(first.cracks.write_events(tmp_path / "c.csv"))
     assert np.array_equal(back["pressure"], ev["pressure"])
 
 
 def test_crack_events_without_fluid_have_nan_pressure(plate_run):
-    ev = plate_run["sim"].crack_events()
+    ev = plate_run["sim"].cracks.events()
     assert len(ev["pressure"]) == len(ev["index"]) > 0 and np.all(np.isnan(ev["pressure"]))

@@ -102,12 +102,12 @@ def test_fragment_plate_short(tmp_path):
     assert r["broken_joints"] >= 5
     assert 0 < r["fracture_energy_J"] < r["initial_energy_J"]
     assert r["energy_rel_error_max"] < 1e-3
-    intact = sim.state.joint_state.to_numpy()[: sim.joint_count] == 0
+    intact = sim.state.joint_state.to_numpy()[: sim.model.joint_count] == 0
     n_plate = plate.triangles.stop - plate.triangles.start
-    ref = _components(sim.tri_count, sim.model.joint_tris_np[intact]) - (sim.tri_count - n_plate)
+    ref = _components(sim.model.tri_count, sim.model.joint_tris_np[intact]) - (sim.model.tri_count - n_plate)
     assert ref >= 2
-    assert sim.fragment_count(plate) == ref
-    assert sim.fragment_count() == ref + 1
+    assert sim.cracks.fragment_count(plate) == ref
+    assert sim.cracks.fragment_count() == ref + 1
 
 
 # ------------------------------------------------------------------------------------------------
@@ -219,7 +219,7 @@ def test_dfn_injection_short(tmp_path):
     conducting = sim.state.fluid_edge_val.to_numpy()[:, 0] > 0
     roots = union_find_roots(F, fe[conducting][:, 4:6])
     assert np.any(roots[on["C"]] == roots[well])
-    _, p = sim.fluid_pressures()
+    _, p = sim.fluid.pressures()
     assert p[on["B"]].max() > mod.P_WET and p[on["C"]].max() > 0.1 * mod.P_WET
     import csv
     with open(r["fractures_csv"]) as fh:

@@ -1,7 +1,7 @@
 """Broad phase: contact couples (docs/theory/contact.md §4) against a brute-force O(N²) search.
 
 Criterion (§4.1): triangles a, b form a couple when |c_a − c_b| < r_a + r_b + b (centroids,
-bounding-circle radii max_v |x_v − c|, buffer b = sim.buffer), excluding pairs of the same
+bounding-circle radii max_v |x_v − c|, buffer b = sim.model.buffer), excluding pairs of the same
 body (unless it has self-contact), pairs sharing a node and pairs of two fully fixed bodies;
 only triangles touching their body's surface take part (all of them with self-contact).
 """
@@ -36,7 +36,7 @@ def scene_arrays(scene):
 def expected_couples(sim, scene, x=None):
     tris, tri_body, cand, selfc, fixed = scene_arrays(scene)
     x = sim.node_positions() if x is None else x
-    return brute_force_couples(x, tris, cand, tri_body, sim.buffer, selfc, fixed)
+    return brute_force_couples(x, tris, cand, tri_body, sim.model.buffer, selfc, fixed)
 
 
 def random_triangle_scene(seed, n, box=1.0, size=(0.01, 0.03), overlap=True, speed=0.0, origin=(0.0, 0.0)):
@@ -64,12 +64,12 @@ def test_random_triangles_match_brute_force(strategy):
     scene = random_triangle_scene(seed=1, n=700, overlap=True, origin=(-0.4, -0.7))   # cells of both signs
     with pytest.warns(RuntimeWarning, match="overlap"):
         sim = scene.build(strategy=strategy)
-    assert sim.strategy == strategy
+    assert sim.solver.strategy == strategy
     expected = expected_couples(sim, scene)
     assert len(expected) > 300                   # a non-trivial scene
     assert couple_set(sim) == expected
-    assert sim.couple_count == len(expected)
-    assert sim.detection_count == 1
+    assert sim.solver.couple_count == len(expected)
+    assert sim.solver.detection_count == 1
 
 
 @pytest.mark.parametrize("strategy", STRATEGIES)
@@ -153,19 +153,19 @@ def test_redetection_while_moving_and_buffer_growth(strategy):
     scene, duration, buffer = contracting_lattice()
     sim = scene.build(strategy=strategy, buffer=buffer)
     K = sim.info()["contact_triangles"]
-    assert sim.couple_count == 0
+    assert sim.solver.couple_count == 0
     checked = 0
-    last = sim.detection_count
+    last = sim.solver.detection_count
     steps = int(duration / sim.dt)
     for _ in range(steps):
         sim.step(1)
-        if sim.detection_count != last:
-            last = sim.detection_count
+        if sim.solver.detection_count != last:
+            last = sim.solver.detection_count
             x_seen = sim.node_positions() - sim.dt * sim.node_velocities()
             assert couple_set(sim) == expected_couples(sim, scene, x_seen)
             checked += 1
     assert checked >= 5
-    assert sim.couple_count > 2 * K + 64         # the buffer had to grow during the run
+    assert sim.solver.couple_count > 2 * K + 64         # the buffer had to grow during the run
     assert sim.energies()["contact"] == 0.0      # and the triangles never touched
 
 
@@ -175,14 +175,14 @@ def test_couples_follow_moving_bodies(strategy):
     (the buffer argument of §4.1), and no couple is farther apart than r_a + r_b + 2b."""
     scene = random_triangle_scene(seed=2, n=300, box=0.6, overlap=False, speed=3.0)
     sim = scene.build(strategy=strategy)
-    d0 = sim.detection_count
+    d0 = sim.solver.detection_count
     sim.step(2000)
-    assert sim.detection_count >= d0 + 5
+    assert sim.solver.detection_count >= d0 + 5
     assert sim.energies()["contact"] > 0.0      # collisions are going on
     tris, tri_body, cand, selfc, fixed = scene_arrays(scene)
     x = sim.node_positions()
     must = brute_force_couples(x, tris, cand, tri_body, 0.0, selfc, fixed, margin=0.0)
-    may = brute_force_couples(x, tris, cand, tri_body, 0.0, selfc, fixed, margin=2.0 * sim.buffer)
+    may = brute_force_couples(x, tris, cand, tri_body, 0.0, selfc, fixed, margin=2.0 * sim.model.buffer)
     got = couple_set(sim)
     assert len(must) > 0
     assert must <= got

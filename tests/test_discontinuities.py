@@ -197,7 +197,7 @@ def test_fracture_confined_to_a_jointed_band():
     sim, plate = vd.band_plate_scene(band=0.02)
     assert _components(sim, plate) == 1
     sim.step(30000)
-    bj = sim.broken_joints()
+    bj = sim.cracks.broken()
     assert len(bj["index"]) > 10
     X0 = sim.model.node_rest
     jn = sim.model.joint_nodes.to_numpy()[bj["index"]]
@@ -273,7 +273,7 @@ def test_checkpoint_restart_with_cracks_and_joint_sets_is_exact(tmp_path):
     sim.step(1500)
     back = fdem.Simulation.load(tmp_path / "c.ckpt")
     back.step(1500)
-    assert sim.broken_joint_count > 0
+    assert sim.cracks.broken_count > 0
     np.testing.assert_array_equal(back.node_positions(), sim.node_positions())
     np.testing.assert_array_equal(back.state.joint_state.to_numpy(), sim.state.joint_state.to_numpy())
     np.testing.assert_array_equal(back.model.joint_prop.to_numpy(), sim.model.joint_prop.to_numpy())
@@ -307,7 +307,7 @@ def test_serial_and_parallel_agree_on_a_partly_jointed_body_with_a_crack_tip():
     assert np.any((jn[:, 0] == jn[:, 3]) | (jn[:, 1] == jn[:, 2]))         # a tip joint
     a.step(6000)
     b.step(6000)
-    assert a.broken_joint_count == b.broken_joint_count > 5
+    assert a.cracks.broken_count == b.cracks.broken_count > 5
     np.testing.assert_allclose(a.node_positions(), b.node_positions(), rtol=0, atol=1e-11)
     assert a.energies()["total"] == pytest.approx(b.energies()["total"], rel=1e-9)
 

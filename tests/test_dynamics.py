@@ -121,7 +121,7 @@ def test_oblique_impact_conserves_linear_and_angular_momentum():
         assert abs(L - L0) < 1e-12 * M * v * 0.1          # relative to M·|v|·(size of the scene)
     _, va = mass_centroid(sim, a)
     assert abs(va[1]) > 0.05 * v                            # really deflected
-    assert sim.detection_count >= 2
+    assert sim.solver.detection_count >= 2
 
 
 # ------------------------------------------------------------------------------------------------
@@ -138,7 +138,7 @@ def block_on_floor(gravity, v0=0.0):
     floor = scene.add_body(fdem.mesh.rectangle(0.6, 0.05, 0.025, origin=(-0.1, -0.05)), mat, fixed=True)
     block = scene.add_body(fdem.mesh.rectangle(0.1, 0.05, 0.025, origin=(-0.05, 0.0)), mat, velocity=(v0, 0.0))
     sim = scene.build(safety=0.25)
-    assert sim.friction and sim.contact_damping and sim.damping
+    assert sim.model.friction and sim.model.contact_damping and sim.model.damping
     return sim, floor, block
 
 

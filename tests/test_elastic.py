@@ -139,7 +139,7 @@ def test_spinning_disk_conserves_angular_momentum_and_energy():
     scene = fdem.Scene(gravity=(0.0, 0.0), plane="strain")
     body = scene.add_body(mesh, MAT, position=(0.3, -0.2), angular_velocity=20.0)
     sim = scene.build()
-    assert not sim.contact
+    assert not sim.model.contact
 
     def angular_momentum():
         m = sim.node_masses()
@@ -187,7 +187,7 @@ def test_bar_pulled_quasi_statically_gives_youngs_modulus():
     scene.fix_nodes(lambda x, y: x < 1e-9, velocity=(0.0, None))
     scene.fix_nodes(lambda x, y: x > L - 1e-9, velocity=(v, None))
     sim = scene.build()
-    assert sim.damping and not sim.contact
+    assert sim.model.damping and not sim.model.contact
     sim.step(int(round(duration / sim.dt)))
     X = sim.node_positions() - sim.node_displacements()
     x = sim.node_positions()

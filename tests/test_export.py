@@ -61,11 +61,11 @@ def test_series_values_roundtrip(tmp_path):
         np.testing.assert_array_equal(stress, np.stack([T[:, 0, 0], T[:, 1, 1], T[:, 0, 1]], axis=1))
         # von Mises: its value is checked against hand computations in tests/test_render.py
         # (plane stress; plane strain with σ_zz); here only that it is written, per triangle
-        assert m.cell_data["von_mises"][0].shape == (sim.tri_count,)
+        assert m.cell_data["von_mises"][0].shape == (sim.model.tri_count,)
         np.testing.assert_array_equal(m.cell_data["body_id"][0], tri_body)
         np.testing.assert_array_equal(m.cell_data["material_id"][0], tri_body)   # one material per body here
         np.testing.assert_array_equal(m.cell_data["damage"][0], 0.0)
-        assert m.cell_data["strain"][0].shape == (sim.tri_count, 3)
+        assert m.cell_data["strain"][0].shape == (sim.model.tri_count, 3)
     # the block has moved and is stressed by the impact; the fixed floor has not moved
     u_last = expected[-1][2]
     assert np.abs(u_last[node_body == 1]).max() > 1e-3 and np.abs(u_last[node_body == 0]).max() == 0.0
@@ -83,7 +83,7 @@ def test_strain_is_green_lagrange():
     sim.state.node_x.from_numpy(x * np.array([1.01, 0.98]))
     f = frame_fields(sim)
     Exx, Eyy = 0.5 * (1.01 ** 2 - 1), 0.5 * (0.98 ** 2 - 1)
-    np.testing.assert_allclose(f["cell_data"]["strain"], np.tile([Exx, Eyy, 0.0], (sim.tri_count, 1)),
+    np.testing.assert_allclose(f["cell_data"]["strain"], np.tile([Exx, Eyy, 0.0], (sim.model.tri_count, 1)),
                                rtol=1e-12, atol=1e-15)
     # Cauchy stress by hand (docs/theory/elements.md §3.2, plane strain): T = (μ/J)(B − I) + λ_Y (J − 1/J) I with
     # μ = E/(2(1+ν)), λ_Y = Eν/(2(1+ν)(1−2ν)) (half the Lamé λ), B = F Fᵀ, J = det F
@@ -92,25 +92,21 @@ def test_strain_is_green_lagrange():
     J = 1.01 * 0.98
     sxx = mu / J * (1.01 ** 2 - 1) + lam_y * (J - 1 / J)
     syy = mu / J * (0.98 ** 2 - 1) + lam_y * (J - 1 / J)
-    np.testing.assert_allclose(f["cell_data"]["stress"], np.tile([sxx, syy, 0.0], (sim.tri_count, 1)),
+    np.testing.assert_allclose(f["cell_data"]["stress"], np.tile([sxx, syy, 0.0], (sim.model.tri_count, 1)),
                                rtol=1e-10, atol=1e-10 * abs(sxx))
     np.testing.assert_allclose(f["point_data"]["displacement"], x * np.array([0.01, -0.02]), atol=1e-16)
 
 
-def test_tri_damage_exported_when_present(tmp_path):
+def test_tri_damage_exported(tmp_path, monkeypatch):
     sim = sliding_block()
-    damage = np.linspace(0.0, 1.0, sim.tri_count)
-    sim.tri_damage = damage                    # a future fracture model's per-triangle damage
-    try:
-        path = ExporterVtu(tmp_path).write(sim)
-        np.testing.assert_array_equal(meshio.read(path).cell_data["damage"][0], damage)
-        sim.tri_damage = lambda: 1.0 - damage  # or a method computing it
-        np.testing.assert_array_equal(frame_fields(sim)["cell_data"]["damage"], 1.0 - damage)
-        sim.tri_damage = np.zeros(3)
-        with pytest.raises(ValueError, match=r"tri_damage has 3 values"):
-            frame_fields(sim)
-    finally:
-        del sim.tri_damage
+    np.testing.assert_array_equal(frame_fields(sim)["cell_data"]["damage"], 0.0)     # no joints
+    damage = np.linspace(0.0, 1.0, sim.model.tri_count)
+    monkeypatch.setattr(type(sim.cracks), "tri_damage", lambda self: damage)
+    path = ExporterVtu(tmp_path).write(sim)
+    np.testing.assert_array_equal(meshio.read(path).cell_data["damage"][0], damage)
+    monkeypatch.setattr(type(sim.cracks), "tri_damage", lambda self: np.zeros(3))
+    with pytest.raises(ValueError, match=r"tri_damage\(\) has 3 values"):
+        frame_fields(sim)
 
 
 def test_run_callback_every(tmp_path):
@@ -122,7 +118,7 @@ def test_run_callback_every(tmp_path):
     entries = read_pvd(exp.pvd_path)
     np.testing.assert_allclose([t for t, _ in entries], np.array([0, 2, 4, 6]) * 20 * sim.dt, rtol=1e-12)
     for _, name in entries:
-        assert meshio.read(tmp_path / name).points.shape == (sim.node_count, 3)
+        assert meshio.read(tmp_path / name).points.shape == (sim.model.node_count, 3)
 
 
 def test_interrupted_run_leaves_valid_series(tmp_path):

@@ -16,15 +16,15 @@ def test_single_body_never_runs_contact(strategy):
     scene = fdem.Scene(gravity=(0.0, -9.81))
     scene.add_body(fdem.mesh.disk(0.1, 0.03), MAT, angular_velocity=3.0)
     sim = scene.build(strategy=strategy)
-    assert sim.contact is False
+    assert sim.model.contact is False
     assert sim.info()["contact"] is False
-    assert sim.friction is False and sim.contact_damping is False and sim.damping is False
+    assert sim.model.friction is False and sim.model.contact_damping is False and sim.model.damping is False
     sim.step(50)
     sim.forces()
     sim.energies()
-    assert not any(k in sim.launches for k in CONTACT_KERNELS), sim.launches
-    assert sim.detection_count == 0
-    assert sim.couple_count == 0
+    assert not any(k in sim.solver.launches for k in CONTACT_KERNELS), sim.solver.launches
+    assert sim.solver.detection_count == 0
+    assert sim.solver.couple_count == 0
     assert len(sim.couples()) == 0
     assert sim.step_count == 50
 
@@ -35,8 +35,8 @@ def test_single_body_with_self_contact_does_detect():
     # a buffer above the element size (0.05 m), so that triangles of the body at rest are within
     # reach of each other (with the default, 1/4 of an edge, they all lie beyond an edge line)
     sim = scene.build(buffer=0.06)
-    assert sim.contact is True
-    assert sim.detection_count >= 1
+    assert sim.model.contact is True
+    assert sim.solver.detection_count >= 1
     # self-contact couples exist (triangles of the same body near each other) and never join
     # triangles that share a node
     t = np.asarray(sim.scene.bodies[0].mesh.triangles)
@@ -57,16 +57,16 @@ def two_blocks(friction_a=0.0, friction_b=0.0, damping=0.0, contact_damping=0.0)
 
 def test_feature_flags_follow_the_materials():
     sim = two_blocks().build()
-    assert sim.contact and not sim.friction and not sim.damping and not sim.contact_damping
-    assert sim.detection_count >= 1
+    assert sim.model.contact and not sim.model.friction and not sim.model.damping and not sim.model.contact_damping
+    assert sim.solver.detection_count >= 1
     info = sim.info()
     assert info["contact"] is True and info["friction"] is False and info["damping"] is False
     sim_f = two_blocks(friction_a=0.4, friction_b=0.5).build()
-    assert sim_f.friction and sim_f.info()["friction"] is True
+    assert sim_f.model.friction and sim_f.info()["friction"] is True
     sim_d = two_blocks(damping=0.3).build()
-    assert sim_d.damping and not sim_d.friction
+    assert sim_d.model.damping and not sim_d.model.friction
     sim_c = two_blocks(contact_damping=0.2).build()
-    assert sim_c.contact_damping and not sim_c.damping
+    assert sim_c.model.contact_damping and not sim_c.model.damping
 
 
 def test_zero_friction_interaction_overrides_material_friction():
@@ -74,20 +74,20 @@ def test_zero_friction_interaction_overrides_material_friction():
     scene = fdem.Scene(gravity=(0.0, 0.0))
     scene.add_body(fdem.mesh.rectangle(0.1, 0.1, 0.05, origin=(0.0, 0.0)), rock)
     scene.add_body(fdem.mesh.rectangle(0.1, 0.1, 0.05, origin=(0.12, 0.0)), rock)
-    assert scene.build().friction
+    assert scene.build().model.friction
     scene.set_interaction(rock, rock, friction=0.0)
-    assert scene.build().friction is False
+    assert scene.build().model.friction is False
 
 
 def test_two_bodies_detect_and_collide():
     sim = two_blocks().build()
-    d0 = sim.detection_count
+    d0 = sim.solver.detection_count
     assert d0 >= 1
     sim.step(2000)
-    assert sim.detection_count > d0
+    assert sim.solver.detection_count > d0
     # the build-time detection: one serial task for a scene this small (detect_serial), the
     # parallel count-and-fill kernels otherwise
-    assert sim.launches.get("detect_serial", 0) + sim.launches.get("detect_count", 0) >= 1
+    assert sim.solver.launches.get("detect_serial", 0) + sim.solver.launches.get("detect_count", 0) >= 1
     b0, b1 = sim.bodies
     _, v1 = mass_centroid(sim, b1)
     _, v0 = mass_centroid(sim, b0)
@@ -128,7 +128,7 @@ def test_serial_and_parallel_strategies_give_the_same_trajectory():
         disp = np.abs(sims["serial"].node_displacements()).max()
         assert np.abs(xs - xp).max() < 1e-9 * disp
         assert np.abs(vs - vp).max() < 1e-9 * np.abs(vs).max()
-        assert sims["serial"].detection_count == sims["parallel"].detection_count
+        assert sims["serial"].solver.detection_count == sims["parallel"].solver.detection_count
         assert {tuple(c) for c in sims["serial"].couples()} == {tuple(c) for c in sims["parallel"].couples()}
     es, ep = (s.energies() for s in sims.values())
     assert es["friction"] > 0 and es["contact_damping"] > 0          # the features were exercised
@@ -137,23 +137,23 @@ def test_serial_and_parallel_strategies_give_the_same_trajectory():
 
 
 def test_switching_strategy_and_profile_keep_the_trajectory():
-    """Changing ``sim.strategy`` between calls, or advancing with ``profile()`` (one launch per
+    """Changing ``sim.solver.strategy`` between calls, or advancing with ``profile()`` (one launch per
     phase), continues the same trajectory as plain serial stepping (to 1e-9 relative)."""
     ref = small_collision("serial")
     mixed = small_collision("serial")
     ref.step(900)
     mixed.step(300)
-    mixed.strategy = "parallel"
+    mixed.solver.strategy = "parallel"
     mixed.step(300)
-    timings = mixed.profile(150)
+    timings = mixed.solver.profile(150)
     assert timings["steps"] == 150
-    mixed.strategy = "serial"
+    mixed.solver.strategy = "serial"
     mixed.step(150)
     assert mixed.step_count == ref.step_count == 900
     disp = np.abs(ref.node_displacements()).max()
     assert np.abs(mixed.node_positions() - ref.node_positions()).max() < 1e-9 * disp
     assert np.abs(mixed.node_velocities() - ref.node_velocities()).max() < 1e-9 * np.abs(ref.node_velocities()).max()
-    assert mixed.detection_count == ref.detection_count
+    assert mixed.solver.detection_count == ref.solver.detection_count
 
 
 def test_thickness_scales_reported_quantities_only():
@@ -239,5 +239,5 @@ def test_contact_buffer_is_a_quarter_of_the_mean_edge_length():
     h, h, h√2, so b = ¼ h (2 + √2)/3, by hand."""
     sim = two_blocks().build()
     h = 0.05
-    assert sim.buffer == pytest.approx(0.25 * h * (2 + 2 ** 0.5) / 3, rel=1e-12)
-    assert sim.info()["buffer"] == sim.buffer
+    assert sim.model.buffer == pytest.approx(0.25 * h * (2 + 2 ** 0.5) / 3, rel=1e-12)
+    assert sim.info()["buffer"] == sim.model.buffer

@@ -45,7 +45,7 @@ def fracture_scene(strategy="serial", conduct="broken"):
 @pytest.fixture(scope="module")
 def cubic():
     sim = cubic_law_scene().build(strategy="serial")
-    v0 = sim.fluid_volume()
+    v0 = sim.fluid.volume()
     sim.step(30)             # the diffusion time L² 12 μ/(K w²) is 0.5 ms: steady after 6 ms
     return sim, v0
 
@@ -109,22 +109,22 @@ def test_cubic_law_steady_rate_and_linear_profile(cubic):
     rate out at the drain, and a linear pressure profile."""
     sim, _ = cubic
     q = W0 ** 3 * P_IN / (12.0 * MU * LENGTH)
-    rate_in, rate_out = sim.injection_rates()
+    rate_in, rate_out = sim.fluid.injection_rates()
     assert abs(rate_in - q) <= 0.02 * q, (rate_in, q)
     assert abs(rate_out + q) <= 0.02 * q, (rate_out, q)
-    pos, p = sim.fluid_pressures()
+    pos, p = sim.fluid.pressures()
     assert pos.shape == (len(p), 2) and len(p) == 11           # the 11 vertices along the crack
     assert np.allclose(pos[:, 1], 0.0)
     assert np.max(np.abs(p - P_IN * (1.0 - pos[:, 0] / LENGTH))) <= 0.02 * P_IN
-    assert sim.injection_pressure() == pytest.approx(P_IN)
+    assert sim.fluid.injection_pressure() == pytest.approx(P_IN)
 
 
 def test_cubic_law_mass_balance(cubic):
     """What the inlet put in = the change of the stored volume + what the drain took out."""
     sim, v0 = cubic
-    vin, vout = sim.injected_volumes()
+    vin, vout = sim.fluid.injected_volumes()
     assert vin > 0 > vout
-    assert abs((sim.fluid_volume() - v0) - (vin + vout)) <= 1e-6 * vin
+    assert abs((sim.fluid.volume() - v0) - (vin + vout)) <= 1e-6 * vin
 
 
 def test_history_has_the_fluid_columns(cubic, tmp_path):
@@ -137,8 +137,8 @@ def test_history_has_the_fluid_columns(cubic, tmp_path):
                 "fluid_rate_1", "E_fluid_work"):
         assert key in last, key
     assert float(last["fluid_injection_pressure"]) == pytest.approx(P_IN)
-    assert float(last["fluid_injected_volume"]) == pytest.approx(sim.injected_volumes().sum(), rel=1e-9)
-    assert float(last["fluid_stored_volume"]) == pytest.approx(sim.fluid_volume(), rel=1e-12)
+    assert float(last["fluid_injected_volume"]) == pytest.approx(sim.fluid.injected_volumes().sum(), rel=1e-9)
+    assert float(last["fluid_stored_volume"]) == pytest.approx(sim.fluid.volume(), rel=1e-12)
     assert float(last["E_fluid_work"]) == 0.0                 # a fixed body takes no work
 
 
@@ -146,7 +146,7 @@ def test_history_has_the_fluid_columns(cubic, tmp_path):
 @pytest.fixture(scope="module")
 def growing():
     sim = fracture_scene("serial")
-    v0 = sim.fluid_volume()
+    v0 = sim.fluid.volume()
     e0 = sim.energies()["total"]
     conducting0 = int((sim.state.fluid_edge_val.to_numpy()[:, 0] > 0).sum())
     sim.step(2000)
@@ -157,12 +157,12 @@ def test_mass_balance_through_fracture_growth(growing):
     """Joints break, their edges join the network, and the injected volume is what the network
     stores, to 1e-6."""
     sim, v0, _, _ = growing
-    assert sim.broken_joint_count > 0
+    assert sim.cracks.broken_count > 0
     conducting = int((sim.state.fluid_edge_val.to_numpy()[:, 0] > 0).sum())
     assert conducting > 10                              # the crack's 2 edges, and broken joints
-    injected = sim.injected_volumes()[0]
+    injected = sim.fluid.injected_volumes()[0]
     assert injected == pytest.approx(RATE * sim.time, rel=1e-9)
-    assert abs(sim.fluid_volume() - v0 - injected) <= 1e-6 * injected
+    assert abs(sim.fluid.volume() - v0 - injected) <= 1e-6 * injected
 
 
 def conducting_edges(sim) -> int:
@@ -174,11 +174,11 @@ def test_which_joints_conduct(growing):
     joint with damage past its peak."""
     sim = growing[0]
     cracks = 2
-    assert conducting_edges(sim) == cracks + sim.broken_joint_count
+    assert conducting_edges(sim) == cracks + sim.cracks.broken_count
     other = fracture_scene("serial", conduct="damaged")
     other.step(400)
-    damaged = int((other.joint_damage() > 0).sum())
-    assert damaged > other.broken_joint_count
+    damaged = int((other.cracks.joint_damage() > 0).sum())
+    assert damaged > other.cracks.broken_count
     assert conducting_edges(other) == cracks + damaged
 
 
@@ -197,7 +197,7 @@ def test_serial_and_parallel_agree():
     for strategy in ("serial", "parallel"):
         sim = fracture_scene(strategy)
         sim.step(steps)
-        out[strategy] = (sim.node_positions(), sim.fluid_pressures()[1], sim.injected_volumes())
+        out[strategy] = (sim.node_positions(), sim.fluid.pressures()[1], sim.fluid.injected_volumes())
     (xs, ps, vs), (xp, pp, vp) = out["serial"], out["parallel"]
     assert np.max(np.abs(xs - xp)) <= 1e-12 * 0.4
     assert np.max(np.abs(ps - pp)) <= 1e-9 * np.max(ps)
@@ -209,7 +209,7 @@ def test_fluid_results_need_a_fluid():
     scene.add_body(fdem.mesh.rectangle(0.2, 0.2, 0.1), fdem.Material(**ROCK))
     sim = scene.build()
     with pytest.raises(ValueError, match="no fluid"):
-        sim.injection_rates()
+        sim.fluid.injection_rates()
     assert "fluid_work" not in sim.energies()
 
 
@@ -222,8 +222,8 @@ def test_checkpoint_round_trip_continues_exactly(cubic, tmp_path):
     other = fdem.Simulation.load(path)
     sim.step(3)
     other.step(3)
-    assert np.array_equal(sim.fluid_pressures()[1], other.fluid_pressures()[1])
-    assert np.array_equal(sim.injected_volumes(), other.injected_volumes())
+    assert np.array_equal(sim.fluid.pressures()[1], other.fluid.pressures()[1])
+    assert np.array_equal(sim.fluid.injected_volumes(), other.fluid.injected_volumes())
 
 
 # ---- scene files ------------------------------------------------------------------------------------
@@ -264,7 +264,7 @@ def test_scene_file_expresses_the_fluid(tmp_path):
     sim, settings = fdem.scenefile.load(str(path)).build()
     settings.run(sim, progress=False)
     q = W0 ** 3 * P_IN / (12.0 * MU * LENGTH)
-    rates = sim.injection_rates()
+    rates = sim.fluid.injection_rates()
     assert len(rates) == 2 and abs(rates[0] - q) <= 0.02 * q
     bad = SCENE_FILE.replace("[fluid]\nviscosity = 1e-3\naperture_min = 1e-4\n", "")
     path.write_text(bad)
@@ -282,7 +282,7 @@ def test_vtu_has_the_fluid_pressure(cubic):
     from taichi_fdem.io.vtu import frame_fields
     sim, _ = cubic
     f = frame_fields(sim)["point_data"]["fluid_pressure"]
-    assert f.shape == (sim.node_count,)
+    assert f.shape == (sim.model.node_count,)
     x = sim.node_positions()
     on = np.abs(x[:, 1]) < 1e-9                       # the crack's face nodes (both copies)
     assert np.allclose(f[on], P_IN * (1.0 - x[on, 0] / LENGTH), atol=0.02 * P_IN)
@@ -305,11 +305,11 @@ def test_initial_pressure_and_curves():
     scene.set_fluid(fdem.Fluid(viscosity=MU), aperture_min=W0, initial_pressure=3e4)
     sim = scene.build(strategy="serial")
     sim.step(5)
-    assert np.allclose(sim.fluid_pressures()[1], 3e4, rtol=1e-9)
+    assert np.allclose(sim.fluid.pressures()[1], 3e4, rtol=1e-9)
     scene.inject(lambda x, y: x < 1e-9, pressure=P_IN, curve=fdem.Curve.ramp(1e-3))
     sim = scene.build(strategy="serial", dt=1e-4)
     sim.step(5)                                      # t = 5e-4 s at the end; the last step started at 4e-4
-    assert sim.injection_pressure() == pytest.approx(0.5 * P_IN, rel=1e-9)
+    assert sim.fluid.injection_pressure() == pytest.approx(0.5 * P_IN, rel=1e-9)
 
 
 def test_a_source_off_the_cracks_warns():
@@ -329,7 +329,7 @@ def test_auto_runs_a_fluid_scene_serial_on_the_cpu(monkeypatch):
     monkeypatch.setattr(simmod, "AUTO_PARALLEL_ITEMS", 1)
     monkeypatch.setattr(simmod.backend, "cpu_threads", lambda: 2)
     monkeypatch.setattr(simmod.backend, "usable_cores", lambda: 2)
-    assert cubic_law_scene().build().strategy == "serial"
+    assert cubic_law_scene().build().solver.strategy == "serial"
 
 
 def test_scene_file_colours_the_video_by_fluid_pressure(tmp_path):

@@ -56,12 +56,12 @@ def test_single_joint_pull_mode_I():
     e = p.sim.energies()
     assert e["fracture"] / p.L == pytest.approx(w_ref, rel=1e-3)
     assert e["joints"] == 0.0
-    bj = p.sim.broken_joints()
+    bj = p.sim.cracks.broken()
     assert list(bj["mode"]) == ["I"]
     assert np.allclose(bj["position"][0], [0.5, 0.5], atol=0.05)
-    assert p.sim.joint_damage()[0] == 1.0
-    assert np.all(p.sim.tri_damage() == 1.0)
-    assert p.sim.fragment_count() == 2
+    assert p.sim.cracks.joint_damage()[0] == 1.0
+    assert np.all(p.sim.cracks.tri_damage() == 1.0)
+    assert p.sim.cracks.fragment_count() == 2
 
 
 def test_single_joint_shear_mode_II():
@@ -79,7 +79,7 @@ def test_single_joint_shear_mode_II():
     assert s_break == pytest.approx(sp + ds, rel=1e-3)
     assert _trapezoid(tau, s) == pytest.approx(w_ref, rel=1e-3)
     assert p.sim.energies()["fracture"] / p.L == pytest.approx(w_ref, rel=1e-3)
-    assert list(p.sim.broken_joints()["mode"]) == ["II"]
+    assert list(p.sim.cracks.broken()["mode"]) == ["II"]
 
 
 def test_single_joint_shear_mohr_coulomb_confinement():
@@ -105,7 +105,7 @@ def test_single_joint_shear_mohr_coulomb_confinement():
     assert tau[i] == pytest.approx(fs, rel=1e-3)
     assert s[i] == pytest.approx(sp, rel=1e-3)
     assert s_break == pytest.approx(sp + ds, rel=1e-3)
-    assert list(p.sim.broken_joints()["mode"]) == ["II"]
+    assert list(p.sim.cracks.broken()["mode"]) == ["II"]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -187,14 +187,14 @@ def test_no_fracture_no_joint_kernel():
     sim = scene.build(strategy="parallel")
     sim.step(20)
     sim.forces()
-    sim.profile(5)
-    assert sim.fracture is False and sim.joint_count == 0
-    assert "eval_joints" not in sim.launches
-    assert sim.launches                                  # the parallel strategy counts its launches
+    sim.solver.profile(5)
+    assert sim.model.fracture is False and sim.model.joint_count == 0
+    assert "eval_joints" not in sim.solver.launches
+    assert sim.solver.launches                                  # the parallel strategy counts its launches
     assert sim.model.joint_nodes.shape[0] == 1 and sim.state.joint_state.shape[0] == 1
-    assert sim.broken_joint_count == 0 and sim.fragment_count() == 2
+    assert sim.cracks.broken_count == 0 and sim.cracks.fragment_count() == 2
     assert sim.energies()["fracture"] == 0.0 and sim.energies()["joints"] == 0.0
-    assert np.all(sim.tri_damage() == 0.0)
+    assert np.all(sim.cracks.tri_damage() == 0.0)
 
 
 def test_fracture_parameters_validated():
@@ -228,7 +228,7 @@ def test_friction_energy_balance_while_fragmenting():
     e0 = sim.energies()["total"]
     sim.step(int(round(0.041 / sim.dt)))
     e = sim.energies()
-    assert sim.broken_joint_count > 40 and e["friction"] > 0.2 * abs(e0)      # it shattered, with friction
+    assert sim.cracks.broken_count > 40 and e["friction"] > 0.2 * abs(e0)      # it shattered, with friction
     assert abs(e["total"] - e0) < 5e-3 * abs(e0), e
 
 
@@ -246,8 +246,8 @@ def test_overlapping_pairs_are_couples_after_breakage_without_redetection(strate
     sim, _ = V.fragment_plate_scene(h_plate=0.025, h_ball=0.02)
     sim = sim.scene.build(strategy=strategy)
     sim.run(0.003, progress=False)
-    assert sim.broken_joint_count >= 20
-    assert sim.detection_count < sim.broken_joint_count
+    assert sim.cracks.broken_count >= 20
+    assert sim.solver.detection_count < sim.cracks.broken_count
     x = sim.node_positions()
     tris = sim.model.tri_nodes_np
     P = x[tris]                                                   # (m, 3, 2)

@@ -189,7 +189,7 @@ def test_arch_gpu_picks_vulkan_and_says_so(vulkan):
     code = ("import taichi_fdem as fdem; fdem.init(arch='gpu', precision='f32'); "
             "from taichi_fdem.verification import two_disks_scene; "
             "sim = two_disks_scene(strategy='auto')[0]; "
-            "print(sim.info()['device'], sim.strategy)")
+            "print(sim.info()['device'], sim.solver.strategy)")
     env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600, env=env)
     assert r.returncode == 0, r.stderr[-2000:]

@@ -110,7 +110,7 @@ def test_handover_keeps_the_energy(handover):
           f"account over that step {jumps[-1]:.3g} J (largest before {jumps[:-1].max():.3g} J)")
     assert contact[-2] == 0.0 and handed > 0.1 * s.sim.energies()["joints"]
     assert jumps[-1] < 0.01 * handed
-    assert dmax[-2] <= handover < dmax[-1] and s.sim.broken_joint_count == 0
+    assert dmax[-2] <= handover < dmax[-1] and s.sim.cracks.broken_count == 0
     s.sim.step(1)                                     # from now on contact acts on the pair
     assert s.normal_force(contact_only=True) != 0.0
 
@@ -229,7 +229,7 @@ def test_neighbour_pairs_are_every_shared_node_pair_and_follow_the_bonds(mode, h
         on = sim.state.tri_nb_on.to_numpy()[:M].astype(bool)
         np.testing.assert_array_equal(on, ~_bonded_reference(sim, cp[:M]))
         seen_on = int(on.sum())
-    assert sim.broken_joint_count > 0 and seen_on > 0
+    assert sim.cracks.broken_count > 0 and seen_on > 0
     bits = sim.state.tri_intact.to_numpy()
     jt = md.joint_tris_np
     dmax = sim.state.joint_dmax.to_numpy()[: len(jt)].max(1)
@@ -278,8 +278,8 @@ def test_corner_pairs_switch_on_holding_almost_no_contact_energy(handover):
             switched += int(new.sum())
         prev = flags[:M].copy()
     print(f"\n{switched} corner pairs switched on holding {held:.3g} J/m of contact energy "
-          f"({held / E0:.2e} of E0 = {E0:.4g} J/m); {sim.broken_joint_count} joints broken")
-    assert switched > 20 and sim.broken_joint_count > 0
+          f"({held / E0:.2e} of E0 = {E0:.4g} J/m); {sim.cracks.broken_count} joints broken")
+    assert switched > 20 and sim.cracks.broken_count > 0
     assert 0.0 <= held < 1e-4 * E0
 
 
@@ -299,9 +299,9 @@ def test_fragmenting_impact_energy_balance_with_a_later_handover(handover):
         worst = max(worst, abs(sim.energies()["total"] - e0) / e0)
     jt = sim.model.joint_tris_np
     damaged = (sim.state.joint_dmax.to_numpy()[: len(jt)].max(1) > 0) & (sim.state.joint_state.to_numpy()[: len(jt)] == 0)
-    print(f"\nhandover {handover}: worst energy error {worst:.2e}; {sim.broken_joint_count} broken, "
+    print(f"\nhandover {handover}: worst energy error {worst:.2e}; {sim.cracks.broken_count} broken, "
           f"{int(damaged.sum())} damaged")
-    assert sim.broken_joint_count >= 400 and damaged.any()
+    assert sim.cracks.broken_count >= 400 and damaged.any()
     assert worst < 1e-3
 
 
@@ -317,7 +317,7 @@ def test_restart_with_a_later_handover_continues_exactly(tmp_path):
     b = fdem.Simulation.load(tmp_path / "run.ckpt")
     assert b.model.handover_damage == 0.05
     b.step(300)
-    assert a.broken_joint_count == b.broken_joint_count > 0
+    assert a.cracks.broken_count == b.cracks.broken_count > 0
     for name in ("node_x", "node_v", "tri_nb_on", "tri_intact", "joint_dmax", "couple_hist"):
         np.testing.assert_array_equal(getattr(a.state, name).to_numpy(), getattr(b.state, name).to_numpy(), name)
 

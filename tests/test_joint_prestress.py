@@ -47,10 +47,10 @@ def test_jointed_block_under_anisotropic_initial_stress_stays_at_rest(stress):
     e = sim.energies()
     scale = max(abs(s) for s in stress) ** 2 / E * 0.08          # σ²/E × area [J per m]
     print(f"\nat rest: kinetic/scale = {e['kinetic'] / scale:.2e}, max |u| = "
-          f"{np.abs(sim.node_displacements()).max():.2e} m, max damage {sim.joint_damage().max()}")
+          f"{np.abs(sim.node_displacements()).max():.2e} m, max damage {sim.cracks.joint_damage().max()}")
     assert e["kinetic"] < 1e-18 * scale, e["kinetic"]
     assert np.abs(sim.node_displacements()).max() < 1e-12 * 0.2
-    assert sim.joint_damage().max() == 0.0 and sim.broken_joint_count == 0
+    assert sim.cracks.joint_damage().max() == 0.0 and sim.cracks.broken_count == 0
     # the same stresses as the intact body, which needs no joints to carry them
     ref = _block(stress, fracture=False).build()
     ref.step(200)
@@ -83,7 +83,7 @@ def test_lithostatic_gradient_with_joints_is_balanced_exactly():
     u_free = RHO * g * 0.4 ** 2 / (2 * E)             # settlement of the column loaded by gravity alone
     print(f"\nlithostatic: max |u| / u_free = {np.abs(sim.node_displacements()).max() / u_free:.2e}")
     assert np.abs(sim.node_displacements()).max() < 1e-9 * u_free
-    assert sim.joint_damage().max() == 0.0
+    assert sim.cracks.joint_damage().max() == 0.0
 
 
 def test_energy_balance_closes_under_boundary_loading():
@@ -94,7 +94,7 @@ def test_energy_balance_closes_under_boundary_loading():
     e = sim.energies()
     print(f"\nenergy: total/load_work = {e['total'] / e['load_work']:.2e}, joints {e['joints']:.3e} J")
     assert e["load_work"] > 0 and abs(e["joints"]) > 0
-    assert sim.joint_damage().max() == 0.0
+    assert sim.cracks.joint_damage().max() == 0.0
     assert abs(e["total"]) < 1e-3 * e["load_work"], (e["total"], e["load_work"])
 
 
@@ -153,10 +153,10 @@ class _PrestressedPair:
         if until is None:
             return np.array(out), None
         self.sim.step(int(until / inc) - steps)
-        if not self.sim.broken_joint_count:
+        if not self.sim.cracks.broken_count:
             return np.array(out), None
         # positions at the start of the step of breakage are the ones evaluated (tests/test_fracture.py)
-        return np.array(out), (float(self.sim.broken_joints()["time"][0]) - t0) * inc / self.dt
+        return np.array(out), (float(self.sim.cracks.broken()["time"][0]) - t0) * inc / self.dt
 
 
 def test_joint_in_initial_tension_fails_at_its_strength():
@@ -168,7 +168,7 @@ def test_joint_in_initial_tension_fails_at_its_strength():
     p.sim.step(1)
     sig, tau = p.traction()
     assert sig == pytest.approx(s0, rel=1e-9) and abs(tau) < 1e-9 * s0
-    assert p.sim.joint_damage().max() == 0.0
+    assert p.sim.cracks.joint_damage().max() == 0.0
     dp = 2.0 * p.L * p.ft / p.pf
     dn = 3.0 * p.gI / p.ft
     o0 = dp * (1.0 - math.sqrt(1.0 - s0 / p.ft))
@@ -202,7 +202,7 @@ def test_serial_and_parallel_agree():
         ramp = fdem.Curve([0.0, 0.005, 1.0], [0.0, 1.0, 1.0])
         sim = _block((1e5, 5e4, -3e4), extra=((2.5e5, 0.0), ramp)).build(strategy=strategy)
         sim.run(0.01)
-        runs[strategy] = (sim.node_positions(), sim.joint_damage(), sim.broken_joint_count)
+        runs[strategy] = (sim.node_positions(), sim.cracks.joint_damage(), sim.cracks.broken_count)
     print(f"\nserial vs parallel: max |Δx| = {np.abs(runs['serial'][0] - runs['parallel'][0]).max():.2e} m, "
           f"max damage {runs['serial'][1].max():.3f}, {runs['serial'][2]} broken")
     assert runs["serial"][1].max() > 0 and runs["serial"][2] == runs["parallel"][2]

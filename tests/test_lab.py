@@ -23,6 +23,18 @@ def test_elastic_ucs_returns_the_materials_E_and_nu(tmp_path):
     assert math.isclose(data["axial_stress_Pa"].max(), r.peak_stress, rel_tol=1e-6)
 
 
+def test_jointed_ucs_returns_the_materials_E_and_nu_at_the_defaults():
+    """Joints on every edge (a fracturing specimen) at the default joint penalty: the tangent E
+    and ν below 30 % of the peak within 3 % of the material's (the elastic continuum's)."""
+    m = fdem.Material(**ROCK, tensile_strength=6e6, cohesion=20e6, friction_angle=35.0, fracture_energy=50.0)
+    r = fdem.lab.ucs(m, 0.05, 0.1, 0.01)
+    assert r.settings["joint_penalty_factor"] == fdem.lab.COMPRESSION_JOINT_PENALTY_FACTOR
+    assert r.settings["joint_penalty_raised"]
+    assert abs(r.young_initial / m.young - 1) < 0.03, r
+    assert abs(r.poisson_initial / m.poisson - 1) < 0.03, r
+    assert m.joint_penalty is None                                  # the user's Material is unchanged
+
+
 def test_too_fast_loading_is_refused():
     with pytest.raises(ValueError, match="P-wave transits"):
         fdem.lab.ucs(fdem.Material(**ROCK), 0.05, 0.1, 0.0125, rate_transits=2)

@@ -60,7 +60,7 @@ def test_curve_multiplies_a_point_force_inside_the_step():
     for _ in range(5):
         sim.step(7)
         t_last = sim.time - sim.dt                  # the forces of a step are those at t_n
-        np.testing.assert_allclose(sim.load_forces().sum(0), c(t_last) * np.array([3.0, -4.0]), rtol=1e-12)
+        np.testing.assert_allclose(sim.loads.forces().sum(0), c(t_last) * np.array([3.0, -4.0]), rtol=1e-12)
 
 
 # ---- resultants --------------------------------------------------------------------------------
@@ -70,7 +70,7 @@ def test_traction_and_force_resultants_are_exact():
     scene.apply_force(lambda x, y: x < -0.199, (2.0, 1.0))                 # the 5 nodes of the left side
     sim = scene.build()
     sim.step(1)
-    f = sim.load_forces()
+    f = sim.loads.forces()
     n_left = int(np.sum(sim.model.node_rest[:, 0] < -0.199))
     expected = 0.3 * (0.4 * np.array([120.0, -50.0]) + n_left * np.array([2.0, 1.0]))
     np.testing.assert_allclose(f.sum(0), expected, rtol=1e-13)
@@ -91,7 +91,7 @@ def test_pressure_follows_the_rotating_edge():
     top, bot = xr[order[-1]], xr[order[0]]
     d = top - bot                                                          # current edge (CCW: bottom → top)
     n_out = np.array([d[1], -d[0]]) / np.linalg.norm(d)
-    f = sim.load_forces()[right].sum(0)
+    f = sim.loads.forces()[right].sum(0)
     assert np.degrees(np.arctan2(d[0], d[1])) < -30.0                      # the edge has turned
     # Σ over the edges of −p L n̂ is −p × (the chord turned by −90°): exact, whatever the edge's bend
     np.testing.assert_allclose(f, -p * np.linalg.norm(d) * n_out, rtol=1e-12, atol=1e-12 * p)
@@ -210,7 +210,7 @@ def test_local_damping_does_not_resist_steady_motion():
     sim = scene.build(quasi_static=0.5)
     sim.step(500)
     # only round-off forces exist: the damping they drive is of their size
-    np.testing.assert_allclose(sim.node_velocities(), np.tile([0.3, -0.2], (sim.node_count, 1)), rtol=1e-9)
+    np.testing.assert_allclose(sim.node_velocities(), np.tile([0.3, -0.2], (sim.model.node_count, 1)), rtol=1e-9)
 
 
 # ---- initial stress ----------------------------------------------------------------------------

@@ -22,13 +22,13 @@ fdem.init(cpu_max_num_threads=int(sys.argv[1]))
 from taichi_fdem.verification import fragment_plate_scene
 sim, (plate, ball) = fragment_plate_scene(h_plate=0.025, h_ball=0.02, friction=0.5)
 sim = sim.scene.build(strategy="parallel")
-sim.assembly = sys.argv[2]
-sim.force_blocks = int(sys.argv[3])
+sim.solver.assembly = sys.argv[2]
+sim.solver.force_blocks = int(sys.argv[3])
 sim.run(0.004, progress=False)
 x, v = sim.node_positions(), sim.node_velocities()
 e = sim.energies()
 print(json.dumps({"hash": hashlib.sha1(x.tobytes() + v.tobytes()).hexdigest(),
-                  "broken": sim.broken_joint_count, "couples": sim.couple_count,
+                  "broken": sim.cracks.broken_count, "couples": sim.solver.couple_count,
                   "friction": e["friction"].hex(), "fracture": e["fracture"].hex(), "joints": e["joints"].hex(),
                   "energies": [e[k].hex() for k in ("kinetic", "strain", "contact", "gravity", "damping")]}))
 """
@@ -64,9 +64,9 @@ def test_parallel_agrees_with_serial(assembly):
         from taichi_fdem.verification import fragment_plate_scene
         sim, _ = fragment_plate_scene(h_plate=0.025, h_ball=0.02, friction=0.5)
         sim = sim.scene.build(strategy=strategy)
-        sim.assembly = assembly
+        sim.solver.assembly = assembly
         sim.run(0.003, progress=False)
-        out[strategy] = (sim.node_positions(), sim.broken_joint_count, sim.energies())
+        out[strategy] = (sim.node_positions(), sim.cracks.broken_count, sim.energies())
     xs, xp = out["serial"][0], out["parallel"][0]
     assert out["serial"][1] == out["parallel"][1]
     assert np.abs(xs - xp).max() <= 1e-5 * np.abs(xs).max()
@@ -93,7 +93,7 @@ def test_parallel_node_lists_cover_every_contribution(assembly):
     runs = {}
     for strategy in ("serial", "parallel"):
         sim = scene.build(strategy=strategy)
-        sim.assembly = assembly
+        sim.solver.assembly = assembly
         sim.step(300)
         runs[strategy] = sim.node_positions()
     assert np.abs(runs["serial"] - runs["parallel"]).max() <= 1e-12
@@ -185,19 +185,19 @@ def test_auto_strategy_follows_the_work_and_the_threads(monkeypatch):
     from taichi_fdem.verification import fragment_plate_scene
     sim, _ = fragment_plate_scene(h_plate=0.025, h_ball=0.02)
     scene = sim.scene
-    items = sim.tri_count + sim.joint_count + sim.couple_count
+    items = sim.model.tri_count + sim.model.joint_count + sim.solver.couple_count
     monkeypatch.setattr(simmod, "AUTO_PARALLEL_ITEMS", items + 1)
-    assert scene.build().strategy == "serial"
+    assert scene.build().solver.strategy == "serial"
     monkeypatch.setattr(simmod, "AUTO_PARALLEL_ITEMS", items)
     big = scene.build()
-    assert big.strategy == ("parallel" if backend.cpu_threads() >= 2 else "serial")
-    assert big.assembly == "blocks"
+    assert big.solver.strategy == ("parallel" if backend.cpu_threads() >= 2 else "serial")
+    assert big.solver.assembly == "blocks"
     big.step(50)                                # and it runs
     assert np.isfinite(big.node_positions()).all()
 
 
 def test_assembly_can_change_between_calls():
-    """``sim.assembly`` switches between blocks and slots mid-run (the arrays are re-sized, the
+    """``sim.solver.assembly`` switches between blocks and slots mid-run (the arrays are re-sized, the
     node lists rebuilt): the run continues as one that never switched, to round-off; a wrong
     name is refused."""
     from taichi_fdem.verification import fragment_plate_scene
@@ -207,15 +207,15 @@ def test_assembly_can_change_between_calls():
         sim = sim.scene.build(strategy="parallel")
         for k in range(4):
             if switch:
-                sim.assembly = "slots" if k % 2 else "blocks"
+                sim.solver.assembly = "slots" if k % 2 else "blocks"
             sim.step(150)
-        runs.append((sim.node_positions(), sim.broken_joint_count))
+        runs.append((sim.node_positions(), sim.cracks.broken_count))
     assert runs[0][1] == runs[1][1] > 0
     # blocks and slots sum a node's forces in different orders: round-off, which the breaking
     # joints of 600 steps amplify to ~1e-9 of the plate size at a few nodes (3e-10 m measured)
     assert np.abs(runs[0][0] - runs[1][0]).max() <= 1e-8 * np.abs(runs[0][0]).max()
     with pytest.raises(ValueError, match="assembly"):
-        sim.assembly = "atomic"
+        sim.solver.assembly = "atomic"
 
 
 def test_force_blocks_agree_and_are_checked(tmp_path):
@@ -228,20 +228,20 @@ def test_force_blocks_agree_and_are_checked(tmp_path):
     ref.step(400)
     for blocks in (1, 3, 5):
         par = scene.build(strategy="parallel")
-        par.force_blocks = blocks
+        par.solver.force_blocks = blocks
         par.step(400)
-        assert par.broken_joint_count == ref.broken_joint_count
+        assert par.cracks.broken_count == ref.cracks.broken_count
         assert np.abs(par.node_positions() - ref.node_positions()).max() <= 1e-9 * np.abs(ref.node_positions()).max()
         assert par.energies()["friction"] == pytest.approx(ref.energies()["friction"], rel=1e-6)
     par.save(tmp_path / "c")
     back = fdem.Simulation.load(tmp_path / "c")
-    assert back.force_blocks == 5 and back.strategy == "parallel"
+    assert back.solver.force_blocks == 5 and back.solver.strategy == "parallel"
     back.step(10)
     par.step(10)
     np.testing.assert_array_equal(back.node_positions(), par.node_positions())
     for bad in (0, -1, 2.5, True, "2", 65):
         with pytest.raises(ValueError, match="force_blocks"):
-            par.force_blocks = bad
+            par.solver.force_blocks = bad
 
 
 @pytest.mark.parametrize("team", [True, False])
@@ -257,12 +257,12 @@ def test_block_copies_are_gathered_over_the_nodes_they_can_write(team):
     from taichi_fdem.verification import fragment_plate_scene
     sim, _ = fragment_plate_scene(h_plate=0.02, h_ball=0.02, friction=0.5)
     sim = sim.scene.build(strategy="parallel")
-    sim.force_blocks = 5
-    sim.team_steps = team
+    sim.solver.force_blocks = 5
+    sim.solver.team_steps = team
     sim.step(300)
-    assert sim.broken_joint_count > 0
-    N, nblk = sim.node_count, 5
-    copies = sim.scratch.asm_force.to_numpy()[: (nblk - 1) * N]
+    assert sim.cracks.broken_count > 0
+    N, nblk = sim.model.node_count, 5
+    copies = sim.solver.scratch.asm_force.to_numpy()[: (nblk - 1) * N]
     assert not np.any(copies)
     ints = sim.state.step_int.to_numpy()
     tri = sim.model.tri_nodes.to_numpy()
@@ -297,7 +297,7 @@ def test_block_zero_range_holds_its_items_and_the_loads():
     sim.step(50)
     ints = sim.state.step_int.to_numpy()
     tri = sim.model.tri_nodes.to_numpy()
-    T, C, nblk = len(tri), int(ints[COUPLES]), sim.force_blocks
+    T, C, nblk = len(tri), int(ints[COUPLES]), sim.solver.force_blocks
     ca = sim.state.couple_a.to_numpy()[:C]
     cb = sim.state.couple_b.to_numpy()[:C]
     hi_c = min(max(int(ints[SPLIT + 1]), 0), C)
@@ -390,13 +390,13 @@ def test_team_steps_give_the_same_bits_as_one_launch_per_step(monkeypatch):
     out = {}
     for team in (True, False):
         sim = _loaded_pair()
-        sim.team_steps = team
+        sim.solver.team_steps = team
         sim.run(0.02, progress=False)
-        assert ("run_steps_blocks" in sim.launches) == team
-        assert ("step_parallel" in sim.launches) != team
+        assert ("run_steps_blocks" in sim.solver.launches) == team
+        assert ("step_parallel" in sim.solver.launches) != team
         out[team] = sim
     a, b = out[True], out[False]
-    assert a.step_count == b.step_count and a.detection_count == b.detection_count > 1
+    assert a.step_count == b.step_count and a.solver.detection_count == b.solver.detection_count > 1
     assert np.array_equal(a.node_positions(), b.node_positions())
     assert np.array_equal(a.node_velocities(), b.node_velocities())
     ea, eb = a.energies(), b.energies()
@@ -423,14 +423,14 @@ def test_team_detects_inside_its_launch_with_the_same_bits(monkeypatch):
         sim.run(0.02, progress=False)
         runs[inside] = sim
     a, b = runs[True], runs[False]
-    assert a.step_count == b.step_count and a.detection_count == b.detection_count >= 3
+    assert a.step_count == b.step_count and a.solver.detection_count == b.solver.detection_count >= 3
     assert np.array_equal(a.couples(), b.couples())
     assert np.array_equal(a.node_positions(), b.node_positions())
     assert np.array_equal(a.node_velocities(), b.node_velocities())
     # the host detected at build, the team every other time
-    assert a.launches["detect_serial"] == 1
-    assert b.launches.get("detect_serial", 0) == 0 and b.launches["detect_fill"] >= b.detection_count - 1
-    assert "detect_fill" not in a.launches
+    assert a.solver.launches["detect_serial"] == 1
+    assert b.solver.launches.get("detect_serial", 0) == 0 and b.solver.launches["detect_fill"] >= b.solver.detection_count - 1
+    assert "detect_fill" not in a.solver.launches
 
 
 def test_team_steps_stop_at_the_unstable_step(monkeypatch):
@@ -445,8 +445,8 @@ def test_team_steps_stop_at_the_unstable_step(monkeypatch):
         scene = fdem.Scene(gravity=(0.0, 0.0))
         scene.add_body(fdem.mesh.rectangle(0.2, 0.1, 0.025), mat, angular_velocity=3.0)
         sim = scene.build(strategy="parallel", dt=None)
-        sim = scene.build(strategy="parallel", dt=4.0 * sim.dt_limit, force_dt=True)
-        sim.team_steps = team
+        sim = scene.build(strategy="parallel", dt=4.0 * sim.model.dt_limit, force_dt=True)
+        sim.solver.team_steps = team
         with pytest.raises(fdem.SimulationError):
             sim.step(5000)
         steps[team] = sim.step_count
@@ -472,19 +472,19 @@ def test_parallel_detection_lists_the_couples_in_the_serial_order(monkeypatch):
             scene.add_body(fdem.mesh.disk(0.05, 0.012), mat, position=(0.1 * i, 0.1 * j),
                            velocity=tuple(rng.normal(0.0, 0.5, 2)))
     sim = scene.build(strategy="parallel")
-    assert sim.tri_count > 10_000
+    assert sim.model.tri_count > 10_000
     sim.step(200)                                 # the disks have moved and met
     set_counter(sim.state.step_real, DACC, DACC_FORCE)
-    launches = dict(sim.launches)
+    launches = dict(sim.solver.launches)
     sim._detect()                                 # the parallel kernels
     par = sim.couples()
-    assert sim.launches["detect_fill"] == launches.get("detect_fill", 0) + 1
-    monkeypatch.setattr(simmod, "DETECT_SERIAL_TRIS", sim.tri_count)
+    assert sim.solver.launches["detect_fill"] == launches.get("detect_fill", 0) + 1
+    monkeypatch.setattr(simmod, "DETECT_SERIAL_TRIS", sim.model.tri_count)
     sim._detect()                                 # one serial launch
     one = sim.couples()
-    assert sim.launches["detect_serial"] == launches.get("detect_serial", 0) + 1
+    assert sim.solver.launches["detect_serial"] == launches.get("detect_serial", 0) + 1
     assert np.array_equal(par, one)
-    sim.strategy = "serial"
+    sim.solver.strategy = "serial"
     set_counter(sim.state.step_real, DACC, DACC_FORCE)
     sim.step(1)                                   # the serial kernel detects from the same positions
     ser = sim.couples()
@@ -494,13 +494,13 @@ def test_parallel_detection_lists_the_couples_in_the_serial_order(monkeypatch):
 def _per_step_reference():
     """The bar under every load, run with one launch per step (no team): the reference bits."""
     sim = _loaded_pair()
-    sim.team_steps = False
+    sim.solver.team_steps = False
     sim.run(0.01, progress=False)
     return sim
 
 
 def _same_bits(a, b):
-    assert a.step_count == b.step_count and a.detection_count == b.detection_count > 1
+    assert a.step_count == b.step_count and a.solver.detection_count == b.solver.detection_count > 1
     assert np.array_equal(a.node_positions(), b.node_positions())
     assert np.array_equal(a.node_velocities(), b.node_velocities())
 
@@ -512,11 +512,11 @@ def test_a_team_with_more_workers_than_threads_finishes_with_the_same_bits(monke
     import taichi_fdem.sim.simulation as simmod
     monkeypatch.setattr(simmod.Simulation, "_team_size", lambda self: 8)
     ref = _loaded_pair()
-    ref.force_blocks = 8
-    ref.team_steps = False
+    ref.solver.force_blocks = 8
+    ref.solver.team_steps = False
     ref.run(0.01, progress=False)
     sim = _loaded_pair()
-    sim.force_blocks = 8
+    sim.solver.force_blocks = 8
     seen = []
     launch = sim._launch_cached
 
@@ -544,7 +544,7 @@ out = {}
 for team in (True, False):
     Simulation._team_size = lambda self: 2       # a team of 2 on 1 usable core
     sim = _loaded_pair()
-    sim.team_steps = team
+    sim.solver.team_steps = team
     seen = []
     launch = sim._launch_cached
     def spy(name, kernel, *args, launch=launch, seen=seen):
@@ -556,7 +556,7 @@ for team in (True, False):
     out[team] = (sim, seen)
 (a, seen), (b, _) = out[True], out[False]
 print(json.dumps({"workers": max(seen), "steps": [a.step_count, b.step_count],
-                  "detections": [a.detection_count, b.detection_count],
+                  "detections": [a.solver.detection_count, b.solver.detection_count],
                   "same": bool(np.array_equal(a.node_positions(), b.node_positions())
                                and np.array_equal(a.node_velocities(), b.node_velocities())),
                   "team": a.info()["team"]}))
@@ -697,7 +697,7 @@ def _block_fixed_costs(sim, nblk) -> np.ndarray:
     """Brute-force reference of ``engine.blocks.block_fixed_cost``: each block's triangles and
     joints (ranges by count), a joint costing as intact, damaged or broken."""
     from taichi_fdem.engine.groups import COST_BROKEN, COST_JOINT, COST_JOINT_DAMAGED, COST_TRI
-    T, J = sim.tri_count, sim.model.joint_count
+    T, J = sim.model.tri_count, sim.model.joint_count
     state = sim.state.joint_state.to_numpy()
     damaged = (sim.state.joint_dmax.to_numpy() > 0.0).any(1)
     jc = np.where(state != 0, COST_BROKEN, np.where(damaged, COST_JOINT_DAMAGED, COST_JOINT))
@@ -717,9 +717,9 @@ def test_block_couple_ranges_follow_the_estimated_cost():
     from taichi_fdem.verification import fragment_plate_scene
     sim, _ = fragment_plate_scene(h_plate=0.012, h_ball=0.02, friction=0.5)
     sim = sim.scene.build(strategy="parallel")
-    sim.force_blocks = 3
+    sim.solver.force_blocks = 3
     sim.step(250)                              # the first joints break under the disc
-    assert sim.broken_joint_count > 0
+    assert sim.cracks.broken_count > 0
     cost = _couple_costs(sim)                  # at the state the next step starts from
     fixed = _block_fixed_costs(sim, 3)
     set_counter(sim.state.step_int, REBALANCE, 0)
@@ -740,7 +740,7 @@ def test_block_couple_ranges_follow_the_estimated_cost():
 
 
 def test_team_workers_cap_the_team_and_keep_the_bits(monkeypatch):
-    """``Simulation.team_workers`` caps the workers of a team launch (benchmarks/threads.py
+    """``sim.solver.team_workers`` caps the workers of a team launch (benchmarks/threads.py
     compares a team of one with a team of two in one process): the same bits either way, and a
     bad value is refused by name."""
     import taichi_fdem.sim.simulation as simmod
@@ -749,17 +749,17 @@ def test_team_workers_cap_the_team_and_keep_the_bits(monkeypatch):
     out = {}
     for workers in (1, None):
         sim = _loaded_pair()
-        sim.team_workers = workers
-        assert sim.team_workers == workers
-        assert sim._team() == (1 if workers == 1 else min(sim.force_blocks, backend_threads()))
+        sim.solver.team_workers = workers
+        assert sim.solver.team_workers == workers
+        assert sim._team() == (1 if workers == 1 else min(sim.solver.force_blocks, backend_threads()))
         sim.run(0.01, progress=False)
-        assert "run_steps_blocks" in sim.launches
+        assert "run_steps_blocks" in sim.solver.launches
         out[workers] = sim
     assert np.array_equal(out[1].node_positions(), out[None].node_positions())
     assert np.array_equal(out[1].node_velocities(), out[None].node_velocities())
     for bad in (0, -1, 1.5, True, "2"):
         with pytest.raises(ValueError, match="team_workers"):
-            out[1].team_workers = bad
+            out[1].solver.team_workers = bad
 
 
 def backend_threads():

@@ -92,7 +92,7 @@ def run(name: str, strategy: str) -> dict:
         sim.step(amount)
     e = sim.energies()
     out = {"x": sim.node_positions(), "v": sim.node_velocities(), "time": np.float64(sim.time),
-           "broken": np.int64(sim.broken_joint_count), "couples": np.int64(sim.couple_count),
+           "broken": np.int64(sim.cracks.broken_count), "couples": np.int64(sim.solver.couple_count),
            "energies": np.array([e[k] for k in sorted(e)], np.float64)}
     return out
 

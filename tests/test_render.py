@@ -504,7 +504,7 @@ def test_tri_scalars_uniaxial_stretch_analytic():
     sxx, syy = _hooke_finite(mat.young, mat.poisson, "stress", e)
     vm_exact = math.sqrt(sxx * sxx - sxx * syy + syy * syy)
     vm = r.tri_scalars(sim, "von_mises")
-    assert vm.shape == (sim.tri_count,)
+    assert vm.shape == (sim.model.tri_count,)
     assert np.allclose(vm, vm_exact, rtol=1e-9)
     T = sim.stresses()
     assert np.allclose(T[:, 0, 0], sxx, rtol=1e-9) and np.allclose(T[:, 1, 1], syy, rtol=1e-9)
@@ -826,7 +826,7 @@ def _fluid_sim(p_left):
 
 def test_fluid_pressure_colours_the_network_by_its_pressure():
     """Every pixel on the crack takes the colour map of the pressure at its x, interpolated
-    linearly between the network nodes' pressures (sim.fluid_pressures(), a field the engine
+    linearly between the network nodes' pressures (sim.fluid.pressures(), a field the engine
     computed, not a uniform one); a dry crack is drawn at the colour of 0 Pa; the solid away from
     the crack is the grey of SOLID_UNDER_FLUID in both."""
     from taichi_fdem.render.colors import SOLID_UNDER_FLUID
@@ -834,7 +834,7 @@ def test_fluid_pressure_colours_the_network_by_its_pressure():
     kw = dict(view=(-0.2, 0.2, -0.1, 0.1), color_by="fluid_pressure", vmin=0.0, vmax=P, colorbar=False,
               stamp=False, draw_edges=False, crack_width=3.0)
     wet, dry = _fluid_sim(P), _fluid_sim(None)
-    pos, p = wet.fluid_pressures()
+    pos, p = wet.fluid.pressures()
     order = np.argsort(pos[:, 0])
     assert 0.2 * P < np.interp(0.0, pos[order, 0], p[order]) < 0.8 * P     # a graded field
     r = render.RendererImage(160, 80, **kw)
@@ -861,7 +861,7 @@ def test_fluid_pressure_mode_range_bar_and_errors():
     wet = _fluid_sim(P)
     r = render.RendererImage(96, 48, color_by="fluid_pressure")
     r.render_sim(wet)
-    p = wet.fluid_pressures()[1]
+    p = wet.fluid.pressures()[1]
     assert r.last_range == pytest.approx((p.min(), p.max()), rel=1e-12, abs=1e-9)
     assert r.last_range[1] == pytest.approx(P, rel=1e-9)
     import taichi_fdem as fdem

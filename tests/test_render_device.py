@@ -21,9 +21,9 @@ def _plate(fracture=True):
 
 def test_damage_frame_equals_tri_damage():
     """The damage mode's scalars (a kernel over each triangle's joints) equal the host's
-    ``sim.tri_damage()`` (np.maximum.at over the joints), for a random damage and broken set."""
+    ``sim.cracks.tri_damage()`` (np.maximum.at over the joints), for a random damage and broken set."""
     sim = _plate()
-    nj = sim.joint_count
+    nj = sim.model.joint_count
     assert nj > 10
     rng = np.random.default_rng(3)
     st = sim.state
@@ -33,7 +33,7 @@ def test_damage_frame_equals_tri_damage():
     js = st.joint_state.to_numpy()
     js[:nj] = rng.uniform(size=nj) < 0.2
     st.joint_state.from_numpy(js)
-    ref = sim.tri_damage()
+    ref = sim.cracks.tri_damage()
     assert ref.max() == 1.0 and 0.0 < ref.min() < 1.0
     r = render.RendererImage(64, 32, color_by="damage", stamp=False, colorbar=False)
     r.render_sim(sim)

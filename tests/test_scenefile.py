@@ -78,7 +78,7 @@ def test_examples_load_and_build():
     for name in ("two_disks", "pile_small", "sliding_block"):
         spec = scenefile.load(os.path.join(EXAMPLES, f"{name}.toml"))
         sim, settings = spec.build()
-        assert sim.tri_count > 0 and settings.duration > 0
+        assert sim.model.tri_count > 0 and settings.duration > 0
         assert [b.name for b in sim.bodies] == spec.body_names
     spec = scenefile.load(os.path.join(EXAMPLES, "two_disks.toml"))
     sim, settings = spec.build()
@@ -107,7 +107,7 @@ def test_base_scene_values(tmp_path):
     # the block's centroid is placed at (0, 0.05) m
     assert np.allclose(block.mesh.centroid, [0.0, 0.05])
     assert np.allclose(sim.node_velocities(block), [1.0, 0.0])
-    assert sim.friction
+    assert sim.model.friction
 
 
 def test_run_settings_run(tmp_path):

@@ -48,16 +48,16 @@ def test_dt_is_checked_against_the_stable_limit():
     with pytest.raises(TypeError, match="number"):
         sim.dt = "fast"
     with pytest.raises(ValueError, match="stable limit.*force_dt"):
-        sim.dt = 2 * sim.dt_limit
+        sim.dt = 2 * sim.model.dt_limit
     assert sim.dt == dt and sim.model.step_dt[None] == dt            # a refused value changes nothing
-    forced = _falling_disk(dt=0.5 * sim.dt_limit, force_dt=True)
-    forced.dt = 2 * forced.dt_limit                                   # built with force_dt: accepted
-    assert forced.model.step_dt[None] == 2 * forced.dt_limit
+    forced = _falling_disk(dt=0.5 * sim.model.dt_limit, force_dt=True)
+    forced.dt = 2 * forced.model.dt_limit                                   # built with force_dt: accepted
+    assert forced.model.step_dt[None] == 2 * forced.model.dt_limit
 
 
 def test_model_values_are_read_only_and_other_names_raise():
     sim = _falling_disk()
-    assert (sim.tri_count, sim.node_count, sim.dt_limit) == (sim.model.tri_count, sim.model.node_count,
+    assert (sim.model.tri_count, sim.model.node_count, sim.model.dt_limit) == (sim.model.tri_count, sim.model.node_count,
                                                              sim.model.dt_limit)
     for name in ("tri_count", "buffer", "contact", "dt_limit"):
         with pytest.raises(AttributeError):

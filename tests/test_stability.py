@@ -17,18 +17,18 @@ SUITE = S.suite(quick=True)
 @pytest.mark.parametrize("item", SUITE, ids=[f"{g}-{p}".replace(" ", "_") for g, p, _ in SUITE])
 def test_stress_scenario(item):
     """Default settings (automatic dt, safety 0.2): stable, no inverted element, penetration
-    below 10 % of the element size.  Forced steps: up to 2 × sim.dt_limit stable (the limit
+    below 10 % of the element size.  Forced steps: up to 2 × sim.model.dt_limit stable (the limit
     keeps a margin of 2: it takes 0.4 of the book's contact estimate); 4 × the limit stopped
     within 100 steps with a cause and a suggested step below the limit."""
     group, param, make = item
     sim, duration, _ = make()
     r = S.stress_run(sim, duration)
-    ratio = sim.dt / sim.dt_limit
+    ratio = sim.dt / sim.model.dt_limit
     if ratio > 2.0 + 1e-9:
         assert not r["stable"], r
         assert r["kind"] in ("non-finite", "inverted", "speed", "energy"), r
         assert 5 <= r["step"] <= 100, r
-        assert 0 < r["suggested_dt"] < sim.dt_limit
+        assert 0 < r["suggested_dt"] < sim.model.dt_limit
         return
     assert r["stable"], r
     assert not r["inverted"], r
@@ -61,7 +61,7 @@ def test_unstable_run_stops_with_diagnosis_and_keeps_the_last_good_state(tmp_pat
     assert e.cause and 5 <= e.step <= 100
     assert f"step {e.step}" in str(e) and "Suggested time step" in str(e)
     assert e.time == pytest.approx(e.step * sim.dt)
-    assert 0 < e.suggested_dt < sim.dt_limit
+    assert 0 < e.suggested_dt < sim.model.dt_limit
     step = sim.restore_last_good()
     assert step < e.step and sim.step_count == step
     assert np.isfinite(sim.node_positions()).all() and np.isfinite(sim.node_velocities()).all()
@@ -156,7 +156,7 @@ def test_energy_drift_of_conservative_runs_is_bounded(scenario, bound):
         sim, duration, _ = S.scenario_disks(speed=2.0, offset=0.02)
     else:
         sim, duration, _ = S.scenario_spin(rim_fraction=0.3)
-    assert not (sim.damping or sim.friction or sim.contact_damping)
+    assert not (sim.model.damping or sim.model.friction or sim.model.contact_damping)
     r = S.stress_run(sim, duration)
     assert r["stable"]
     assert r["energy_drift"] < bound, r

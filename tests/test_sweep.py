@@ -40,7 +40,7 @@ def base_block(params):
                    name="block")
     safety = g["solver"].get("safety", 0.2)
     if safety > 1.0:                              # an unstable point: dt above the stable limit
-        limit = scene.build().dt_limit
+        limit = scene.build().model.dt_limit
         return scene.build(dt=safety * limit, force_dt=True), DURATION
     return scene                                  # built by the sweep with the solver.* values
 

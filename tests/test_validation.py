@@ -162,7 +162,7 @@ def test_fix_nodes_selecting_nothing_raises():
 def test_dt_above_stable_limit_raises_unless_forced():
     scene = fdem.Scene()
     scene.add_body(fdem.mesh.rectangle(1, 1, 0.25), MAT)
-    limit = scene.build().dt_limit
+    limit = scene.build().model.dt_limit
     assert scene.build().dt == pytest.approx(0.2 * scene.build().model.dt_estimate, rel=1e-12)   # default safety 0.2
     with pytest.raises(ValueError, match="stable limit"):
         scene.build(dt=2.0 * limit)
@@ -184,16 +184,16 @@ def test_stable_limit_follows_the_spec_formula():
     scene = fdem.Scene()
     scene.add_body(mesh, MAT)
     assert scene.build().model.dt_estimate == pytest.approx(h_min / cp, rel=1e-12)
-    assert scene.build().dt_limit == pytest.approx(h_min / cp, rel=1e-12)
+    assert scene.build().model.dt_limit == pytest.approx(h_min / cp, rel=1e-12)
     scene.add_body(mesh, MAT, position=(0.0, 2.0))
     p = 10.0 * E                                                            # default penalty 10 E
     assert scene.build().model.dt_estimate == pytest.approx(h_min * math.sqrt(rho / p), rel=1e-12)
-    assert scene.build().dt_limit == pytest.approx(0.4 * h_min * math.sqrt(rho / p), rel=1e-12)
+    assert scene.build().model.dt_limit == pytest.approx(0.4 * h_min * math.sqrt(rho / p), rel=1e-12)
     # damping ratio ξ lowers the limits by √(1+ξ²) − ξ (elements: β; contact: ξ of §5.2)
     damped = fdem.Scene()
     damped.add_body(mesh, MAT.with_(damping=0.5))
     assert damped.build().model.dt_estimate == pytest.approx(h_min / cp * (math.sqrt(1.25) - 0.5), rel=1e-12)
-    assert damped.build().dt_limit < damped.build().model.dt_estimate      # damping rated on h_eq ≥ h_min
+    assert damped.build().model.dt_limit < damped.build().model.dt_estimate      # damping rated on h_eq ≥ h_min
     cdamped = fdem.Scene()
     cdamped.add_body(mesh, MAT.with_(contact_damping=0.5))
     cdamped.add_body(mesh, MAT.with_(contact_damping=0.5), position=(0.0, 2.0))
@@ -221,7 +221,7 @@ def test_forced_huge_dt_raises_simulation_error(strategy):
     scene = fdem.Scene(gravity=(0.0, 0.0))
     scene.add_body(fdem.mesh.rectangle(1, 0.5, 0.25), MAT, angular_velocity=1.0, velocity=(0.1, 0.0))
     probe = scene.build()
-    sim = scene.build(dt=5.0 * probe.dt_limit, force_dt=True, strategy=strategy)
+    sim = scene.build(dt=5.0 * probe.model.dt_limit, force_dt=True, strategy=strategy)
     with pytest.raises(fdem.SimulationError) as err:
         sim.step(300)
     e = err.value
@@ -229,7 +229,7 @@ def test_forced_huge_dt_raises_simulation_error(strategy):
     assert e.step == sim.step_count
     assert e.time == pytest.approx(e.step * sim.dt)
     assert f"step {e.step}" in str(e)
-    assert 0 < e.suggested_dt < sim.dt_limit
+    assert 0 < e.suggested_dt < sim.model.dt_limit
     assert e.cause
 
 

@@ -135,7 +135,7 @@ TeamGroup = _group(*TEAM_MEMBERS)
 # into its own copy of the nodal forces.  Contiguous ranges keep a block's nodes in its core's
 # cache (dealing granules of 512 items round-robin, as before, made every core read and write
 # every node each step: 1.2× slower on the 1k pile, 1.06× on the 100k pile on 2 threads).  The
-# number of blocks is a property of the simulation (``Simulation.force_blocks``, FORCE_BLOCKS by
+# number of blocks is a property of the simulation (``sim.solver.force_blocks``, FORCE_BLOCKS by
 # default), not the thread count, and the couple ranges a function of the state, so that the
 # sums, and the results, are the same bits for any number of threads; at most that many threads
 # share the force work.

@@ -25,7 +25,7 @@ both strategies:
   ``node_f`` directly.
 * **parallel** (larger scenes on several cores, GPUs): no atomic float add on the forces.
   (a) Forces: on the CPU, the **block assembly** (:func:`phase_blocks`): triangles, joints and
-  couples are dealt in granules to a fixed number of blocks (``Simulation.force_blocks``),
+  couples are dealt in granules to a fixed number of blocks (``sim.solver.force_blocks``),
   block 0 adding into ``node_f`` and every other block into its own copy of the nodal forces;
   on GPUs the **slot assembly** (:func:`phase_slots`): every triangle, joint and couple writes
   its nodal forces into its own slots.  (b) Every node adds its block copies in block order,

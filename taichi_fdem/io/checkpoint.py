@@ -57,7 +57,8 @@ FORMAT_VERSION = 2
 
 # attributes of the simulation rebuilt by load() rather than stored: the scene (stored on its
 # own), what build() derives from it, the state (stored array by array) and the argpacks
-_REBUILT = frozenset({"scene", "bodies", "thickness", "model", "state", "scratch", "_packs", "_groups",
+_REBUILT = frozenset({"scene", "bodies", "thickness", "model", "state", "scratch", "_scratch", "_packs", "_groups",
+                      "solver", "cracks", "fluid", "loads",
                       "_launch_cache", "_teams"})     # (the team's timings belong to this process)
 
 
@@ -141,7 +142,7 @@ def _scene_bundle(sim) -> dict:
 
     scene = copy.copy(sim.scene)
     scene.bodies = list(sim.bodies)
-    scene._node_count, scene._tri_count = sim.node_count, sim.tri_count
+    scene._node_count, scene._tri_count = sim.model.node_count, sim.model.tri_count
     X = np.asarray(sim.model.node_rest, dtype=np.float64)
     constraints = []
     for k, con in enumerate(sim.scene._constraints):

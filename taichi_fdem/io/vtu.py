@@ -22,7 +22,7 @@ point data
     ``displacement`` x − X [m] and ``velocity`` [m/s], 3 components (z = 0, so that ParaView
     treats them as vectors); ``body_id`` (int32); with a fluid in the fracture network
     (``scene.set_fluid``), ``fluid_pressure`` [Pa]: on the face nodes of the network's edges,
-    the pressure of their network node (0 elsewhere; ``Simulation.node_fluid_pressures``).
+    the pressure of their network node (0 elsewhere; ``sim.fluid.node_pressures``).
 cell data
     ``stress``: elastic Cauchy stress [Pa] as 3 components (σ_xx, σ_yy, σ_xy), from
     :meth:`Simulation.stresses` (without the viscous part);
@@ -30,8 +30,7 @@ cell data
     σ_zz = 0 in plane stress and σ_zz = ν(σ_xx + σ_yy) in plane strain (as the renderer);
     ``strain``: Green–Lagrange strain E = ½(FᵀF − I) (dimensionless) as 3 tensor components (E_xx, E_yy, E_xy) — not engineering shear; it equals the small strain
     sym(∇u) to first order; ``body_id`` and ``material_id`` (int32); ``damage`` in [0, 1]
-    (the simulation's ``tri_damage()`` — or ``tri_damage`` array — when it has one, zeros
-    otherwise).  Triangles removed by an excavation (``sim.remove``) are not written.
+    (``sim.cracks.tri_damage()``: zeros for bodies without joints).  Triangles removed by an excavation (``sim.remove``) are not written.
 
 Cracks: :func:`write_cracks_vtu` writes the broken joints as a separate VTU file of line cells
 (their current midlines) with the crack events' data (time, mode, energy, length, set).
@@ -67,7 +66,7 @@ def frame_fields(sim) -> dict:
     """
     x = sim.node_positions()
     tris = np.asarray(sim.model.tri_nodes_np, dtype=np.int64)
-    node_body = np.zeros(sim.node_count, dtype=np.int32)
+    node_body = np.zeros(sim.model.node_count, dtype=np.int32)
     for b in sim.bodies:                       # one slice per body, not per node
         node_body[b.nodes] = b.index
 
@@ -86,15 +85,10 @@ def frame_fields(sim) -> dict:
     F = Fx @ _to_numpy(sim.model.tri_rest_inv).astype(np.float64)
     E = 0.5 * (F.transpose(0, 2, 1) @ F - np.eye(2))
 
-    damage = getattr(sim, "tri_damage", None)
-    if callable(damage):                       # Simulation.tri_damage() of the joint / fracture model
-        damage = damage()
-    if damage is None:
-        damage = np.zeros(sim.tri_count)
-    else:
-        damage = _to_numpy(damage).astype(np.float64).reshape(-1)
-        if damage.shape != (sim.tri_count,):
-            raise ValueError(f"ExporterVtu: sim.tri_damage has {damage.size} values for {sim.tri_count} triangles")
+    damage = _to_numpy(sim.cracks.tri_damage()).astype(np.float64).reshape(-1)
+    if damage.shape != (sim.model.tri_count,):
+        raise ValueError(f"ExporterVtu: sim.cracks.tri_damage() has {damage.size} values for {sim.model.tri_count} "
+                         f"triangles")
 
     cells = {"stress": np.stack([sxx, syy, sxy], axis=1), "von_mises": von_mises,
              "strain": np.stack([E[:, 0, 0], E[:, 1, 1], 0.5 * (E[:, 0, 1] + E[:, 1, 0])], axis=1),
@@ -109,7 +103,7 @@ def frame_fields(sim) -> dict:
             cells = {k: v[keep] for k, v in cells.items()}
     point = {"displacement": sim.node_displacements(), "velocity": sim.node_velocities(), "body_id": node_body}
     if getattr(getattr(sim, "model", None), "fluid", False):
-        point["fluid_pressure"] = sim.node_fluid_pressures()
+        point["fluid_pressure"] = sim.fluid.node_pressures()
     return {"points": x, "triangles": tris, "point_data": point, "cell_data": cells}
 
 
@@ -278,8 +272,8 @@ class VTU(Recorder):
 def write_cracks_vtu(path, sim, binary: bool = True) -> str:
     """Write the broken joints of ``sim`` as VTU polylines; returns the path.
 
-    One ``line`` cell per broken joint, in the order of ``sim.crack_events()``: from
-    ½(x_j0 + x_j3) to ½(x_j1 + x_j2) at the current node positions (``sim.crack_segments()``;
+    One ``line`` cell per broken joint, in the order of ``sim.cracks.events()``: from
+    ½(x_j0 + x_j3) to ½(x_j1 + x_j2) at the current node positions (``sim.cracks.segments()``;
     two points per cell, z = 0).  Cell data: ``joint`` (int32, its index), ``time`` [s] of
     breakage, ``mode`` (int32: 1 = I, 2 = II, 3 = I+II, 4 = mixed), ``energy`` [J] released,
     ``length`` [m] (initial, L0) and ``set`` (int32 joint-set index).  With no broken joint the
@@ -290,8 +284,8 @@ def write_cracks_vtu(path, sim, binary: bool = True) -> str:
     path = os.fspath(path)
     if not path.endswith(".vtu"):
         raise ValueError(f"write_cracks_vtu: path must end with .vtu, got {path!r}")
-    ev = sim.crack_events()
-    seg = np.asarray(sim.crack_segments(), dtype=np.float64).reshape(-1, 4)
+    ev = sim.cracks.events()
+    seg = np.asarray(sim.cracks.segments(), dtype=np.float64).reshape(-1, 4)
     k = len(seg)
     points = _pad3(seg.reshape(2 * k, 2))
     lines = np.arange(2 * k, dtype=np.int64).reshape(k, 2)
@@ -315,7 +309,7 @@ def write_cracks_vtu(path, sim, binary: bool = True) -> str:
 
 
 def write_ae_vtu(path, ae: dict, binary: bool = True) -> str:
-    """Write acoustic-emission events (``sim.ae_events()`` or :func:`taichi_fdem.sim.ae.ae_events`)
+    """Write acoustic-emission events (``sim.cracks.ae_events()`` or :func:`taichi_fdem.sim.ae.ae_events`)
     as VTU points; returns the path.
 
     One ``vertex`` cell per AE event at its location (z = 0).  Cell and point data: ``time`` [s],

@@ -22,8 +22,9 @@ kinetic/strain energy ratio at half the peak is reported (``kinetic_ratio``) and
 """
 from .tensile import brazilian
 from .compressive import compression, triaxial, ucs
-from .results import JOINT_PENALTY_FACTOR, MAX_KINETIC_RATIO, MIN_TRANSITS, Envelope, LabResult, elastic_constants, fit_envelope
+from .results import COMPRESSION_JOINT_PENALTY_FACTOR, JOINT_PENALTY_FACTOR, MAX_KINETIC_RATIO, MIN_TRANSITS, Envelope, LabResult, elastic_constants, fit_envelope
 from .shear import direct_shear
 
 __all__ = ["ucs", "triaxial", "compression", "brazilian", "direct_shear", "fit_envelope", "Envelope", "LabResult",
-           "elastic_constants", "MIN_TRANSITS", "MAX_KINETIC_RATIO", "JOINT_PENALTY_FACTOR"]
+           "elastic_constants", "MIN_TRANSITS", "MAX_KINETIC_RATIO", "JOINT_PENALTY_FACTOR",
+           "COMPRESSION_JOINT_PENALTY_FACTOR"]

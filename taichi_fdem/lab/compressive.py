@@ -13,7 +13,7 @@ from ..scene import Curve
 from ..sim.recorders import Checks, History
 from .specimens import axial_record, check_joint_sets, jointed_specimen_mesh, mohr_coulomb_peak, platen_scene
 from ..scene import quasi_static_alpha
-from .results import (JOINT_PENALTY_FACTOR, LabResult, check_keyword, check_rate, convergence, elastic_constants,
+from .results import (COMPRESSION_JOINT_PENALTY_FACTOR, LabResult, check_keyword, check_rate, convergence, elastic_constants,
                       lab_materials, specimen_kinetic, warn_kinetic)
 
 
@@ -67,9 +67,10 @@ def compression(material, width: float, height: float, h: float, confinement: fl
     :func:`~taichi_fdem.mesh.voronoi_grains` specimen.  ``mesh``: the specimen's TriMesh centred on the origin (default: the
     triangular lattice of ``verification.jointed_specimen_mesh`` with fracture, else
     ``mesh.rectangle``).  The joint penalty, where the material leaves it unset, is
-    ``penalty_factor`` × E (default :data:`~taichi_fdem.lab.results.JOINT_PENALTY_FACTOR` =
-    50: the jointed specimen's E and ν then match the material's; the material given is not
-    changed, the test builds on a copy).  What the test chose (local damping α, loading rate,
+    ``penalty_factor`` × E (default
+    :data:`~taichi_fdem.lab.results.COMPRESSION_JOINT_PENALTY_FACTOR` = 200: the jointed
+    specimen's E and ν then match the material's to 3 % below 30 % of the peak; the material
+    given is not changed, the test builds on a copy).  What the test chose (local damping α, loading rate,
     time-step safety, joint penalty and whether it was raised above the Material default,
     platens) is in ``result.settings``.
 
@@ -99,7 +100,7 @@ def compression(material, width: float, height: float, h: float, confinement: fl
     if reruns and mesh is not None and "mesh" in reruns:
         raise ValueError(f"{where}: check='mesh' needs the default mesh (mesh=None): a given mesh cannot be refined here")
     fracture = first.can_fracture if fracture is None else fracture
-    factor = JOINT_PENALTY_FACTOR if penalty_factor is None else penalty_factor
+    factor = COMPRESSION_JOINT_PENALTY_FACTOR if penalty_factor is None else penalty_factor
     pf, raised = math.nan, False
     if fracture:
         material, pf, raised = lab_materials(material, factor, where)
@@ -178,7 +179,7 @@ def compression(material, width: float, height: float, h: float, confinement: fl
     warn_kinetic(kinetic_ratio, where)
     summary = dict(peak_stress=float(sig[k]), peak_strain=float(eps[k]), young=young, poisson=poisson,
                    young_initial=young0, poisson_initial=poisson0, plane_modulus=e_p, plane_poisson=nu_p, confinement=float(confinement), peak_mc=peak_mc,
-                   broken=sim.broken_joint_count, kinetic_ratio=kinetic_ratio, rate_transits=float(rate_transits),
+                   broken=sim.cracks.broken_count, kinetic_ratio=kinetic_ratio, rate_transits=float(rate_transits),
                    strain_rate=float(rate), wall=wall, build=build, steps=sim.step_count, dt=sim.dt)
     curve = dict(time_s=times, axial_strain=eps, axial_stress_Pa=sig, lateral_strain=lat)
     settings = dict(quasi_static=quasi_static_alpha(quasi_static), damping=float(first.damping),

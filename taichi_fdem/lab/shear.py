@@ -140,6 +140,6 @@ def direct_shear(material, width: float, height: float, h: float, normal_stress:
                    dilation=float(dil[-1] - dil[np.flatnonzero(shear)[0]]), kinetic_ratio=kinetic_ratio,
                    wall=wall, steps=sim.step_count, dt=sim.dt)
     if joint:
-        summary.update(peak_mc=float(peak_mc), broken=sim.broken_joint_count)
+        summary.update(peak_mc=float(peak_mc), broken=sim.cracks.broken_count)
     curve = dict(time_s=t, shear_displacement_m=d, shear_stress_Pa=tau, normal_stress_Pa=sn, dilation_m=dil)
     return LabResult("direct_shear", curve, summary, sim=sim, bodies=(upper, lower), material=material)

@@ -29,7 +29,7 @@ COLOR_MODES = {
     "von_mises": (2, "von Mises  stress [Pa]"),
     "max_principal": (3, "max principal  stress [Pa]"),
     "min_principal": (4, "min principal  stress [Pa]"),
-    "damage": (-1, "damage"),       # Simulation.tri_damage() (joint model), range [0, 1]
+    "damage": (-1, "damage"),       # sim.cracks.tri_damage() (joint model), range [0, 1]
     # the network edges coloured by the fluid pressure over a grey solid (scenes with a fluid)
     "fluid_pressure": (-2, "fluid  pressure [Pa]"),
 }

@@ -444,7 +444,7 @@ def _drawn_tris_kernel(tri: ti.types.ndarray(), intact: ti.types.ndarray(), out:
 @ti.kernel
 def _tri_damage_kernel(start: ti.types.ndarray(), joints: ti.types.ndarray(), dmax: ti.types.ndarray(),
                        state: ti.types.ndarray(), out: ti.types.ndarray()):
-    """Per-triangle damage (as ``Simulation.tri_damage``): the largest damage of the triangle's
+    """Per-triangle damage (as ``sim.cracks.tri_damage``): the largest damage of the triangle's
     joints joints[start[t]:start[t + 1]], a joint's damage being the largest of its dmax, 1 once
     broken (state != 0); 0 for a triangle without joints.  One thread per triangle, no atomics."""
     for t in range(out.shape[0]):

@@ -399,15 +399,15 @@ class RendererImage(_Overlays):
             raise ValueError(f"tri_scalars: color_by={mode!r} is not a scalar mode")
         if kid == -2:
             raise ValueError("tri_scalars: 'fluid_pressure' colours the fracture network, not the triangles "
-                             "(sim.fluid_pressures() gives the network's pressures)")
+                             "(sim.fluid.pressures() gives the network's pressures)")
         if kid < 0:      # "damage"
-            return np.asarray(sim.tri_damage(), dtype=np.float64)
+            return np.asarray(sim.cracks.tri_damage(), dtype=np.float64)
         backend.ensure_init()
         consts = self._sim_consts(sim)
         x0 = self._rest_positions(sim, consts)
         out = consts.get("scalars")
         if out is None:
-            out = ti.ndarray(dtype=sim.state.node_x.dtype, shape=(sim.tri_count,))
+            out = ti.ndarray(dtype=sim.state.node_x.dtype, shape=(sim.model.tri_count,))
             consts["scalars"] = out
         _tri_scalar_kernel(sim.state.node_x, sim.state.node_v, x0, sim.model.tri_nodes, sim.model.tri_rest_inv, sim.model.tri_mat,
                            sim.model.mat_mu, sim.model.mat_lam, int(kid), out)
@@ -418,7 +418,7 @@ class RendererImage(_Overlays):
         """The simulation's rest positions X [m] as an ndarray, cached per simulation."""
         x0 = consts.get("x0")
         if x0 is None:
-            x0 = ti.Vector.ndarray(2, sim.state.node_x.dtype, shape=(sim.node_count,))
+            x0 = ti.Vector.ndarray(2, sim.state.node_x.dtype, shape=(sim.model.node_count,))
             x0.from_numpy(np.ascontiguousarray(sim.model.node_rest, dtype=_np_dtype(sim.state.node_x.dtype)))
             consts["x0"] = x0
         return x0
@@ -431,7 +431,7 @@ class RendererImage(_Overlays):
             return sim.model.tri_nodes
         nd = consts.get("drawn_triangles")
         if nd is None:
-            nd = consts["drawn_triangles"] = ti.Vector.ndarray(3, ti.i32, shape=(sim.tri_count,))
+            nd = consts["drawn_triangles"] = ti.Vector.ndarray(3, ti.i32, shape=(sim.model.tri_count,))
         _drawn_tris_kernel(sim.model.tri_nodes, intact, nd)
         return nd
 
@@ -444,10 +444,10 @@ class RendererImage(_Overlays):
             jt = np.asarray(sim.model.joint_tris_np, dtype=np.int64).reshape(-1, 2)
             tri_of = jt.reshape(-1)
             order = np.argsort(tri_of, kind="stable")
-            counts = np.bincount(tri_of, minlength=sim.tri_count)
+            counts = np.bincount(tri_of, minlength=sim.model.tri_count)
             start_np = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
             joints_np = (order // 2).astype(np.int32) if len(order) else np.zeros(1, np.int32)
-            start = ti.ndarray(dtype=ti.i32, shape=(sim.tri_count + 1,))
+            start = ti.ndarray(dtype=ti.i32, shape=(sim.model.tri_count + 1,))
             start.from_numpy(start_np)
             joints = ti.ndarray(dtype=ti.i32, shape=(len(joints_np),))
             joints.from_numpy(joints_np)
@@ -461,17 +461,17 @@ class RendererImage(_Overlays):
         x0 = self._rest_positions(sim, consts)
         scal = consts.get("frame_scalars")
         if scal is None:
-            scal = consts["frame_scalars"] = ti.ndarray(dtype=sim.state.node_x.dtype, shape=(sim.tri_count,))
+            scal = consts["frame_scalars"] = ti.ndarray(dtype=sim.state.node_x.dtype, shape=(sim.model.tri_count,))
         info = self._np_small.get("range")
         if info is None:
             info = self._np_small["range"] = np.zeros(3, dtype=np.float64)
-        if kid < 0:      # "damage": per-triangle joint damage (as sim.tri_damage()), fixed range [0, 1]
-            if getattr(sim, "fracture", False) and int(getattr(sim, "joint_count", 0) or 0):
+        if kid < 0:      # "damage": per-triangle joint damage (as sim.cracks.tri_damage()), fixed range [0, 1]
+            if sim.model.fracture and sim.model.joint_count:
                 start, joints = self._joints_by_triangle(sim, consts)
                 _tri_damage_kernel(start, joints, sim.state.joint_dmax, sim.state.joint_state, scal)
             else:
                 scal.fill(0)
-            info[:] = (0.0, 1.0, sim.tri_count)
+            info[:] = (0.0, 1.0, sim.model.tri_count)
             return scal, info
         _sim_scalar_kernel(sim.state.node_x, sim.state.node_v, x0, sim.model.tri_nodes, sim.model.tri_rest_inv, sim.model.tri_mat,
                            sim.model.mat_mu, sim.model.mat_lam, int(kid), scal, info)
@@ -512,7 +512,7 @@ class RendererImage(_Overlays):
 
     def _draw_cracks(self, sim, img) -> None:
         """The crack overlay (see ``cracks``) into the u8 image, in the view of the last frame."""
-        nj = int(getattr(sim, "joint_count", 0) or 0) if getattr(sim, "fracture", False) else 0
+        nj = int(sim.model.joint_count) if sim.model.fracture else 0
         if nj == 0:
             return
         xmin, xmax, _, ymax = self.last_view
@@ -569,10 +569,10 @@ class RendererImage(_Overlays):
             colors = consts.get(key)
             if colors is None:
                 if kid == -2:
-                    cols = np.broadcast_to(np.asarray(SOLID_UNDER_FLUID, np.float32), (sim.tri_count, 3))
+                    cols = np.broadcast_to(np.asarray(SOLID_UNDER_FLUID, np.float32), (sim.model.tri_count, 3))
                 else:
                     cols = body_colors(sim.model.tri_body_np if mode == "body" else sim.model.tri_mat_np)
-                colors = ti.Vector.ndarray(3, ti.f32, shape=(sim.tri_count,))
+                colors = ti.Vector.ndarray(3, ti.f32, shape=(sim.model.tri_count,))
                 colors.from_numpy(np.ascontiguousarray(cols, dtype=np.float32))
                 consts[key] = colors
             c_nd = colors
@@ -601,7 +601,7 @@ class RendererImage(_Overlays):
             else:
                 c_nd = consts.get("scalar_colors")
                 if c_nd is None:
-                    c_nd = ti.Vector.ndarray(3, ti.f32, shape=(sim.tri_count,))
+                    c_nd = ti.Vector.ndarray(3, ti.f32, shape=(sim.model.tri_count,))
                     consts["scalar_colors"] = c_nd
                 cpos, ctab = self._cmap_nd(self.cmap)
                 _colormap_kernel(scal, np.array([vmin, vmax], dtype=_np_dtype(scal.dtype)), cpos, ctab, c_nd)

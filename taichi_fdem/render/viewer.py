@@ -63,7 +63,7 @@ class Viewer:
         self.sim = sim
         self.renderer = renderer if renderer is not None else RendererImage()
         if steps_per_frame is None:
-            steps_per_frame = sim.steps_per_launch()
+            steps_per_frame = sim.solver.steps_per_launch()
         if isinstance(steps_per_frame, bool) or int(steps_per_frame) != steps_per_frame or steps_per_frame < 1:
             raise ValueError(f"Viewer: steps_per_frame must be an integer >= 1, got {steps_per_frame!r}")
         self.steps_per_frame = int(steps_per_frame)

@@ -116,7 +116,7 @@ def cluster_events(time, x, y, window_time: float, window_distance: float) -> np
 
 def ae_events(events: dict, window_time: float, window_distance: float,
               energy_to_moment: float = ENERGY_TO_MOMENT) -> dict:
-    """AE events of crack events (the dict of ``sim.crack_events()`` or
+    """AE events of crack events (the dict of ``sim.cracks.events()`` or
     ``read_crack_events``: ``time``, ``x``, ``y``, ``energy``, ``mode``), clustered by
     :func:`cluster_events`.
 
@@ -129,7 +129,7 @@ def ae_events(events: dict, window_time: float, window_distance: float,
     e2m = _positive(energy_to_moment, "energy_to_moment", where)
     for k in ("time", "x", "y", "energy", "mode"):
         if k not in events:
-            raise ValueError(f"{where}: the crack events lack {k!r} (give sim.crack_events() or read_crack_events())")
+            raise ValueError(f"{where}: the crack events lack {k!r} (give sim.cracks.events() or read_crack_events())")
     label = cluster_events(events["time"], events["x"], events["y"], window_time, window_distance)
     t = np.asarray(events["time"], np.float64)
     e = np.asarray(events["energy"], np.float64)

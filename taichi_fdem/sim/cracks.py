@@ -1,15 +1,16 @@
-"""Crack and fragment results of a simulation (docs/theory/joints.md §7.8–7.10, §13.4): a mixin of
-:class:`~taichi_fdem.sim.simulation.Simulation` (through :class:`~taichi_fdem.sim.results.SimulationResults`).
+"""Crack and fragment results of a simulation (docs/theory/joints.md §7.8–7.10, §13.4): the
+view ``sim.cracks`` (:class:`Cracks`).
 
-* **Crack events** (:meth:`CrackResults.crack_events`): every broken joint is one event with its
-  time, position, failure mode, released energy (the work done on the joint up to breakage,
-  × the scene thickness), initial length and joint set; :meth:`~CrackResults.write_crack_events`
-  writes them as CSV, :class:`CrackEventLog` streams them during ``Simulation.run(crack_events=...)``
-  and :func:`read_crack_events` reads such a file back.
-* **Fragments** (:meth:`CrackResults.fragments`): triangles are in one fragment when they share
-  a node or are joined by an intact joint; per fragment its initial area, mass and current
-  centroid; :meth:`~CrackResults.fragment_sizes` and :meth:`~CrackResults.fragment_passing` give
-  the size distribution.
+* **Crack events** (:meth:`Cracks.events`): every broken joint is one event with its time,
+  position, failure mode, released energy (the work done on the joint up to breakage, × the
+  scene thickness), initial length and joint set; :meth:`~Cracks.write_events` writes them as
+  CSV, :class:`CrackEventLog` streams them during a run (the
+  :class:`~taichi_fdem.sim.recorders.CrackEvents` recorder) and :func:`read_crack_events`
+  reads such a file back.
+* **Fragments** (:meth:`Cracks.fragments`): triangles are in one fragment when they share a
+  node or are joined by an intact joint; per fragment its initial area, mass and current
+  centroid; :meth:`~Cracks.fragment_sizes` and :meth:`~Cracks.fragment_passing` give the size
+  distribution.
 
 Everything is vectorised NumPy (no Python loop over triangles, nodes or joints).
 """
@@ -24,12 +25,13 @@ from ..engine.groups import BROKEN
 from ..engine.joints import MODE_NAMES
 from .ae import _components
 from .model import counter
+from .views import View
 
-__all__ = ["CrackResults", "CrackEventLog", "read_crack_events", "CSV_COLUMNS"]
+__all__ = ["Cracks", "CrackEventLog", "read_crack_events", "CSV_COLUMNS"]
 
 #: columns of a crack-event CSV file, with the units in their names
 CSV_COLUMNS = ("joint", "time_s", "x_m", "y_m", "mode", "energy_J", "length_m", "set", "pressure_Pa")
-# crack_events() key of each CSV column
+# events() key of each CSV column
 _CSV_KEYS = ("index", "time", "x", "y", "mode", "energy", "length", "set", "pressure")
 _MODE_TABLE = np.array(["?"] + [MODE_NAMES[k] for k in sorted(MODE_NAMES)], dtype=object)
 _MODE_IDS = {name: k for k, name in MODE_NAMES.items()}
@@ -42,16 +44,17 @@ def _empty_events() -> dict:
             "length": f.copy(), "set": np.zeros(0, dtype=object), "set_id": np.zeros(0, np.int32), "pressure": f.copy()}
 
 
-class CrackResults:
-    """Crack events, crack length and fragments of a simulation (NumPy arrays, SI units)."""
+class Cracks(View):
+    """``sim.cracks``: broken joints, crack events, crack length, damage and fragments of a
+    simulation (NumPy arrays, SI units)."""
 
     # ---- constant joint data (the model never changes during a run) --------------------------
     def _joint_consts(self) -> dict:
         """Joint nodes (k, 4), initial lengths L0 (k,) [m], set ids (k,) and set names; cached."""
-        c = self.__dict__.get("_crack_consts")
+        c = self._cache.get("joint_consts")
         if c is not None:
             return c
-        md = self.model
+        md = self._sim.model
         k = int(md.joint_count) if md.fracture else 0
         jn = md.joint_nodes.to_numpy()[:k].astype(np.int64)
         X = np.asarray(md.node_rest, dtype=np.float64)
@@ -65,15 +68,15 @@ class CrackResults:
         if len(sets) != k:
             raise ValueError(f"crack results: model.joint_set_np has {len(sets)} entries for {k} joints")
         c = {"nodes": jn, "length": length, "set_id": sets, "set_names": np.array(list(names), dtype=object)}
-        self.__dict__["_crack_consts"] = c
+        self._cache["joint_consts"] = c
         return c
 
     def _broken_mask(self) -> np.ndarray:
-        k = int(self.model.joint_count) if self.model.fracture else 0
-        return self.state.joint_state.to_numpy()[:k] != 0
+        k = int(self._sim.model.joint_count) if self._sim.model.fracture else 0
+        return self._sim.state.joint_state.to_numpy()[:k] != 0
 
     # ---- crack events --------------------------------------------------------------------------
-    def crack_events(self) -> dict:
+    def events(self) -> dict:
         """The broken joints as crack events, in time order (docs/theory/joints.md §7.8, §13.4).
 
         Returns a dict of NumPy arrays, one entry per event:
@@ -92,7 +95,7 @@ class CrackResults:
 
         Ties in time are in joint order.  Empty arrays for a scene without fracture.
         """
-        if not self.model.fracture or not self.model.joint_count:
+        if not self._sim.model.fracture or not self._sim.model.joint_count:
             return _empty_events()
         broken = self._broken_mask()
         idx = np.nonzero(broken)[0]
@@ -102,12 +105,12 @@ class CrackResults:
         """The events of the broken joints ``idx`` (sorted by time, then index)."""
         if len(idx) == 0:
             return _empty_events()
-        st, c = self.state, self._joint_consts()
+        st, c = self._sim.state, self._joint_consts()
         brk = st.joint_break.to_numpy()[idx].astype(np.float64)
         order = np.lexsort((idx, brk[:, 0]))
         idx, brk = idx[order], brk[order]
         mode_id = st.joint_state.to_numpy()[idx].astype(np.int32)
-        energy = st.joint_work.to_numpy()[idx].astype(np.float64) * self.thickness
+        energy = st.joint_work.to_numpy()[idx].astype(np.float64) * self._sim.thickness
         set_id = c["set_id"][idx]
         pressure = np.where(brk[:, 3] >= 0.0, brk[:, 3], np.nan)
         return {"index": idx.astype(np.int64), "time": brk[:, 0], "x": brk[:, 1], "y": brk[:, 2],
@@ -115,8 +118,8 @@ class CrackResults:
                 "energy": energy, "length": c["length"][idx], "set": c["set_names"][set_id], "set_id": set_id,
                 "pressure": pressure}
 
-    def write_crack_events(self, path) -> str:
-        """Write :meth:`crack_events` as a CSV file (overwritten), columns :data:`CSV_COLUMNS`
+    def write_events(self, path) -> str:
+        """Write :meth:`events` as a CSV file (overwritten), columns :data:`CSV_COLUMNS`
         (``joint, time_s, x_m, y_m, mode, energy_J, length_m, set, pressure_Pa``); returns the path.
 
         Floats are written with ``repr`` (exact round trip, :func:`read_crack_events`)."""
@@ -127,7 +130,7 @@ class CrackResults:
         with open(tmp, "w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow(CSV_COLUMNS)
-            _write_rows(w, self.crack_events())
+            _write_rows(w, self.events())
         os.replace(tmp, path)
         return path
 
@@ -148,11 +151,11 @@ class CrackResults:
             Radiated energy / seismic moment (default 5e-5, Kanamori 1977).
         """
         from . import ae
-        ev = self.crack_events()
+        ev = self.events()
         if window_distance is None:
             window_distance = 2.0 * float(ev["length"].mean()) if len(ev["length"]) else 1.0
         if window_time is None:
-            cp = max(m.p_wave_speed("strain") for m in self.model.materials)
+            cp = max(m.p_wave_speed("strain") for m in self._sim.model.materials)
             window_time = float(window_distance) / cp
         return ae.ae_events(ev, window_time, window_distance,
                             ae.ENERGY_TO_MOMENT if energy_to_moment is None else energy_to_moment)
@@ -163,27 +166,68 @@ class CrackResults:
         from . import ae
         return ae.write_ae_events(path, self.ae_events(**windows))
 
-    def crack_segments(self) -> np.ndarray:
+    def segments(self) -> np.ndarray:
         """Current midlines of the broken joints [m], (k, 4) rows (x_a, y_a, x_b, y_b) in the
-        order of :meth:`crack_events`: from ½(x_j0 + x_j3) to ½(x_j1 + x_j2)."""
-        ev = self.crack_events()
+        order of :meth:`events`: from ½(x_j0 + x_j3) to ½(x_j1 + x_j2)."""
+        ev = self.events()
         jn = self._joint_consts()["nodes"][ev["index"]] if len(ev["index"]) else np.zeros((0, 4), np.int64)
-        x = self.state.node_x.to_numpy().astype(np.float64)
+        x = self._sim.state.node_x.to_numpy().astype(np.float64)
         a = 0.5 * (x[jn[:, 0]] + x[jn[:, 3]])
         b = 0.5 * (x[jn[:, 1]] + x[jn[:, 2]])
         return np.concatenate([a, b], axis=1)
 
-    def crack_length(self) -> float:
+    def length(self) -> float:
         """Total initial length L0 of the joints broken so far [m] (per the 2D section)."""
-        if not self.model.fracture or not self.model.joint_count:
+        if not self._sim.model.fracture or not self._sim.model.joint_count:
             return 0.0
         return float(self._joint_consts()["length"][self._broken_mask()].sum())
 
-    def crack_length_history(self) -> tuple:
+    def length_history(self) -> tuple:
         """(times [s], cumulative crack length [m]) at each crack event, in time order:
         the length after the k-th event is the sum of the initial lengths of the first k."""
-        ev = self.crack_events()
+        ev = self.events()
         return ev["time"].copy(), np.cumsum(ev["length"])
+
+    # ---- broken joints and damage ------------------------------------------------------------
+    @property
+    def broken_count(self) -> int:
+        """Number of joints broken so far."""
+        return counter(self._sim.state.step_int, BROKEN) if self._sim.model.fracture else 0
+
+    def broken(self) -> dict:
+        """The joints broken so far (docs/theory/joints.md §7.8); see :meth:`events` for more.
+
+        Returns {"index": (k,) joint indices, "position": (k, 2) mean of the joint's 4 nodes at
+        breakage [m], "time": (k,) [s], "mode": (k,) "I", "II", "I+II" or "mixed"}, in time order.
+        """
+        ev = self.events()
+        return {"index": ev["index"], "position": np.stack([ev["x"], ev["y"]], axis=1), "time": ev["time"],
+                "mode": ev["mode"]}
+
+    def joint_damage(self) -> np.ndarray:
+        """Damage of each joint in [0, 1]: the largest stored D of its points, 1 when broken."""
+        if not self._sim.model.fracture:
+            return np.zeros(0)
+        d = self._sim.state.joint_dmax.to_numpy().astype(np.float64).max(axis=1)
+        d[self._sim.state.joint_state.to_numpy() != 0] = 1.0
+        return d[: self._sim.model.joint_count]
+
+    def tri_damage(self) -> np.ndarray:
+        """Damage per triangle (m,): the largest damage of its joints (0 for bodies without joints)."""
+        out = np.zeros(self._sim.model.tri_count)
+        if self._sim.model.fracture:
+            d = self.joint_damage()
+            jt = self._sim.model.joint_tris_np
+            np.maximum.at(out, jt[:, 0], d)
+            np.maximum.at(out, jt[:, 1], d)
+        return out
+
+    def fragment_count(self, body=None) -> int:
+        """Number of fragments: groups of triangles connected by shared nodes or intact joints
+        (docs/theory/joints.md §7.10; the labelling of :meth:`fragments`).  Triangles removed by
+        ``sim.remove`` count for nothing.  With ``body``, only that body's.
+        """
+        return self._fragment_labels(body)[2]
 
     # ---- fragments -----------------------------------------------------------------------------
     def _fragment_roots(self) -> np.ndarray:
@@ -192,9 +236,9 @@ class CrackResults:
         two present triangles.  Vectorised hooking and pointer jumping over the triangle pairs
         (each triangle to the first triangle of each of its nodes, and the intact joints):
         parent[t] ≤ t always, so each component ends at its smallest triangle."""
-        md = self.model
+        md = self._sim.model
         m = md.tri_count
-        active = self.state.tri_intact.to_numpy()[:m] >= 0
+        active = self._sim.state.tri_intact.to_numpy()[:m] >= 0
         ta = np.nonzero(active)[0]
         flat = md.tri_nodes_np[ta].ravel()
         first = np.full(md.node_count, m, np.int64)       # first present triangle at each node
@@ -202,7 +246,7 @@ class CrackResults:
         u, v = [np.repeat(ta, 3)], [first[flat]]
         if md.fracture and md.joint_count:
             jt = md.joint_tris_np
-            keep = (self.state.joint_state.to_numpy()[: len(jt)] == 0) & active[jt[:, 0]] & active[jt[:, 1]]
+            keep = (self._sim.state.joint_state.to_numpy()[: len(jt)] == 0) & active[jt[:, 0]] & active[jt[:, 1]]
             u.append(jt[keep, 0])
             v.append(jt[keep, 1])
         u, v = np.concatenate(u), np.concatenate(v)
@@ -214,7 +258,7 @@ class CrackResults:
         """(triangle indices, fragment id per triangle (−1 removed), fragment count) of all
         triangles or of ``body``'s; ids 0..count−1 in order of each fragment's first triangle."""
         roots = self._fragment_roots()
-        tris = np.arange(len(roots)) if body is None else np.arange(len(roots))[self._body_obj(body).triangles]
+        tris = np.arange(len(roots)) if body is None else np.arange(len(roots))[self._sim._body_obj(body).triangles]
         roots = roots[tris]
         label = np.full(len(tris), -1, np.int64)
         ok = roots >= 0
@@ -227,18 +271,18 @@ class CrackResults:
         joint form one fragment.  With ``body``, that body's triangles only.
 
         Returns {``label``: (m,) fragment id of each triangle (of ``body`` if given; −1 for
-        triangles removed by :meth:`remove`), ``area``: (count,) initial area of each fragment
+        triangles removed by ``sim.remove``), ``area``: (count,) initial area of each fragment
         [m²], ``mass``: (count,) [kg] (ρ A0 × thickness), ``centroid``: (count, 2) current
         mass-weighted centroid [m], ``count``}.
         """
-        md = self.model
+        md = self._sim.model
         tris, label, count = self._fragment_labels(body)
         ok = label >= 0
         t, lab = tris[ok], label[ok]
         area0 = np.asarray(md.tri_area0_np, dtype=np.float64)[t]
         rho = np.array([mat.density for mat in md.materials], dtype=np.float64)[md.tri_mat_np[t]]
-        tmass = rho * area0 * self.thickness
-        x = self.state.node_x.to_numpy().astype(np.float64)
+        tmass = rho * area0 * self._sim.thickness
+        x = self._sim.state.node_x.to_numpy().astype(np.float64)
         cen = x[md.tri_nodes_np[t]].mean(axis=1)
         area = np.bincount(lab, weights=area0, minlength=count)
         mass = np.bincount(lab, weights=tmass, minlength=count)
@@ -285,9 +329,9 @@ def _write_rows(writer, ev: dict) -> None:
 
 
 def read_crack_events(path) -> dict:
-    """A crack-event CSV (:meth:`CrackResults.write_crack_events` or a streamed
-    ``run(crack_events=...)`` file) as the dict of :meth:`CrackResults.crack_events` (without
-    ``set_id``)."""
+    """A crack-event CSV (:meth:`Cracks.write_events` or the file of a
+    :class:`~taichi_fdem.sim.recorders.CrackEvents` recorder) as the dict of
+    :meth:`Cracks.events` (without ``set_id``)."""
     with open(os.fspath(path), newline="") as fh:
         rows = list(csv.reader(fh))
     if not rows or tuple(rows[0]) != CSV_COLUMNS:
@@ -340,9 +384,9 @@ class CrackEventLog:
         if n == self.seen:
             return 0
         self.seen = n
-        idx = np.nonzero(sim._broken_mask() & ~self.written)[0]
+        idx = np.nonzero(sim.cracks._broken_mask() & ~self.written)[0]
         if len(idx):
-            _write_rows(self.writer, sim._events_of(idx))
+            _write_rows(self.writer, sim.cracks._events_of(idx))
             self.fh.flush()
             self.written[idx] = True
         return len(idx)

@@ -39,7 +39,7 @@ def compute_energies(sim) -> dict:
     if out is None:
         out = sim._energy_out = ti.ndarray(backend.real_ti(), shape=8)
     p = sim._packs
-    energy_terms(p["nodes"], p["tris"], p["mats"], p["contact"], p["step"], sim.couple_count, out, md.friction,
+    energy_terms(p["nodes"], p["tris"], p["mats"], p["contact"], p["step"], sim.solver.couple_count, out, md.friction,
                  md.fracture)
     o = out.to_numpy().astype(np.float64)
     t = sim.thickness

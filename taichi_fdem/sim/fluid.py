@@ -20,6 +20,7 @@ import taichi as ti
 from .. import backend
 from ..engine.fluid import (F_AMAX, F_AMIN, F_BAD, F_DAMAGED, F_HEAD, F_K, F_MU, F_WORK, HEADER, H_G_NODE, H_G_START,
                             H_NE_START, H_NF, H_NG, H_NS, H_SRC, SRC_PRESSURE, SRC_RATE, SRC_STRIDE, BAD_SUBSTEPS)
+from .views import View
 
 __all__ = ["FluidNetwork", "build_network", "fluid_stiffness_step", "install_fluid", "FluidResults"]
 
@@ -252,83 +253,83 @@ def fluid_failure(sim) -> str | None:
     return "non-finite fluid content or pressure in the fracture network"
 
 
-class FluidResults:
-    """The fluid results of a simulation (mixed into :class:`~taichi_fdem.sim.simulation.Simulation`).
-    Volumes and rates are per unit thickness (m², m²/s), as ``scene.inject`` takes them."""
+class FluidResults(View):
+    """``sim.fluid``: the fluid results of a simulation.  Volumes and rates are per unit
+    thickness (m², m²/s), as ``scene.inject`` takes them."""
 
     def _fluid_check(self, what: str) -> None:
-        if not getattr(self.model, "fluid", False):
+        if not getattr(self._sim.model, "fluid", False):
             raise ValueError(f"{what}: the scene has no fluid (scene.set_fluid)")
 
     def _fluid_real(self) -> np.ndarray:
-        return self.state.fluid_real.to_numpy().astype(np.float64)
+        return self._sim.state.fluid_real.to_numpy().astype(np.float64)
 
     def injection_rates(self) -> np.ndarray:
         """(S,) the volume rate [m²/s per unit thickness] into the network of each
         ``scene.inject`` call, in order, over the last step: positive into the network, negative
         out (a pressure source acting as a drain).  Zeros before the first step."""
-        self._fluid_check("injection_rates")
-        S = len(self.model.fluid_sources)
+        self._fluid_check("sim.fluid.injection_rates")
+        S = len(self._sim.model.fluid_sources)
         return self._fluid_real()[F_HEAD + 1: F_HEAD + SRC_STRIDE * S: SRC_STRIDE][:S].copy()
 
     def injected_volumes(self) -> np.ndarray:
         """(S,) the volume [m² per unit thickness, at the reference density] each source has put
         into the network so far (negative: taken out)."""
-        self._fluid_check("injected_volumes")
-        S = len(self.model.fluid_sources)
+        self._fluid_check("sim.fluid.injected_volumes")
+        S = len(self._sim.model.fluid_sources)
         return self._fluid_real()[F_HEAD + 2: F_HEAD + SRC_STRIDE * S: SRC_STRIDE][:S].copy()
 
     def injection_pressure(self) -> float:
         """The pressure [Pa] at the first source: the mean over its nodes that conduct (0 while
         none does)."""
-        self._fluid_check("injection_pressure")
-        if not self.model.fluid_sources:
+        self._fluid_check("sim.fluid.injection_pressure")
+        if not self._sim.model.fluid_sources:
             raise ValueError("injection_pressure: the scene has no source (scene.inject)")
-        nv = self.state.fluid_node_val.to_numpy().astype(np.float64)
-        nodes = self.model.fluid_sources[0]["nodes"]
+        nv = self._sim.state.fluid_node_val.to_numpy().astype(np.float64)
+        nodes = self._sim.model.fluid_sources[0]["nodes"]
         on = nv[nodes, 1] > 0
         return float(nv[nodes[on], 2].mean()) if on.any() else 0.0
 
-    def fluid_pressures(self):
+    def pressures(self):
         """(positions (F, 2) [m], pressures (F,) [Pa]) of the network's nodes: a node's position
         is the mean of the current positions of its face-node copies; pressures at the end of
         the last step (0 on nodes no conducting edge reaches)."""
-        self._fluid_check("fluid_pressures")
-        md = self.model
-        x = self.state.node_x.to_numpy().astype(np.float64)
+        self._fluid_check("sim.fluid.pressures")
+        md = self._sim.model
+        x = self._sim.state.node_x.to_numpy().astype(np.float64)
         F = md.fluid_node_count
         pos = np.zeros((F, 2))
         cnt = np.zeros(F)
         np.add.at(pos, md.fluid_copies[:, 0], x[md.fluid_copies[:, 1]])
         np.add.at(cnt, md.fluid_copies[:, 0], 1.0)
-        p = self.state.fluid_node_val.to_numpy().astype(np.float64)[:F, 2]
+        p = self._sim.state.fluid_node_val.to_numpy().astype(np.float64)[:F, 2]
         return pos / cnt[:, None], p
 
-    def node_fluid_pressures(self) -> np.ndarray:
+    def node_pressures(self) -> np.ndarray:
         """(N,) the fluid pressure [Pa] on every node of the mesh: on a face node of a network
         edge, the pressure of its network node (the copies of one vertex agree); 0 elsewhere."""
-        self._fluid_check("node_fluid_pressures")
-        md = self.model
-        p = self.state.fluid_node_val.to_numpy().astype(np.float64)[:, 2]
+        self._fluid_check("sim.fluid.node_pressures")
+        md = self._sim.model
+        p = self._sim.state.fluid_node_val.to_numpy().astype(np.float64)[:, 2]
         out = np.zeros(md.node_count)
         out[md.fluid_copies[:, 1]] = p[md.fluid_copies[:, 0]]
         return out
 
-    def fluid_volume(self) -> float:
+    def volume(self) -> float:
         """The fluid stored in the network [m² per unit thickness, at the reference density]."""
-        self._fluid_check("fluid_volume")
-        return float(self.state.fluid_node_val.to_numpy().astype(np.float64)[: self.model.fluid_node_count, 0].sum())
+        self._fluid_check("sim.fluid.volume")
+        return float(self._sim.state.fluid_node_val.to_numpy().astype(np.float64)[: self._sim.model.fluid_node_count, 0].sum())
 
-    def fluid_work(self) -> float:
+    def work(self) -> float:
         """The work done by the fluid pressure on the solid so far [J] (× the thickness)."""
-        self._fluid_check("fluid_work")
-        return float(self._fluid_real()[F_WORK]) * self.thickness
+        self._fluid_check("sim.fluid.work")
+        return float(self._fluid_real()[F_WORK]) * self._sim.thickness
 
     def _fluid_history(self, row: dict) -> None:
         """The fluid's history columns: injection pressure [Pa], injected volume (net, all sources),
         stored volume [m² per unit thickness] and each source's rate [m²/s]."""
-        row["fluid_injection_pressure"] = self.injection_pressure() if self.model.fluid_sources else 0.0
+        row["fluid_injection_pressure"] = self.injection_pressure() if self._sim.model.fluid_sources else 0.0
         row["fluid_injected_volume"] = float(self.injected_volumes().sum())
-        row["fluid_stored_volume"] = self.fluid_volume()
+        row["fluid_stored_volume"] = self.volume()
         for k, q in enumerate(self.injection_rates()):
             row[f"fluid_rate_{k}"] = float(q)

@@ -51,8 +51,8 @@ def raise_unstable(sim) -> None:
         e = inverted - 1
         cause = (f"inverted element: triangle {e} (body {sim.bodies[sim.model.tri_body_np[e]].name}) "
                  f"has non-positive area")
-    raise SimulationError(cause, sim.step_count, sim.time, suggested_dt=0.5 * min(sim.dt, sim.dt_limit),
-                          detail=f"Time step {sim.dt:.3g} s, estimated limit {sim.dt_limit:.3g} s.")
+    raise SimulationError(cause, sim.step_count, sim.time, suggested_dt=0.5 * min(sim.dt, sim.model.dt_limit),
+                          detail=f"Time step {sim.dt:.3g} s, estimated limit {sim.model.dt_limit:.3g} s.")
 
 
 def is_unstable(sim) -> bool:
@@ -68,7 +68,7 @@ def max_couple_penetration(sim) -> dict:
     edge length of the two triangles; fraction = depth / mean edge length
     (:func:`taichi_fdem.engine.diagnostics.couple_penetrations`).
     """
-    n = sim.couple_count if sim.contact else 0
+    n = sim.solver.couple_count if sim.model.contact else 0
     if n == 0:
         return {"depth": 0.0, "fraction": 0.0, "triangles": (-1, -1)}
     cache = getattr(sim, "_pen_buffers", None)
@@ -143,7 +143,7 @@ class RunGuard:
             raise ValueError(f"run: check_every must be >= 1 step, got {check_every}")
         self.sim = sim
         self.energy, self.tol = bool(check_energy), energy_tol
-        self.pen = max_penetration if sim.contact else None
+        self.pen = max_penetration if sim.model.contact else None
         self.every, self.since, self.step_wall = check_every, 0, 0.0
         if self.energy:
             e = sim.energies()
@@ -169,8 +169,8 @@ class RunGuard:
         self.since = 0
         sim = self.sim
         t_check = _time.perf_counter()
-        limit_note = f"Time step {sim.dt:.3g} s, estimated limit {sim.dt_limit:.3g} s."
-        suggested = 0.5 * min(sim.dt, sim.dt_limit)
+        limit_note = f"Time step {sim.dt:.3g} s, estimated limit {sim.model.dt_limit:.3g} s."
+        suggested = 0.5 * min(sim.dt, sim.model.dt_limit)
         if self.energy:
             e = sim.energies()
             total = e["total"]
@@ -185,7 +185,7 @@ class RunGuard:
                     f"energy growth: the total energy rose by {rise:.4g} J since the start of the run, above the "
                     f"bound {bound:.4g} J (energy_tol = {self.tol:g} × the energy scale {self.scale:.4g} J)",
                     sim.step_count, sim.time, suggested, detail=limit_note)
-        if self.pen is not None and sim.couple_count:
+        if self.pen is not None and sim.solver.couple_count:
             worst = max_couple_penetration(sim)
             if worst["fraction"] > self.pen:
                 ba, bb = (sim.bodies[sim.model.tri_body_np[t]].name for t in worst["triangles"])
@@ -203,7 +203,7 @@ class RunGuard:
 
 def warn_overlaps(sim) -> None:
     """Warn when bodies overlap at the start (contact would push them apart violently)."""
-    n = sim.couple_count
+    n = sim.solver.couple_count
     if n == 0:
         return
     st, md = sim.state, sim.model

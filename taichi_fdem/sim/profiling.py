@@ -1,4 +1,4 @@
-"""Per-phase timing of a simulation's steps (:meth:`Simulation.profile`): one launch per phase,
+"""Per-phase timing of a simulation's steps (``sim.solver.profile``): one launch per phase,
 so that each phase's wall time can be measured (the strategies fuse them); and the nodal forces of
 the current state from the same single-phase kernels (:meth:`Simulation.forces`)."""
 from __future__ import annotations

@@ -83,8 +83,8 @@ class History(Recorder):
 
 
 class CrackEvents(Recorder):
-    """A CSV file of crack events (:meth:`Simulation.crack_events
-    <taichi_fdem.sim.cracks.CrackResults.crack_events>` columns ``joint, time_s, x_m, y_m, mode,
+    """A CSV file of crack events (:meth:`sim.cracks.events
+    <taichi_fdem.sim.cracks.Cracks.events>` columns ``joint, time_s, x_m, y_m, mode,
     energy_J, length_m, set, pressure_Pa``): the joints broken so far at the start, new ones
     after every stretch of steps and at the end, also when the run stops with an error; each
     write is flushed.  An existing file is appended to without repeating the joints it lists

@@ -11,18 +11,17 @@ import numpy as np
 import csv
 import os
 
-from .cracks import CrackResults
 from .energies import compute_energies
-from .fluid import FluidResults
 from .motion import BodyMotion, body_motion_of
+from .views import View
 from ..engine.groups import BROKEN
 from ..engine.loads import LOAD_ABSORB, LOAD_FORCE, LOAD_VELOCITY
 from .model import counter
 
 
-class SimulationResults(CrackResults, FluidResults):
-    """Read-only views of a simulation's state as NumPy arrays (crack and fragment results from
-    :class:`~taichi_fdem.sim.cracks.CrackResults`, the fluid's from
+class SimulationResults:
+    """Read-only views of a simulation's state as NumPy arrays (crack and fragment results in
+    ``sim.cracks``, :class:`~taichi_fdem.sim.cracks.Cracks`; the fluid's in ``sim.fluid``,
     :class:`~taichi_fdem.sim.fluid.FluidResults`)."""
 
     def _body_obj(self, body):
@@ -145,26 +144,6 @@ class SimulationResults(CrackResults, FluidResults):
         total[np.abs(total) <= 2.0 * len(r) * eps * np.abs(r).sum(axis=0)] = 0.0
         return total * self.thickness
 
-    def load_forces(self) -> np.ndarray:
-        """Nodal forces of the applied pressure, tractions and point forces at the last step [N],
-        shape (n, 2) (× the thickness; absorbing dashpots not included)."""
-        out = np.zeros((self.model.node_count, 2))
-        if not self.model.loads:
-            return out
-        ln = self.model.load_nodes.to_numpy()
-        f = self.state.load_force.to_numpy().astype(np.float64)
-        use = (ln[:, 0] != LOAD_ABSORB) & (ln[:, 0] != LOAD_VELOCITY)
-        np.add.at(out, ln[use, 1], f[use, 0:2])
-        two = use & (ln[:, 0] != LOAD_FORCE)
-        np.add.at(out, ln[two, 2], f[two, 2:4])
-        return out * self.thickness
-
-    def load_factors(self) -> dict:
-        """{curve name: amplitude A at the current time} of the scene's curves (named by
-        ``Curve(name=...)``, else ``curve0``, ``curve1``, ... in order of first use)."""
-        return {_curve_name(c, k): float(np.interp(self.time, c.times, c.values))
-                for k, c in enumerate(self.model.curves)}
-
     def active_triangles(self) -> np.ndarray:
         """(m,) bool: the triangles not removed by :meth:`remove`."""
         return self.state.tri_intact.to_numpy() >= 0
@@ -182,49 +161,6 @@ class SimulationResults(CrackResults, FluidResults):
         """
         return compute_energies(self)
 
-    # ------------------------------------------------------------------------------------------
-    # fracture results
-    # ------------------------------------------------------------------------------------------
-    @property
-    def broken_joint_count(self) -> int:
-        """Number of joints broken so far."""
-        return counter(self.state.step_int, BROKEN) if self.fracture else 0
-
-    def broken_joints(self) -> dict:
-        """The joints broken so far (docs/theory/joints.md §7.8); see :meth:`crack_events` for more.
-
-        Returns {"index": (k,) joint indices, "position": (k, 2) mean of the joint's 4 nodes at
-        breakage [m], "time": (k,) [s], "mode": (k,) "I", "II", "I+II" or "mixed"}, in time order.
-        """
-        ev = self.crack_events()
-        return {"index": ev["index"], "position": np.stack([ev["x"], ev["y"]], axis=1), "time": ev["time"],
-                "mode": ev["mode"]}
-
-    def joint_damage(self) -> np.ndarray:
-        """Damage of each joint in [0, 1]: the largest stored D of its points, 1 when broken."""
-        if not self.fracture:
-            return np.zeros(0)
-        d = self.state.joint_dmax.to_numpy().astype(np.float64).max(axis=1)
-        d[self.state.joint_state.to_numpy() != 0] = 1.0
-        return d[: self.joint_count]
-
-    def tri_damage(self) -> np.ndarray:
-        """Damage per triangle (m,): the largest damage of its joints (0 for bodies without joints)."""
-        out = np.zeros(self.tri_count)
-        if self.fracture:
-            d = self.joint_damage()
-            jt = self.model.joint_tris_np
-            np.maximum.at(out, jt[:, 0], d)
-            np.maximum.at(out, jt[:, 1], d)
-        return out
-
-    def fragment_count(self, body=None) -> int:
-        """Number of fragments: groups of triangles connected by shared nodes or intact joints
-        (docs/theory/joints.md §7.10; the labelling of :meth:`fragments`).  Triangles removed by
-        :meth:`remove` count for nothing.  With ``body``, only that body's.
-        """
-        return self._fragment_labels(body)[2]
-
     def _history_row(self) -> dict:
         """One row of the history recorder (see :class:`History`)."""
         row = {"time": self.time, "step": self.step_count}
@@ -233,16 +169,16 @@ class SimulationResults(CrackResults, FluidResults):
             r = self.state.node_react.to_numpy().astype(np.float64) * self.thickness
             for label, mask in zip(md.bc_group_labels, md.bc_group_masks):
                 row[f"reaction_{label}_x"], row[f"reaction_{label}_y"] = r[mask].sum(axis=0)
-        for name, a in self.load_factors().items():
+        for name, a in self.loads.factors().items():
             row[f"factor_{name}"] = a
         u = self.node_displacements()
         for b in self.bodies:
             row[f"ux_{b.name}"], row[f"uy_{b.name}"] = u[b.nodes].mean(axis=0)
-        if self.fracture:
-            row["broken_joints"] = self.broken_joint_count
-            row["crack_length"] = self.crack_length()
+        if md.fracture:
+            row["broken_joints"] = self.cracks.broken_count
+            row["crack_length"] = self.cracks.length()
         if md.fluid:
-            self._fluid_history(row)
+            self.fluid._fluid_history(row)
         for k, v in self.energies().items():
             row[f"E_{k}"] = float(v)
         return row
@@ -252,9 +188,33 @@ class SimulationResults(CrackResults, FluidResults):
         neighbour pairs of fracturing bodies (two bonded triangles sharing a node of the unsplit
         mesh; contact skips them while ``state.tri_nb_on`` is 0), then the couples found by the
         last detection (first < second in detection order)."""
-        n = self.couple_count
+        n = self._couple_count()
         return np.stack([self.state.couple_a.to_numpy()[:n], self.state.couple_b.to_numpy()[:n]], axis=1)
 
+
+
+class Loads(View):
+    """``sim.loads``: the forces and amplitudes of the scene's applied loads now."""
+
+    def forces(self) -> np.ndarray:
+        """Nodal forces of the applied pressure, tractions and point forces at the last step [N],
+        shape (n, 2) (× the thickness; absorbing dashpots not included)."""
+        out = np.zeros((self._sim.model.node_count, 2))
+        if not self._sim.model.loads:
+            return out
+        ln = self._sim.model.load_nodes.to_numpy()
+        f = self._sim.state.load_force.to_numpy().astype(np.float64)
+        use = (ln[:, 0] != LOAD_ABSORB) & (ln[:, 0] != LOAD_VELOCITY)
+        np.add.at(out, ln[use, 1], f[use, 0:2])
+        two = use & (ln[:, 0] != LOAD_FORCE)
+        np.add.at(out, ln[two, 2], f[two, 2:4])
+        return out * self._sim.thickness
+
+    def factors(self) -> dict:
+        """{curve name: amplitude A at the current time} of the scene's curves (named by
+        ``Curve(name=...)``, else ``curve0``, ``curve1``, ... in order of first use)."""
+        return {_curve_name(c, k): float(np.interp(self._sim.time, c.times, c.values))
+                for k, c in enumerate(self._sim.model.curves)}
 
 
 def _curve_name(curve, k: int) -> str:

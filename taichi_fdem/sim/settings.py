@@ -5,15 +5,29 @@ the model or the state on the simulation raises instead of changing nothing."""
 from __future__ import annotations
 
 import math
+import warnings
 
 from .model import host_write
 
-__all__ = ["ModelValues"]
+__all__ = ["ModelValues", "MOVED"]
 
-
-def _model_value(name: str, doc: str) -> property:
-    """A read-only property of :class:`Simulation` answering ``sim.model.<name>``."""
-    return property(lambda self: getattr(self.model, name), doc=f"{doc}  (``sim.model.{name}``; read-only)")
+_CRACKS = {"crack_events": "events", "write_crack_events": "write_events", "ae_events": "ae_events",
+           "write_ae_events": "write_ae_events", "crack_segments": "segments", "crack_length": "length",
+           "crack_length_history": "length_history", "fragments": "fragments", "fragment_sizes": "fragment_sizes",
+           "fragment_passing": "fragment_passing", "fragment_count": "fragment_count",
+           "broken_joint_count": "broken_count", "broken_joints": "broken", "joint_damage": "joint_damage",
+           "tri_damage": "tri_damage"}
+_FLUID = {"fluid_pressures": "pressures", "node_fluid_pressures": "node_pressures", "fluid_volume": "volume",
+          "fluid_work": "work", "injection_rates": "injection_rates", "injected_volumes": "injected_volumes",
+          "injection_pressure": "injection_pressure"}
+_SOLVER = ("strategy", "assembly", "force_blocks", "team_workers", "team_steps", "steps_per_launch", "profile",
+           "detection_count", "launches", "scratch", "couple_count")
+_MODEL = ("dt_limit", "node_count", "tri_count", "joint_count", "contact", "friction", "fracture", "damping",
+          "contact_damping", "buffer")
+#: name of version 0.1.0 on Simulation -> (where it lives now, its name there)
+MOVED = {**{k: ("cracks", v) for k, v in _CRACKS.items()}, **{k: ("fluid", v) for k, v in _FLUID.items()},
+         **{k: ("solver", k) for k in _SOLVER}, **{k: ("model", k) for k in _MODEL},
+         "load_forces": ("loads", "forces"), "load_factors": ("loads", "factors")}
 
 
 class ModelValues:
@@ -32,7 +46,7 @@ class ModelValues:
     @property
     def dt(self) -> float:
         """The time step [s].  Settable between calls: a positive finite value, at most the
-        stable limit :attr:`dt_limit` (unless the scene was built with ``force_dt=True``) and,
+        stable limit ``sim.model.dt_limit`` (unless the scene was built with ``force_dt=True``) and,
         with absorbing boundaries, below their dashpots' limit; the kernels integrate with it
         from the next step on and :attr:`time` continues from its current value.  Loads and
         velocity curves follow the simulated time, so they are unaffected."""
@@ -49,7 +63,7 @@ class ModelValues:
             raise ValueError(f"sim.dt: the time step must be a positive finite time [s], got {value!r}")
         if dt > md.dt_limit and not md.force_dt:
             raise ValueError(f"sim.dt = {dt:.4g} s is above the estimated stable limit {md.dt_limit:.4g} s "
-                             f"(sim.dt_limit); use dt <= {md.dt_limit:.4g} s, or build with "
+                             f"(sim.model.dt_limit); use dt <= {md.dt_limit:.4g} s, or build with "
                              "Scene.build(dt=..., force_dt=True) to run above it")
         if md.dashpot_rate * dt >= 1.0:
             raise ValueError(f"sim.dt = {dt:.4g} s: the absorbing boundary's dashpots are unstable at this time "
@@ -59,19 +73,25 @@ class ModelValues:
         md.dt = dt
         host_write(md.step_dt, None, dt)
 
-    dt_limit = _model_value("dt_limit", "Estimated stable time step [s] of the scene.")
-    node_count = _model_value("node_count", "Number of nodes.")
-    tri_count = _model_value("tri_count", "Number of triangles.")
-    joint_count = _model_value("joint_count", "Number of joints (crack elements) between triangles.")
-    contact = _model_value("contact", "Whether the scene has contact (bool).")
-    friction = _model_value("friction", "Whether any contact pair has friction (bool).")
-    fracture = _model_value("fracture", "Whether the scene has joints that can break (bool).")
-    damping = _model_value("damping", "Whether any material has viscous damping (bool).")
-    contact_damping = _model_value("contact_damping", "Whether any contact pair has contact damping (bool).")
-    buffer = _model_value("buffer", "Detection buffer [m]: contact detection runs again once a node may have "
-                                    "moved this far.")
+    def __getattr__(self, name):
+        # the names of version 0.1.0 that moved to sim.cracks, sim.fluid, sim.loads, sim.solver
+        # and sim.model: still answered, with a DeprecationWarning
+        moved = MOVED.get(name)
+        if moved is None or name.startswith("__"):
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        where, new = moved
+        warnings.warn(f"sim.{name} is deprecated: use sim.{where}.{new}", DeprecationWarning, stacklevel=2)
+        return getattr(getattr(self, where), new)
 
     def __setattr__(self, name, value) -> None:
+        if name in MOVED and name not in self.__dict__ and not hasattr(type(self), name):
+            where, new = MOVED[name]
+            if where != "solver":
+                raise AttributeError(f"sim.{name} is read-only (sim.{where}.{new})")
+            warnings.warn(f"sim.{name} = ... is deprecated: use sim.solver.{new} = ...", DeprecationWarning,
+                          stacklevel=2)
+            setattr(self.solver, new, value)
+            return
         # a name of the model or the state assigned on the simulation would change nothing
         model, state = self.__dict__.get("model"), self.__dict__.get("state")
         if not hasattr(type(self), name) and name not in self.__dict__ and (

@@ -9,7 +9,7 @@ kernels of :mod:`taichi_fdem.engine.step` with the array groups as argpacks (tim
 Execution strategy (:mod:`taichi_fdem.engine.step`): the serial one runs thousands of steps per
 launch on one core; the parallel one sums the forces without atomics and, on the CPU, runs
 thousands of steps per launch in a team of worker threads (:mod:`taichi_fdem.engine.team`,
-:attr:`Simulation.team_steps`) whose waits are bounded, sized to the usable cores, and replaced
+``sim.solver.team_steps``) whose waits are bounded, sized to the usable cores, and replaced
 by one worker while another busy process shares the cores (:mod:`taichi_fdem.sim.team`).  A scene with a fluid
 (``scene.set_fluid``) runs no team launch: its parallel strategy runs one step per launch
 (:func:`taichi_fdem.engine.step.step_parallel_fluid`), so "auto" runs it serial on the CPU.
@@ -33,7 +33,10 @@ from .model import build_model, counter, set_counter
 from .state import allocate_scratch, allocate_state, grow_couples, pack_groups, size_assembly, size_couple_scratch
 from .outputs import RunOutputs
 from .recorders import Checks, CrackEvents, History, Recorder
-from .results import SimulationResults
+from .cracks import Cracks
+from .fluid import FluidResults
+from .results import Loads, SimulationResults
+from .solver import Solver
 from .settings import ModelValues
 from .team import TeamScheduler
 from .timestep import CONTACT_LIMIT_FACTOR  # noqa: F401  (re-exported)
@@ -43,7 +46,7 @@ __all__ = ["Simulation", "SimulationError", "SERIAL_MAX_STEPS", "SERIAL_TRI_STEP
 
 SERIAL_MAX_STEPS = 2000          # at most this many steps per serial launch
 SERIAL_TRI_STEPS = 2_000_000     # ~50 ms of work per serial launch: responsive progress and Ctrl-C
-TEAM_TRI_STEPS = 10_000_000      # the same for a team launch (Simulation.steps_per_launch)
+TEAM_TRI_STEPS = 10_000_000      # the same for a team launch (sim.solver.steps_per_launch)
 AUTO_PARALLEL_ITEMS = 600        # triangles + joints + couples from which "auto" runs parallel on >= 2 CPU threads
 DETECT_SERIAL_TRIS = 15_000      # up to this many contact triangles, detection runs as one serial launch
 
@@ -123,7 +126,7 @@ class Simulation(SimulationResults, ModelValues):
     #: at most min(:attr:`force_blocks`, threads, usable cores) workers
     #: (:func:`taichi_fdem.engine.step.run_steps_blocks`); False: one launch per step.  The same
     #: bits either way.
-    team_steps = True
+    _team_steps = True
     @staticmethod
     def _checkpoint_io():
         """The checkpoint module (``save(sim, path)``, ``load(path)``), which sits above the
@@ -139,6 +142,8 @@ class Simulation(SimulationResults, ModelValues):
             raise ValueError(f"Scene.build: strategy must be 'auto', 'serial' or 'parallel', got {strategy!r}")
         self.scene = scene
         self.thickness = scene.thickness
+        for name, view in (("solver", Solver), ("cracks", Cracks), ("fluid", FluidResults), ("loads", Loads)):
+            object.__setattr__(self, name, view(self))      # (sim.fluid is not sim.model.fluid, a flag)
         self.model = build_model(scene, dt=dt, safety=safety, force_dt=force_dt, buffer=buffer, speed_limit=speed_limit,
                                  quasi_static=quasi_static, joined_pairs=joined_pairs, handover_damage=handover_damage)
         object.__setattr__(self, "bodies", self.model.bodies)     # (also a model value)
@@ -146,14 +151,14 @@ class Simulation(SimulationResults, ModelValues):
         auto = strategy == "auto"
         if auto:
             strategy = "serial" if backend.arch() == "cpu" else "parallel"
-        self.strategy = strategy
+        self._set_strategy(strategy)
         self._assembly = "blocks" if backend.arch() == "cpu" else "slots"
         self._force_blocks = FORCE_BLOCKS
-        self.scratch = allocate_scratch(self.model, self.state, parallel=strategy == "parallel",
+        self._scratch = allocate_scratch(self.model, self.state, parallel=strategy == "parallel",
                                         blocks=self._assembly == "blocks", force_blocks=self._force_blocks)
         self.step_count = 0
         self._teams = TeamScheduler()
-        self.launches: dict[str, int] = {}
+        self._launches: dict[str, int] = {}
         self._stats = {"wall_steps": 0.0, "wall_detect": 0.0}
         self._repack()
         self._refresh_neighbours()
@@ -163,8 +168,36 @@ class Simulation(SimulationResults, ModelValues):
                 guards.warn_overlaps(self)
         elif strategy == "parallel":
             self._build_node_slots()             # no contact: the node lists never change
-        if auto and self.strategy == "serial" and self._parallel_pays():
-            self.strategy = "parallel"
+        if auto and self._strategy == "serial" and self._parallel_pays():
+            self._set_strategy("parallel")
+
+    # ---- execution settings (sim.solver) ----------------------------------------------------------
+    def _set_strategy(self, value: str) -> None:
+        if value not in ("serial", "parallel"):
+            raise ValueError(f"strategy must be 'serial' or 'parallel', got {value!r}")
+        self._strategy = value
+        self._sync_assembly()
+
+    def _set_assembly(self, value: str) -> None:
+        if value not in ("blocks", "slots"):
+            raise ValueError(f"assembly must be 'blocks' or 'slots', got {value!r}")
+        self._assembly = value
+        self._sync_assembly()
+
+    def _set_force_blocks(self, value: int) -> None:
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= MAX_FORCE_BLOCKS:
+            raise ValueError(f"force_blocks must be an integer from 1 to {MAX_FORCE_BLOCKS}, got {value!r}")
+        if int(value) != self._force_blocks and "state" in self.__dict__:
+            set_counter(self.state.step_int, REBALANCE, 0)     # the couple ranges follow the blocks
+        self._force_blocks = int(value)
+        self._sync_assembly()
+
+    def _set_team_workers(self, value) -> None:
+        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1):
+            raise ValueError(f"team_workers must be None or an integer >= 1, got {value!r}")
+        self._team_workers = None if value is None else int(value)
+
+    _team_workers = None
 
     def _parallel_pays(self) -> bool:
         """Whether the parallel strategy beats the serial one on this CPU (module docstring): at
@@ -179,11 +212,11 @@ class Simulation(SimulationResults, ModelValues):
     def _items(self) -> int:
         """Work items of a step: triangles + joints + contact couples."""
         md = self.model
-        return md.tri_count + (md.joint_count if md.fracture else 0) + self.couple_count
+        return md.tri_count + (md.joint_count if md.fracture else 0) + self._couple_count()
 
     def _repack(self) -> None:
         """Rebuild the argpacks (after an array of the state was reallocated)."""
-        self._packs = pack_groups(self.model, self.state, self.scratch)
+        self._packs = pack_groups(self.model, self.state, self._scratch)
         self._launch_cache = {}
         p = self._packs
         # the groups each step kernel takes, in order
@@ -194,81 +227,11 @@ class Simulation(SimulationResults, ModelValues):
             self._groups["serial"] = (p["serial_fluid"],)
             self._groups["parallel"] = self._groups["parallel"] + (p["fluid"],)
 
-    @property
-    def strategy(self) -> str:
-        """"serial" or "parallel" (see the module docstring); may be changed between calls."""
-        return self._strategy
-
-    @strategy.setter
-    def strategy(self, value: str) -> None:
-        if value not in ("serial", "parallel"):
-            raise ValueError(f"strategy must be 'serial' or 'parallel', got {value!r}")
-        self._strategy = value
-        self._sync_assembly()
-
-    @property
-    def assembly(self) -> str:
-        """How the parallel strategy sums the nodal forces without atomic float adds (it has no
-        effect on the serial strategy):
-
-        * "blocks" (default on the CPU): the items are dealt to :attr:`force_blocks` blocks,
-          block 0 adding into the nodal forces and every other block into its own copy, added
-          per node in block order; run by a team of worker threads, many steps per launch
-          (:attr:`team_steps`);
-        * "slots" (default on GPUs): every triangle, joint and couple writes its forces into its
-          own slots, summed per node through sorted lists rebuilt at each detection.
-
-        Both give the same bits for any thread count; they differ from each other and from the
-        serial strategy by round-off.  May be changed between calls.
-        """
-        return self._assembly
-
-    @assembly.setter
-    def assembly(self, value: str) -> None:
-        if value not in ("blocks", "slots"):
-            raise ValueError(f"assembly must be 'blocks' or 'slots', got {value!r}")
-        self._assembly = value
-        self._sync_assembly()
-
-    @property
-    def force_blocks(self) -> int:
-        """Blocks of the block assembly (default 2): at most this many threads share the force
-        work of a parallel step.  The results depend on it (the blocks' sums are added in block
-        order), not on the thread count.  On 2 cores 2 beat 4 and 8 on the pile; 4 won by ~4 %
-        on the fracturing plate (benchmarks/README.md).  Set it to the cores of a bigger machine
-        (untested here: 2 cores).  May be changed between calls."""
-        return self._force_blocks
-
-    @force_blocks.setter
-    def force_blocks(self, value: int) -> None:
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= MAX_FORCE_BLOCKS:
-            raise ValueError(f"force_blocks must be an integer from 1 to {MAX_FORCE_BLOCKS}, got {value!r}")
-        if int(value) != self._force_blocks and "state" in self.__dict__:
-            set_counter(self.state.step_int, REBALANCE, 0)     # the couple ranges follow the blocks
-        self._force_blocks = int(value)
-        self._sync_assembly()
-
-    @property
-    def team_workers(self) -> int | None:
-        """Worker threads of a team launch of the parallel strategy on the CPU: None (default)
-        for min(:attr:`force_blocks`, CPU threads); an integer caps it (at least 1).  Any number
-        gives the same bits (the blocks' sums are added in block order whoever ran them), so one
-        process can compare a team of one with a team of two under the same load
-        (``benchmarks/threads.py``).  May be changed between calls."""
-        return self._team_workers
-
-    @team_workers.setter
-    def team_workers(self, value) -> None:
-        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1):
-            raise ValueError(f"team_workers must be None or an integer >= 1, got {value!r}")
-        self._team_workers = None if value is None else int(value)
-
-    _team_workers = None
 
     def _sync_assembly(self) -> None:
         """Make the scratch's assembly arrays follow strategy, assembly and force_blocks (once
         parallel, they stay allocated), and rebuild what depends on them."""
-        sw = self.__dict__.get("scratch")
+        sw = self.__dict__.get("_scratch")
         if sw is None:
             return                               # during __init__, before the scratch exists
         want = (sw.parallel or self._strategy == "parallel", self._assembly == "blocks", self._force_blocks)
@@ -283,16 +246,16 @@ class Simulation(SimulationResults, ModelValues):
     def _after_restore(self) -> None:
         """Re-derive scratch sizes, argpacks and node lists after the state was replaced
         (checkpoint load, restore_last_good)."""
-        self.scratch.blocks = self.__dict__.get("_assembly", "blocks") == "blocks"
-        self.scratch.force_blocks = self.__dict__.get("_force_blocks", FORCE_BLOCKS)
-        size_couple_scratch(self.model, self.state, self.scratch)
+        self._scratch.blocks = self.__dict__.get("_assembly", "blocks") == "blocks"
+        self._scratch.force_blocks = self.__dict__.get("_force_blocks", FORCE_BLOCKS)
+        size_couple_scratch(self.model, self.state, self._scratch)
         if np.any(self.state.tri_intact.to_numpy() < 0):
             self._apply_removal()                 # the rebuilt model lacks the excavations
         self._repack()
         self._refresh_neighbours()
         if self.model.fracture:
             self._launch("refresh_joint_z", refresh.refresh_joint_z, self._packs["joints"])
-        if self.strategy == "parallel":
+        if self._strategy == "parallel":
             self._build_node_slots(refresh=True)
 
     def _refresh_neighbours(self) -> None:
@@ -325,16 +288,16 @@ class Simulation(SimulationResults, ModelValues):
 
     def _grow_couples(self, capacity: int) -> None:
         grow_couples(self.model, self.state, capacity)
-        size_couple_scratch(self.model, self.state, self.scratch)
+        size_couple_scratch(self.model, self.state, self._scratch)
         self._repack()
-        if self.strategy == "parallel":
+        if self._strategy == "parallel":
             self._build_node_slots()             # the slot arrays were reallocated
 
     def _build_node_slots(self, refresh: bool = False) -> None:
         """The slot assembly's node lists; with ``refresh`` (a restore, a new scratch), the block
         assembly's node ranges and chunk masks (engine.step.refresh_blocks)."""
         p = self._packs
-        if not self.scratch.blocks:
+        if not self._scratch.blocks:
             self._launch("build_node_slots", kernels.build_node_slots, p["tris"], p["contact"], p["joints"], p["step"],
                          p["asm"], self.model.contact, self.model.fracture)
         elif refresh:
@@ -344,42 +307,31 @@ class Simulation(SimulationResults, ModelValues):
     _alloc_couples = _grow_couples
 
     def _launch(self, name, kernel, *args):
-        self.launches[name] = self.launches.get(name, 0) + 1
+        self._launches[name] = self._launches.get(name, 0) + 1
         return kernel(*args)
 
     def _launch_cached(self, name, kernel, *args):
         """:meth:`_launch` for the kernels launched often (the steps, detection), without Taichi's
         per-call variant lookup (:func:`taichi_fdem.engine.tiutil.launch_cached`)."""
-        self.launches[name] = self.launches.get(name, 0) + 1
+        self._launches[name] = self._launches.get(name, 0) + 1
         return launch_cached(self._launch_cache, name, kernel, *args)
 
 
-    @property
-    def couple_count(self) -> int:
-        """Number of contact couples in the current list."""
+    def _couple_count(self) -> int:
         return counter(self.state.step_int, COUPLES) if self.state.couple_max else 0
-
-    @property
-    def detection_count(self) -> int:
-        """How many contact detections have run."""
-        return counter(self.state.step_int, DETECTIONS)
 
     def _switches(self):
         # contact, friction, fracture, loads, the local damping and more than two force blocks
         # (engine.blocks.block_forces) are compile-time switches (absent features are not
         # compiled); damping, contact damping, prescribed velocities and initial stress are
         # runtime switches in the step group (a branch each), which keeps compiled variants few
-        md, many = self.model, self.strategy == "parallel" and self._assembly == "blocks" and self._force_blocks > 2
+        md, many = self.model, self._strategy == "parallel" and self._assembly == "blocks" and self._force_blocks > 2
         return (kernels.Features(bool(md.contact), bool(md.friction), bool(md.fracture), bool(md.loads),
                                  bool(md.local_damping), many, bool(md.fluid)),)
 
-    def steps_per_launch(self) -> int:
-        """Steps one launch runs: the chunk of :meth:`run` without frames.  Serial: ~50 ms of work
-        (SERIAL_TRI_STEPS); a team launch of the parallel strategy: TEAM_TRI_STEPS, about as long
-        on two threads, since waking a team costs ~1 ms on a VM (100k pile on 2 threads, medians
-        of 6 alternating windows: 20 steps per launch 1,158 steps/s, 100 1,204, 200 1,218)."""
-        budget = TEAM_TRI_STEPS if self.strategy == "parallel" and self._team_launches() else SERIAL_TRI_STEPS
-        return max(1, min(SERIAL_MAX_STEPS, budget // max(1, self.tri_count)))
+    def _steps_per_launch(self) -> int:
+        budget = TEAM_TRI_STEPS if self._strategy == "parallel" and self._team_launches() else SERIAL_TRI_STEPS
+        return max(1, min(SERIAL_MAX_STEPS, budget // max(1, self.model.tri_count)))
 
     # ------------------------------------------------------------------------------------------
     # contact detection (parallel strategy, and at build)
@@ -403,7 +355,7 @@ class Simulation(SimulationResults, ModelValues):
                 p = self._packs
             self._launch("detect_fill", kernels.detect_fill, p["tris"], p["detect"], p["contact"], p["step"],
                          self.model.friction)
-        if self.strategy == "parallel":
+        if self._strategy == "parallel":
             self._build_node_slots()
         self._stats["wall_detect"] += _time.perf_counter() - t0
 
@@ -418,7 +370,7 @@ class Simulation(SimulationResults, ModelValues):
         backend.check_generation(self._generation)
         t0 = _time.perf_counter()
         self._forget_apart()
-        if self.strategy == "serial":
+        if self._strategy == "serial":
             self._step_serial(n)
         else:
             self._step_parallel(n)
@@ -428,7 +380,7 @@ class Simulation(SimulationResults, ModelValues):
         """Drop the certificates of separation (``scratch.couple_skip``, engine.contact): positions
         set from the host between launches need not move as the steps account for."""
         if self.model.contact and self.state.couple_max:
-            self.scratch.couple_skip.fill(0)
+            self._scratch.couple_skip.fill(0)
 
     def _detect_due(self) -> bool:
         st = self.state
@@ -442,7 +394,7 @@ class Simulation(SimulationResults, ModelValues):
     def _team_launches(self) -> bool:
         """Whether the parallel strategy runs team launches (block assembly on the CPU, team_steps;
         never with a fluid, whose scenes run one parallel step per launch)."""
-        return bool(self.scratch.blocks and backend.arch() == "cpu" and self.team_steps and not self.model.fluid)
+        return bool(self._scratch.blocks and backend.arch() == "cpu" and self._team_steps and not self.model.fluid)
 
     def _team(self) -> int:
         """Workers of the next team launch (:class:`~taichi_fdem.sim.team.TeamScheduler`), 0 for one
@@ -467,10 +419,10 @@ class Simulation(SimulationResults, ModelValues):
                 self._detect()
             if self.model.fluid:
                 code = self._launch_cached("step_parallel_fluid", kernels.step_parallel_fluid, *self._groups["parallel"],
-                                           *switches, self.scratch.blocks)
+                                           *switches, self._scratch.blocks)
             else:
                 code = self._launch_cached("step_parallel", kernels.step_parallel, *self._groups["parallel"], *switches,
-                                           self.scratch.blocks)
+                                           self._scratch.blocks)
             self.step_count += 1
             due = self.model.contact and bool(code & 1)
             if code & 2:
@@ -478,7 +430,7 @@ class Simulation(SimulationResults, ModelValues):
 
     def _step_serial(self, n: int) -> None:
         switches = self._switches()
-        per_launch = self.steps_per_launch()
+        per_launch = self._steps_per_launch()
         while n > 0:
             chunk = min(n, per_launch)
             if self.model.fluid:
@@ -506,12 +458,6 @@ class Simulation(SimulationResults, ModelValues):
         """
         from .profiling import evaluate_forces
         return evaluate_forces(self, contact_only)
-
-    def profile(self, steps: int = 100) -> dict:
-        """Run ``steps`` steps with one launch per phase and time each phase [s]
-        (:func:`taichi_fdem.sim.profiling.profile`)."""
-        from .profiling import profile
-        return profile(self, steps)
 
     # ---- last good state (run's checks) ---------------------------------------------------------
     _last_good = None
@@ -584,7 +530,7 @@ class Simulation(SimulationResults, ModelValues):
                     every_cb = max(1, int(round(float(callback_dt) / self.dt)))
                 else:
                     every_cb = framed[0] if framed else max(1, int(round(duration / 100 / self.dt)))
-            per_launch = self.steps_per_launch()
+            per_launch = self._steps_per_launch()
             done = 0
             guard = guards.RunGuard(self, checks.energy, checks.energy_tol, checks.max_penetration, checks.every)
             while done < total:
@@ -613,10 +559,10 @@ class Simulation(SimulationResults, ModelValues):
         launch, :class:`~taichi_fdem.sim.team.TeamScheduler`).  ``device``: the arch it runs on ("cpu", "cuda", "vulkan", ...; see :func:`taichi_fdem.init`)."""
         md = self.model
         return {"nodes": md.node_count, "triangles": md.tri_count, "bodies": len(self.bodies),
-                "contact_triangles": md.ctri_count, "couples": self.couple_count, "dt": md.dt,
+                "contact_triangles": md.ctri_count, "couples": self._couple_count(), "dt": md.dt,
                 "dt_limit": md.dt_limit, "dt_estimate": md.dt_estimate, "dt_elastic": md.dt_elastic,
                 "dt_contact": md.dt_contact,
-                "strategy": self.strategy, "contact": md.contact, "friction": md.friction,
+                "strategy": self._strategy, "contact": md.contact, "friction": md.friction,
                 "damping": md.damping, "contact_damping": md.contact_damping, "buffer": md.buffer,
                 "fracture": md.fracture, "joints": md.joint_count, "dt_joint": md.dt_joint,
                 "fluid": md.fluid, "dt_fluid": md.dt_fluid, "fluid_edges": md.fluid_edge_count,

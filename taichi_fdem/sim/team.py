@@ -162,10 +162,10 @@ class TeamScheduler:
         return max(1, min(most, int(TEAM_TRIAL_S / max(self.step_s, 1e-9))))
 
     def run(self, sim, n: int, due: bool, switches) -> None:
-        """Advance ``sim`` by ``n`` steps in team launches of at most ``sim.steps_per_launch()``
+        """Advance ``sim`` by ``n`` steps in team launches of at most ``sim.solver.steps_per_launch()``
         steps (:meth:`launch_steps`); small scenes detect inside the launch (the serial task of
         ``Simulation._detect``), large ones return to the host for the parallel broad phase."""
-        per_launch = sim.steps_per_launch()
+        per_launch = sim.solver.steps_per_launch()
         flags = int(sim._detect_serially())
         while n > 0:
             if due:

@@ -52,7 +52,7 @@ def _metric_values(name: str, sim) -> dict:
     if kind == "dt":
         return {"dt": sim.dt}
     if kind == "couple_count":
-        return {"couple_count": sim.couple_count}
+        return {"couple_count": sim.solver.couple_count}
     if kind == "energies":
         return {f"energy_{k}": float(v) for k, v in sim.energies().items()}
     b = _body_of(sim, body)

@@ -49,7 +49,7 @@ def _centroid_velocity(sim, body):
 
 def _result(sim, wall, build, **values):
     # wall: seconds inside Simulation.step (the solver); wall_total: with the measuring
-    out = {"wall": sim._stats["wall_steps"], "wall_total": wall, "build": build, "steps": sim.step_count, "dt": sim.dt, "triangles": sim.tri_count,
+    out = {"wall": sim._stats["wall_steps"], "wall_total": wall, "build": build, "steps": sim.step_count, "dt": sim.dt, "triangles": sim.model.tri_count,
            "precision": backend.precision()}
     out.update(values)
     return out

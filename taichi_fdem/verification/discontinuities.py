@@ -99,9 +99,9 @@ def notched_beam_scene(h: float = 0.01, notch: float = 0.03, speed: float = 0.05
 
 def first_cracks(sim, count: int = 5, max_steps: int = 200000, chunk: int = 200) -> dict:
     """Step ``sim`` until ``count`` joints have broken; the first ones (broken_joints order)."""
-    while sim.broken_joint_count < count and sim.step_count < max_steps:
+    while sim.cracks.broken_count < count and sim.step_count < max_steps:
         sim.step(chunk)
-    bj = sim.broken_joints()
+    bj = sim.cracks.broken()
     return {k: v[:count] for k, v in bj.items()}
 
 

@@ -73,15 +73,15 @@ class JointPair:
         us, ts = [0.0], [self.traction()[comp]]
         total = int(1.5 * (peak + span) / inc)
         done = 0
-        while done < total and not self.sim.broken_joint_count:
+        while done < total and not self.sim.cracks.broken_count:
             k = 1 if us[-1] < 1.3 * peak else coarse
             self.sim.step(k)
             done += k
             us.append(self.gap()[comp] - u0)
             ts.append(self.traction()[comp])
-        if self.sim.broken_joint_count != 1:
+        if self.sim.cracks.broken_count != 1:
             raise RuntimeError("JointPair.drive: the joint did not break")
-        t_break = float(self.sim.broken_joints()["time"][0])
+        t_break = float(self.sim.cracks.broken()["time"][0])
         # the joint breaks inside a step: its recorded time is the start of that step (positions at
         # the start of the step are those evaluated)
         u_break = (t_break - t0) * inc / self.dt
@@ -142,11 +142,11 @@ def case_direct_tension(resolution: int = 2, safety: float = 0.2, penalty_factor
     while sim.step_count < n_total:
         sim.step(k)
         stress.append(-sim.forces()[right, 0].sum() / H)
-        if sim.broken_joint_count and stress[-1] < 0.3 * max(stress):
+        if sim.cracks.broken_count and stress[-1] < 0.3 * max(stress):
             break
     peak = float(max(stress))
     return _result(sim, _time.perf_counter() - t_start, build, error=abs(peak / ft - 1), peak_over_ft=peak / ft,
-                   broken_joints=sim.broken_joint_count, fragments=sim.fragment_count())
+                   broken_joints=sim.cracks.broken_count, fragments=sim.cracks.fragment_count())
 
 
 # ------------------------------------------------------------------------------------------------
@@ -249,7 +249,7 @@ def brazilian_load(sim, bodies, p, samples: int = 240, frame=None, window: float
         rec["P_inst"].append(float(sim.forces()[top.nodes, 1].sum()))
         rec["approach"].append(float((yt0 - sim.node_positions(top)[:, 1].mean())
                                      + (sim.node_positions(bot)[:, 1].mean() - yb0)))
-        rec["broken"].append(sim.broken_joint_count)
+        rec["broken"].append(sim.cracks.broken_count)
         rec["work"].append(sim.energies()["boundary_work"] / sim.scene.thickness)
         # window average: the first sample at least t_win back
         i0 = int(np.searchsorted(rec["t"], sim.time - t_win, side="right")) - 1
@@ -273,7 +273,7 @@ def brazilian_result(sim, bodies, rec, p) -> dict:
     D, ft = p["D"], p.get("ft", getattr(p["mat"], "tensile_strength", None))
     i = int(np.argmax(rec["P"]))
     ratio = 2.0 * rec["P"][i] / (math.pi * D) / ft
-    bj = sim.broken_joints()
+    bj = sim.cracks.broken()
     j = min(i + 10, len(rec["t"]) - 1)
     sel = bj["time"] <= rec["t"][j]
     central = float(np.mean(np.abs(bj["position"][sel, 0]) < 0.15 * D)) if sel.any() else 0.0
@@ -288,8 +288,8 @@ def brazilian_result(sim, bodies, rec, p) -> dict:
             "approach_at_peak_m": float(rec["approach_P"][i]),
             "max_drop_before_peak": float(max(0.0, drops.max())) if len(drops) else 0.0,
             "broken_after_peak": int(sel.sum()), "central_fraction": central,
-            "broken_total": sim.broken_joint_count, "fragments": sim.fragment_count(disk),
-            "triangles": sim.tri_count, "joints": sim.joint_count}
+            "broken_total": sim.cracks.broken_count, "fragments": sim.cracks.fragment_count(disk),
+            "triangles": sim.model.tri_count, "joints": sim.model.joint_count}
 
 
 def case_brazilian(resolution: int = 40, safety: float = 0.35, penalty_factor: float = 10.0,

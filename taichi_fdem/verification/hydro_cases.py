@@ -255,12 +255,12 @@ def _half_lengths(sim, seed: float, confinement: float = 0.0) -> tuple:
     of the softening joints' half (Irwin: the LEFM tip lies about halfway into the cohesive zone);
     *wet*: the largest ``|x|`` of the network nodes at a net pressure (less ``confinement``) above
     1 % of the well's."""
-    d = sim.joint_damage()
-    length = sim._joint_consts()["length"] if len(d) else np.zeros(0)
+    d = sim.cracks.joint_damage()
+    length = sim.cracks._joint_consts()["length"] if len(d) else np.zeros(0)
     broken = float(length[d >= 1.0].sum())
     soft = float(length[(d > 0.0) & (d < 1.0)].sum())
-    pos, p = sim.fluid_pressures()
-    wet = p - confinement > 0.01 * max(float(sim.injection_pressure()) - confinement, 1e-300)
+    pos, p = sim.fluid.pressures()
+    wet = p - confinement > 0.01 * max(float(sim.fluid.injection_pressure()) - confinement, 1e-300)
     x_wet = float(np.abs(pos[wet, 0]).max()) if wet.any() else 0.0
     return seed + 0.5 * broken, seed + 0.5 * broken + 0.25 * soft, x_wet
 
@@ -296,7 +296,7 @@ def case_kgd(regime: str = "toughness", resolution: int = 16, safety: float = 0.
         sim.run(info["start"] + info["duration"] * k / samples - sim.time)
         lb, ll, lw = _half_lengths(sim, info["seed"], info["confinement"])
         rows.append((sim.time - info["start"], ll, _opening_at(sim, body, 0.0, info["tol"]) - w_start,
-                     float(sim.injection_pressure()) - info["confinement"], lb, lw))
+                     float(sim.fluid.injection_pressure()) - info["confinement"], lb, lw))
     wall = _time.perf_counter() - t0
     rec = np.array(rows)
     sol = ref(rec[:, 0], info["rate"], info["young"], info["poisson"], param)

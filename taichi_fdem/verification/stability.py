@@ -106,7 +106,7 @@ def scenario_disks(speed: float = 2.0, penalty_factor: float = 10.0, dt_factor: 
     make = lambda **kw: two_disks_scene(R, R / resolution, (speed, 0.0), (-speed, 0.0), offset=offset, gap=2 * gap,
                                         material=mat, mirror=False, **kw)[0]
     probe = make()
-    sim = probe if dt_factor is None else make(dt=dt_factor * probe.dt_limit, force_dt=dt_factor > 1)
+    sim = probe if dt_factor is None else make(dt=dt_factor * probe.model.dt_limit, force_dt=dt_factor > 1)
     c_p = _material().p_wave_speed("strain")
     duration = 2 * gap / max(speed, 1e-9) + 8 * R / c_p + 0.3 * R / max(speed, 1e-9)
     return sim, duration, f"two disks, v = ±{speed:g} m/s, p = {penalty_factor:g}·E"
@@ -128,7 +128,7 @@ def scenario_bars(dt_factor: float | None = None, penalty_factor: float = 10.0, 
     scene.add_body(mesh.rectangle(L, 2 * h, h, origin=(-L - 0.5 * gap, 0.0)), mat, velocity=(v, 0.0))
     scene.add_body(mesh.rectangle(L, 2 * h, h, origin=(0.5 * gap, 0.0)), mat, velocity=(-v, 0.0))
     probe = _build(scene)
-    sim = probe if dt_factor is None else _build(scene, dt=dt_factor * probe.dt_limit, force_dt=dt_factor > 1)
+    sim = probe if dt_factor is None else _build(scene, dt=dt_factor * probe.model.dt_limit, force_dt=dt_factor > 1)
     return sim, 2.6 * L / c, "two bars face on face"
 
 
@@ -200,7 +200,7 @@ def scenario_pile(count: int = 200, seed: int = 0, friction: float = 0.3, v_rand
             scene.add_body(disk, mat, position=(x, y), velocity=rng.normal(0.0, v_random, 2))
             k += 1
     sim = _build(scene)
-    return sim, 0.05, f"pile of {count} disks ({sim.tri_count} triangles)"
+    return sim, 0.05, f"pile of {count} disks ({sim.model.tri_count} triangles)"
 
 
 def scenario_damped_block(dt_factor: float | None = None, damping: float = 0.5):
@@ -214,7 +214,7 @@ def scenario_damped_block(dt_factor: float | None = None, damping: float = 0.5):
     scene.add_body(mesh.rectangle(0.2, 0.2, 0.025, pattern="crossed"), mat, angular_velocity=omega,
                    velocity=(0.5, 0.0))
     probe = _build(scene)
-    sim = probe if dt_factor is None else _build(scene, dt=dt_factor * probe.dt_limit, force_dt=dt_factor > 1)
+    sim = probe if dt_factor is None else _build(scene, dt=dt_factor * probe.model.dt_limit, force_dt=dt_factor > 1)
     return sim, 2 * math.pi / omega, f"damped crossed block, β = {damping:g}"
 
 
@@ -259,8 +259,8 @@ def run_suite(quick: bool = True, log=print) -> list:
     for group, param, make in suite(quick):
         sim, duration, desc = make()
         r = stress_run(sim, duration)
-        r.update(group=group, parameter=param, description=desc, dt_ratio=sim.dt / sim.dt_limit,
-                 triangles=sim.tri_count, duration=duration)
+        r.update(group=group, parameter=param, description=desc, dt_ratio=sim.dt / sim.model.dt_limit,
+                 triangles=sim.model.tri_count, duration=duration)
         rows.append(r)
         if log:
             log(f"{group:24s} {param:14s} {'stable' if r['stable'] else 'STOPPED: ' + r['kind']:22s} "
