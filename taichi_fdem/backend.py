@@ -16,146 +16,15 @@ _PRECISIONS = {"f64": (ti.f64, np.float64), "f32": (ti.f32, np.float32)}
 
 _state = {"initialised": False, "arch": None, "precision": None, "generation": 0}
 
-#: The Taichi version the front-end shortcuts (:func:`_memoise_front_end`) were written for and
-#: checked against (tests/test_startup.py); under any other version they are not applied.
-FRONT_END_TAICHI = (1, 7, 4)
-#: Taichi internals the shortcuts replace while applied: (owner, attribute) -> the original.
-_front_end_originals: dict = {}
-
-
-def front_end_shortcuts() -> bool:
-    """Whether the front-end shortcuts of :func:`init` are applied in this process."""
-    return bool(_front_end_originals)
-
-
-def _set_front_end_shortcuts(on: bool) -> None:
-    """Apply (under Taichi :data:`FRONT_END_TAICHI` only) or remove the front-end shortcuts."""
-    if on and not _front_end_originals and tuple(getattr(ti, "__version__", ())) == FRONT_END_TAICHI:
-        _memoise_front_end()
-    elif not on:
-        for (owner, name), original in _front_end_originals.items():
-            setattr(owner, name, original)
-        _front_end_originals.clear()
-
-
-def _patch(owner, name, value) -> None:
-    _front_end_originals.setdefault((owner, name), getattr(owner, name))
-    setattr(owner, name, value)
-
-
-def _memoise_front_end() -> None:
-    """Make Taichi's front end do its pure source bookkeeping once per function, not per use.
-
-    Taichi 1.7 turns every kernel's Python AST into its IR at each process start, even when the
-    offline cache then supplies the compiled kernel (the cache key comes from that IR), and it
-    re-reads and re-parses the source of a ``ti.func`` each time a kernel inlines it
-    (``inspect.getsourcelines``, then ``textwrap`` on every line), and formats for every AST
-    node a message locating it in the source (``get_pos_info``, with ``textwrap``) for its error
-    messages.  Our functions are inlined into many kernels, and twice into the team kernel, so
-    the same ~7,000 messages were formatted ~40,000 times and the same sources read ~700 times:
-    on the 1k pile about half of the first step of a warm start.  The memos return the same
-    values (so the kernels and their cache keys do not change): the source of a function object
-    by that object; a position message by everything it reads (the function, its file and
-    line offset, the node's type and span, the line of a block statement's first statement).
-    Applied by :func:`init` (``front_end_shortcuts``) under Taichi :data:`FRONT_END_TAICHI`
-    only; does nothing if Taichi's internals differ from that version's.
-    """
-    import functools
-    import sys
-    import textwrap as _textwrap
-    import types
-    try:
-        from taichi.lang import kernel_impl
-        from taichi.lang.ast.ast_transformer_utils import ASTTransformerContext
-    except ImportError:            # another Taichi layout: leave it alone
-        return
-    original = getattr(ASTTransformerContext, "get_pos_info", None)
-    if (original is None or getattr(original, "_fdem_memo", False)
-            or not all(hasattr(kernel_impl, n) for n in ("getsourcefile", "getsourcelines", "textwrap"))):
-        return
-    memo = {}
-
-    def get_pos_info(self, node):
-        body = getattr(node, "body", None)
-        first = body[0].lineno if isinstance(body, list) and body and hasattr(body[0], "lineno") else None
-        key = (self.file, self.func.func.__qualname__, self.lineno_offset, self.indent, type(node).__name__,
-               node.lineno, node.col_offset, getattr(node, "end_lineno", None), getattr(node, "end_col_offset", None),
-               first)
-        msg = memo.get(key)
-        if msg is None:
-            msg = memo[key] = original(self, node)
-        return msg
-
-    get_pos_info._fdem_memo = True
-    get_pos_info._fdem_original = original
-    _patch(ASTTransformerContext, "get_pos_info", get_pos_info)
-    sourcefile, sourcelines = kernel_impl.getsourcefile, kernel_impl.getsourcelines
-    files, lines = {}, {}
-
-    def getsourcefile(obj):
-        if obj not in files:
-            files[obj] = sourcefile(obj)
-        return files[obj]
-
-    def getsourcelines(obj):
-        if obj not in lines:
-            src, start = sourcelines(obj)
-            lines[obj] = (tuple(src), start)
-        src, start = lines[obj]
-        return list(src), start
-
-    _patch(kernel_impl, "getsourcefile", getsourcefile)
-    _patch(kernel_impl, "getsourcelines", getsourcelines)
-    # kernel_impl uses textwrap.fill on each source line and textwrap.dedent on the source
-    _patch(kernel_impl, "textwrap", types.SimpleNamespace(fill=functools.lru_cache(maxsize=None)(_textwrap.fill),
-                                                          dedent=functools.lru_cache(maxsize=None)(_textwrap.dedent)))
-    # the position messages wrap each source line and its hint at 80 columns with a new
-    # TextWrapper: the same lines and hints come back for every node on them (a pure function
-    # of the text at that width)
-    from taichi.lang.ast import ast_transformer_utils as _atu
-    if getattr(_atu, "TextWrapper", None) is _textwrap.TextWrapper:
-        wrapped = {}
-
-        class _Wrapper(_textwrap.TextWrapper):
-            def wrap(self, text):
-                key = (self.width, text)
-                lines = wrapped.get(key)
-                if lines is None:
-                    lines = wrapped[key] = tuple(super().wrap(text))
-                return list(lines)
-
-        _patch(_atu, "TextWrapper", _Wrapper)
-    # Taichi asks at each @ti.func / @ti.kernel whether it decorates a method by reading the
-    # source of the statement that runs the frame applying the decorator (a "class" line: that
-    # frame is a class body), one frame further out, ~0.5 ms each.  A frame that is a module's
-    # top level (where this package applies every decorator) is not a class body
-    inside = getattr(kernel_impl, "_inside_class", None)
-    if callable(inside) and not getattr(inside, "_fdem_memo", False):
-        def _inside_class(level_of_class_stackframe):
-            try:
-                if sys._getframe(level_of_class_stackframe - 1).f_code.co_name == "<module>":
-                    return False
-            except ValueError:
-                pass
-            return inside(level_of_class_stackframe + 1)      # (one frame more: this one)
-
-        _inside_class._fdem_memo = True
-        _patch(kernel_impl, "_inside_class", _inside_class)
-
-
 def taichi_header() -> str:
-    """Taichi's one-line start-up banner ("[Taichi] version 1.7.4, llvm ..., python ...").
+    """Taichi's start-up line, "[Taichi] version 1.7.4, linux, python 3.11.7", from public values.
 
-    ``taichi_fdem`` imports Taichi without it (``taichi_fdem/__init__.py``); the command line
-    prints it when a command starts Taichi.
+    ``taichi_fdem`` imports Taichi without its banner (``taichi_fdem/__init__.py``); the command
+    line prints this line when a command starts Taichi.
     """
-    import contextlib
-    import io
-    from taichi._lib import utils
-    buf = io.StringIO()
-    with contextlib.redirect_stdout(buf):
-        utils._print_taichi_header()
-    return buf.getvalue().strip()
+    import platform
+    version = ".".join(str(v) for v in ti.__version__)
+    return f"[Taichi] version {version}, {platform.system().lower()}, python {platform.python_version()}"
 
 
 def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, debug: bool | None = None,
@@ -177,24 +46,12 @@ def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, 
         ``TAICHI_FDEM_DEBUG=1 make test``).
     cpu_max_num_threads : threads of the CPU back end (default: the cores this process may use,
         :func:`usable_cores`: its affinity set and CPU quota).
-    fast_compile : skip Taichi's advanced IR optimisations.  The default build already leaves
-        out the CFG optimisation, the part whose compile time grew fastest (same bits, same
-        speed): on the 1k-triangle pile (benchmarks/pile.py) fast_compile starts cold in 2.9 s
-        instead of 3.4 s and steps ~22 % slower.  The offline cache makes later starts fast
-        either way.
-        Round-off differs from the default build, which can shift discrete events (the step at
-        which two bodies separate): the figures of the accuracy benchmark are measured with the
-        default.  None (default): on when the environment variable TAICHI_FDEM_FAST_COMPILE is
-        "1".
-    front_end_shortcuts : memoise the pure source bookkeeping of Taichi's front end (source
-        lookups, text wrapping, error-position messages; :func:`_memoise_front_end`), which
-        roughly halves the first step of a warm start.  The memos return exactly Taichi's own
-        answers (tests/test_startup.py), so the kernels and their cache keys are unchanged.
-        They patch five Taichi internals for the process, so they are applied only here and
-        only under the Taichi version they were written for (:data:`FRONT_END_TAICHI`); under
-        any other version this setting does nothing.  False removes them again.  None
-        (default): on unless the environment variable TAICHI_FDEM_FRONT_END_SHORTCUTS is "0".
-        Importing taichi_fdem patches nothing.
+    fast_compile : skip Taichi's advanced IR optimisations: a shorter cold start, slower steps
+        (benchmarks/results.md).  Round-off differs from the default build, which can shift
+        discrete events (the step at which two bodies separate); the accuracy benchmark uses the
+        default.  The offline cache makes later starts fast either way.  None (default): on
+        when the environment variable TAICHI_FDEM_FAST_COMPILE is "1".
+    front_end_shortcuts : deprecated, has no effect (DeprecationWarning when given).
     device_memory_GB : memory [GB] Taichi pre-allocates on a CUDA device (Taichi's default
         otherwise: a fraction of the device memory).  None (default) leaves Taichi's default.
 
@@ -208,16 +65,14 @@ def init(arch: str = "cpu", precision: str = "f64", offline_cache: bool = True, 
         raise ValueError(f"fdem.init: unknown precision {precision!r}; choose 'f64' or 'f32'")
     if debug is None:
         debug = os.environ.get("TAICHI_FDEM_DEBUG", "") == "1"
-    if front_end_shortcuts is None:
-        front_end_shortcuts = os.environ.get("TAICHI_FDEM_FRONT_END_SHORTCUTS", "") != "0"
-    _set_front_end_shortcuts(bool(front_end_shortcuts))
+    if front_end_shortcuts is not None:
+        import warnings
+        warnings.warn("fdem.init(front_end_shortcuts=...) is deprecated and has no effect", DeprecationWarning, stacklevel=2)
     kwargs = dict(arch=getattr(ti, _ARCHS[arch]), default_fp=_PRECISIONS[precision][0], default_ip=ti.i32,
                   offline_cache=offline_cache, debug=debug, log_level=os.environ.get("TI_LOG_LEVEL", ti.WARN),
-                  # Taichi's CFG optimisation (store-to-load forwarding and dead-store elimination over
-                  # the control-flow graph) grows faster than linearly with the size of a kernel: off,
-                  # the 1k pile's cold start fell from 18.7 s to 3.9 s (serial) and from 36 s to 6.1 s
-                  # (parallel, detection inside the team launch), and the steps ran as fast (within
-                  # 3 %, the noise) to the same bits (LLVM's own passes do the same work)
+                  # Taichi's CFG optimisation (store-to-load forwarding and dead-store elimination
+                  # over the control-flow graph) is off: its compile time grows faster than the
+                  # size of a kernel, and LLVM's own passes do the same work (same bits, same speed)
                   cfg_optimization=False)
     if cpu_max_num_threads is None:
         cpu_max_num_threads = usable_cores()
@@ -248,10 +103,9 @@ def _init_on(arch: str, kwargs: dict) -> str:
     """ti.init on ``arch`` ("gpu": the first of :data:`GPU_ORDER` that initialises); the arch
     name it runs on.  Taichi falls back to the CPU when an arch is unavailable: that raises."""
     import sys
-    from taichi.lang import impl
     for cand in (GPU_ORDER if arch == "gpu" else (arch,)):
         ti.init(**dict(kwargs, arch=getattr(ti, _ARCHS[cand])))
-        if impl.current_cfg().arch == getattr(ti, _ARCHS[cand]):
+        if ti.cfg.arch == getattr(ti, _ARCHS[cand]):
             if arch == "gpu":
                 print(f"taichi_fdem: arch='gpu' runs on {cand}", file=sys.stderr)
             return cand
@@ -329,8 +183,7 @@ def cgroup_cpu_quota(root: str = "/sys/fs/cgroup") -> float | None:
 def cpu_threads() -> int:
     """Threads of the CPU back end (Taichi's cpu_max_num_threads)."""
     ensure_init()
-    from taichi.lang import impl
-    return int(impl.current_cfg().cpu_max_num_threads)
+    return int(ti.cfg.cpu_max_num_threads)
 
 
 def real_np():

@@ -21,7 +21,6 @@ tests/test_fmath.py over the ranges the engine uses, are a few ulp in both preci
 import math
 
 import taichi as ti
-from taichi.lang import impl
 
 # ln 2 = hi + lo with hi short enough that k·hi is exact for every exponent k of the precision
 LN2_HI_64, LN2_LO_64 = 6.93147180369123816490e-01, 1.90821492927058770002e-10    # hi: 21 bits
@@ -38,7 +37,7 @@ _FACT = tuple(1.0 / math.factorial(k) for k in range(16))
 
 def _f64() -> bool:
     """Whether kernels compile in double precision (the precision of ``float``)."""
-    return impl.get_runtime().default_fp == ti.f64
+    return ti.cfg.default_fp == ti.f64
 
 
 def _ln2_hi() -> float:
