@@ -221,3 +221,45 @@ def test_the_deprecated_names_are_the_only_ones_answered():
         with pytest.warns(DeprecationWarning, match=f"sim.{where}.{new}"):
             value = getattr(sim, name)
         assert value == getattr(getattr(sim, where), new) or callable(value)
+
+
+# ---- no Taichi internals ------------------------------------------------------------------------
+# Names outside Taichi's public API: private modules and attributes (a leading underscore under
+# ``ti.`` / ``taichi.``), the front end's modules, and the internals of a kernel object.
+TAICHI_PRIVATE = [
+    r"\b(?:ti|taichi)(?:\.[A-Za-z]\w*)*\._(?!_)\w",          # taichi._lib, ti.lang._ndarray (not __version__)
+    r"\bfrom\s+taichi(?:\.\w+)*\s+import\s+(?:\(?\s*)?(?:[\w\s,]*,\s*)?_(?!_)\w",   # from taichi.lang import _ndarray
+    r"\bkernel_impl\b", r"\bast_transformer", r"\b_lib\b", r"\b_ti_core\b", r"\.func\.func\b",
+    r"\._primal\b", r"\bcompiled_kernels\b", r"\blaunch_kernel\b", r"\bensure_compiled\b",
+    r"\b(?:ti|taichi)\.lang\.impl\b", r"\bfrom\s+taichi\.lang\s+import\s+(?:[\w\s,]*,\s*)?impl\b",
+]
+
+
+def taichi_private_names(paths) -> list[str]:
+    """``file:line: text`` of every line of ``paths`` that names a Taichi internal
+    (:data:`TAICHI_PRIVATE`)."""
+    import re
+    pattern = re.compile("|".join(TAICHI_PRIVATE))
+    hits = []
+    for path in paths:
+        for no, line in enumerate(pathlib.Path(path).read_text().splitlines(), 1):
+            if pattern.search(line):
+                hits.append(f"{path}:{no}: {line.strip()}")
+    return hits
+
+
+def test_no_taichi_private_names_in_the_package():
+    """The package uses Taichi's public API only (no patched or private Taichi names), which is
+    what lets pyproject.toml ask for a Taichi floor (``taichi>=1.7.0``) without a ceiling."""
+    hits = taichi_private_names(sorted(PKG.rglob("*.py")))
+    assert not hits, "Taichi internals used:\n" + "\n".join(hits)
+
+
+def test_taichi_private_names_are_caught(tmp_path):
+    planted = tmp_path / "planted.py"
+    planted.write_text("import taichi as ti\nfrom taichi._lib import utils\nfrom taichi.lang import kernel_impl\n"
+                       "x = ti.lang._ndarray.Ndarray\nprim = kernel._primal\nsrc = f.func.func\n"
+                       "from taichi.lang import impl\nfrom taichi.lang import _ndarray\n"
+                       "y = ti.Vector([1.0, 2.0])\nimport taichi_fdem._x\nv = ti.__version__\n")
+    hits = taichi_private_names([planted])
+    assert [int(h.split(":")[-2]) for h in hits] == [2, 3, 4, 5, 6, 7, 8], hits
