@@ -262,4 +262,4 @@ def test_taichi_private_names_are_caught(tmp_path):
                        "from taichi.lang import impl\nfrom taichi.lang import _ndarray\n"
                        "y = ti.Vector([1.0, 2.0])\nimport taichi_fdem._x\nv = ti.__version__\n")
     hits = taichi_private_names([planted])
-    assert [int(h.split(":")[-2]) for h in hits] == [2, 3, 4, 5, 6, 7, 8], hits
+    assert [int(h.split(":")[1]) for h in hits] == [2, 3, 4, 5, 6, 7, 8], hits

@@ -88,3 +88,109 @@ def test_the_diary_pattern_catches_what_it_should():
         assert not DIARY.search(text), ok
 
 
+
+
+# ---- figures of past runs in the package's docstrings and comments -----------------------------
+# Docstrings and comments of taichi_fdem/ state contracts (what, units, theory section), not
+# what a run once measured: figures go to benchmarks/results.json (benchmarks/results.md) and
+# docs/performance.md.  Each pattern is a way a past run gets quoted; physics numbers (units,
+# defaults, tolerances, "the measured load" of a verification case) do not match.
+PAST_RUN = re.compile("|".join((
+    # "(measured)", "0.28 mm, measured", "measured on the 1k pile", "as measured in the stress tests"
+    r"\bmeasured\s*[);:,]|\bas measured\b",
+    r"\bmeasured\s+(?:on|in|at|by|against|over|with|here|there)\b",
+    # speed ratios: "0.73×", "1.2× slower", "1.02x on the plate", "at 0.87×"
+    r"\d(?:\.\d+)?\s?[×x]\s*(?:faster|slower|quicker|the speed|on (?:the|a)\b)",
+    r"\bat \d+(?:\.\d+)?\s?×", r"\d\.\d+\s?×\s*(?:[,;:)]|$|and\b|of\b)",
+    # "3 % faster", "5 % of the contact phase", "lost 4.6 % of its energy"
+    r"\d\s?%\s+(?:faster|slower|quicker|cheaper|more expensive)",
+    r"\d\s?%\s+of (?:a|the|its) [\w-]+ (?:phase|start|run|launch|energy)\b",
+    # benchmark scenes and rates: "the 100k pile", "10k-triangle plate", "5.20 M triangle-steps/s"
+    r"\b\d+(?:\.\d+)?\s?(?-i:[kM])[ -]?(?:pile|plate|triangles?\b|tri\b|triangle-steps)",
+    r"\bsteps/s\b",
+    # what a run did: "ran the 100k pile", "took 42 s", "went unstable at", "on 2 threads"
+    r"\bran (?:at|the|in|its|on|as)\b", r"\b(?:lost|took|fell|rose|dropped) (?:from |about |~)?\d",
+    r"\bwent \w+ at\b", r"\bon (?:\d+|two|four) (?:threads|workers|cores)\b",
+    # wall-time figures: "~75 µs", "~0.5-0.9 ms", "42 s of a 53 s cold start"
+    r"~\s?\d+(?:\.\d+)?(?:\s?[-–]\s?\d+(?:\.\d+)?)?\s?(?:ms|µs|us)\b",
+    r"\d\s?s\b[^.]*\b(?:cold|warm) start|\b(?:cold|warm) start[^.]*\b\d+(?:\.\d+)?\s?s\b",
+    # how the code came to be
+    r"\bthe old (?:weights|code|version|kernel|layout|scheme|default|way|implementation|one)s?\b",
+    r"\bpreviously\b|\bformerly\b|\bas before\b|\bwas dropped\b|\bbefore the split\b",
+)), re.I)
+
+PKG = os.path.join(ROOT, "taichi_fdem")
+
+
+def prose_lines(source: str) -> dict[int, str]:
+    """{line number: text} of the docstrings (every string statement) and comments of Python
+    ``source``."""
+    import ast
+    import io
+    import tokenize
+    lines = source.splitlines()
+    out = {}
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant) and isinstance(node.value.value, str):
+            for i in range(node.lineno, node.end_lineno + 1):
+                out[i] = lines[i - 1]
+    for tok in tokenize.generate_tokens(io.StringIO(source).readline):
+        if tok.type == tokenize.COMMENT:
+            out[tok.start[0]] = tok.string
+    return out
+
+
+def past_run_lines(path: str) -> list[str]:
+    """``"path:line: text"`` of each docstring or comment line of ``path`` that quotes a past run
+    (:data:`PAST_RUN`)."""
+    with open(path, encoding="utf-8") as fh:
+        prose = prose_lines(fh.read())
+    rel = os.path.relpath(path, ROOT)
+    return [f"{rel}:{i}: {text.strip()[:140]}" for i, text in sorted(prose.items()) if PAST_RUN.search(text)]
+
+
+def package_files() -> list[str]:
+    return sorted(os.path.join(dp, f) for dp, _, fs in os.walk(PKG) for f in fs if f.endswith(".py"))
+
+
+def test_package_docstrings_quote_no_past_runs():
+    hits = [h for path in package_files() for h in past_run_lines(path)]
+    assert not hits, "docstrings and comments quoting past runs (state the contract; figures go to " \
+                     "benchmarks/results.json or docs/performance.md):\n" + "\n".join(hits)
+
+
+def test_the_past_run_checker_catches_a_planted_docstring(tmp_path):
+    """A module whose docstrings and comments quote past runs is caught line by line; the same
+    module stating contracts with physics numbers passes."""
+    planted = tmp_path / "planted.py"
+    planted.write_text('''"""Block forces.
+
+Without the ranges 8 blocks ran the 100k pile at 0.6× (one worker).
+"""
+
+
+def f(x):
+    """The friction work (it was dropped unbooked: 1.3 J of a 425 J impact, measured)."""
+    # a serial task: a 1-iteration parallel loop costs ~75 µs
+    # 1.3-3.3 % faster on the 10k pile
+    # the old weights (1 bonded, 10 boxes apart) were ignored
+    # unrolled: 42 s of a 1k pile's 53 s cold start
+    return x  # 1.03-1.08x faster on 2 threads
+''')
+    hits = past_run_lines(str(planted))
+    assert [int(h.split(":")[1]) for h in hits] == [3, 8, 9, 10, 11, 12, 13], hits
+    clean = tmp_path / "clean.py"
+    clean.write_text('''"""Contact forces (docs/theory/contact.md §4.2).
+
+The penalty p [Pa] defaults to 10 × young; the time step is safety × the estimate, 0.2 by
+default, and the stable limit is 0.4 × h√(ρ/p).  A 2×2 matrix per triangle.
+"""
+
+
+def g(sim):
+    """Load the disc until the load falls below 30 % of its peak, at most 5 s; the measured
+    load P gives a = √(4PR/(πE*)), within 1 % of the analytic value (tests/test_hertz.py)."""
+    # dt = 1e-6 s, duration 0.1 s; a 5 % tolerance; E_measured against E_analytic
+    return sim
+''')
+    assert past_run_lines(str(clean)) == []
