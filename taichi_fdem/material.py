@@ -48,8 +48,8 @@ REAL_RANGE = {
 #: UCS/BTS ≈ 10–20 (Sheorey 1997, *Empirical Rock Failure Criteria*; Hoek 2007, *Practical Rock
 #: Engineering* §11); with Mohr–Coulomb UCS = 2c cos φ/(1 − sin φ) and φ = 30–40° that is
 #: c ≈ 2–4 f_t.  With c ≤ f_t a compressed joint fails in shear before the tensile strength is
-#: reached: a Brazilian disc with c = f_t, φ = 30° fails by shear in its centre at about 0.56 f_t
-#: instead of splitting at f_t (measured; with c = 3 f_t, φ = 35° it splits at 1.06 f_t).
+#: reached: a Brazilian disc with c = f_t, φ = 30° fails by shear in its centre, at about
+#: 0.56 f_t, instead of splitting at f_t (with c = 3 f_t, φ = 35° it splits: docs/guide/fracture.md).
 COHESION_WARN_RATIO = 1.0
 
 

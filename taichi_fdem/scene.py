@@ -587,10 +587,10 @@ class Scene(FluidScene):
         dt : time step [s].  None (default): ``safety`` × the book's estimate ``sim.model.dt_estimate``
             (docs/theory/elements.md §6.2: elements h/c_p with damping, contact h√(ρ/p), joints L√(ρ/p_f)).
             A dt above the stable limit ``sim.model.dt_limit`` (the same with contact and joint terms
-            × 0.4 and damping rated on the element size, as measured in the stress tests) raises
-            ValueError unless ``force_dt=True``.
-        safety : fraction of the estimate used when dt is None (default 0.2, which keeps a margin
-            of ≥ 2 on the measured limit; at most dt_limit/dt_estimate unless force_dt).
+            × 0.4 and damping rated on the element size: :mod:`taichi_fdem.sim.timestep`,
+            docs/stability.md) raises ValueError unless ``force_dt=True``.
+        safety : fraction of the estimate used when dt is None (default 0.2, a margin of ≥ 2
+            below the stable limit; at most dt_limit/dt_estimate unless force_dt).
         buffer : contact buffer b [m] (§4.1); default ¼ of the mean edge length of the
             contact triangles.
         strategy : "auto", "serial" (one launch runs many steps on one core: small scenes) or
@@ -611,22 +611,21 @@ class Scene(FluidScene):
             undamaged joint resist overlap (docs/theory/joints.md §7.10).  "joint" (default): the joint
             carries the contact's share of the compression, 3p(1/h_A + 1/h_B) per unit overlap,
             and of the frictional strength, μ|σ|; contact is not evaluated for the pair until
-            the joint hands that share and its energy over to contact (``handover_damage``;
-            1.3-1.6× faster once an impact compresses a jointed body,
-            :func:`taichi_fdem.engine.contact.edge_pair_bonded`).  "contact": contact is evaluated for
+            the joint hands that share and its energy over to contact (``handover_damage``,
+            :func:`taichi_fdem.engine.contact.edge_pair_bonded`): fewer contact couples to
+            evaluate once an impact compresses a jointed body (docs/performance.md).
+            "contact": contact is evaluated for
             such pairs from the start, alongside the joint's own compression law, as in Y2D.
         handover_damage : with ``joined_pairs="joint"``, the damage D in [0, 1] (at any of the
             joint's three integration points, docs/theory/joints.md §7.5) beyond which the joint hands its
             pair over to contact (a broken joint always has).  Default 0: at the first damage.
             A speed option for impacts: most joints an impact damages stay below a few per
-            cent, and each one carried longer is a pair contact does not evaluate (0.05: the
-            10k-triangle plate of ``benchmarks/fracture.py`` ran its slowest 1,000 steps at 6.06
-            against 5.20 M triangle-steps/s on 2 threads, energy balance within 0.1 % as at 0).  But it changes the response of damaged joints:
-            the carried friction share μ|σ| stays in the joint's shear strength instead of
-            contact friction, and the unconfined peak of ``verification.rock.case_triaxial``
-            rises from 1.04-1.05 to 1.09-1.18 (0.05) × Mohr–Coulomb of the joints (ranges over
-            hosts: the first failure is a symmetry break that round-off moves).  The
-            corner pairs around a joint are freed at its first damage whatever the value.
+            cent, and each one carried longer is a pair contact does not evaluate
+            (docs/performance.md).  It changes the response of damaged joints: the carried
+            friction share μ|σ| stays in the joint's shear strength instead of contact
+            friction, which raises the unconfined peak of ``verification.rock.case_triaxial``
+            above Mohr–Coulomb of the joints (docs/performance.md).  The corner pairs around a
+            joint are freed at its first damage whatever the value.
         """
         return Simulation(self, dt=dt, safety=safety, force_dt=force_dt, buffer=buffer, strategy=strategy,
                           check_overlap=check_overlap, speed_limit=speed_limit,

@@ -168,9 +168,8 @@ def scan_partners(k, count_only: ti.template(), det: ti.template(), con: ti.temp
     ta = det.contact_tri[k]
     ix, iy = cell_of(ck, d)
     found = 0
-    # runtime loops over the 9 cells (not unrolled): one copy of the scan, which keeps the
-    # serial step kernel's compile time down (unrolled, the scan was 9 copies in the count and
-    # 9 in the fill: 42 s of a 1k pile's 53 s cold start, measured)
+    # runtime loops over the 9 cells (not unrolled): one copy of the scan in the compiled
+    # kernel, which keeps the step kernels' compile time down (docs/architecture.md)
     for s in range(9):
         h = hash_cell(ix + (s % 3) - 1, iy + (s // 3) - 1, H)
         dup = False
@@ -303,7 +302,7 @@ def phase_detect_count(nodes: ti.template(), tris: ti.template(), det: ti.templa
     """Bounding circles, counting sort and couple count; det.det_cnew = exclusive prefix of counts."""
     K = det.contact_tri.shape[0]
     H = det.det_bucket.shape[0]
-    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
+    ti.loop_config(serialize=True)   # a serial task: one thread, no parallel-loop launch
     for _ in range(1):
         step.step_real[RMAX] = 0.0
     for k in range(K):
@@ -312,7 +311,7 @@ def phase_detect_count(nodes: ti.template(), tris: ti.template(), det: ti.templa
         det.det_bucket[h] = ti.Vector([0, 0])
     for k in range(K):
         bin_circle(k, det, step)
-    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
+    ti.loop_config(serialize=True)   # a serial task: one thread, no parallel-loop launch
     for _ in range(1):
         bucket_starts(det)
     for k in range(K):
@@ -322,7 +321,7 @@ def phase_detect_count(nodes: ti.template(), tris: ti.template(), det: ti.templa
         sort_bucket(h, det)
     for k in range(K):
         det.det_cnew[k] = scan_partners(k, True, det, con, tris, step, 0, False)
-    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
+    ti.loop_config(serialize=True)   # a serial task: one thread, no parallel-loop launch
     for _ in range(1):
         count_prefix(det, step)
 
@@ -342,6 +341,6 @@ def phase_detect_fill(tris: ti.template(), det: ti.template(), con: ti.template(
         fill_partners(k, det, con, tris, step, friction)
     for c in range(det.det_cnew[K]):
         con.couple_skip[c] = 0.0          # no certificate of separation (dacc restarts at 0)
-    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
+    ti.loop_config(serialize=True)   # a serial task: one thread, no parallel-loop launch
     for _ in range(1):
         detected(step)

@@ -15,8 +15,8 @@ comparisons, which every back end has in both precisions:
 * :func:`pow`: exp(y·log x) for x > 0.
 
 The series lengths are fixed for the precision at compile time (``float`` is the default
-precision chosen by :func:`taichi_fdem.init`).  Errors against numpy, measured by
-tests/test_fmath.py over the ranges the engine uses, are a few ulp in both precisions.
+precision chosen by :func:`taichi_fdem.init`).  Errors against numpy over the ranges the
+engine uses: a few ulp in both precisions (tests/test_fmath.py).
 """
 import math
 

@@ -144,8 +144,7 @@ def integrate_span(lo, hi, nodes: ti.template(), joints: ti.template(), asm: ti.
         # order, each over the nodes its items can write (its range, step_int[RANGE + 2b],
         # engine.blocks.block_node_ranges), each entry reset for the next step.  Two blocks
         # (the default): block 1's copy is added in the integration loop below, the same sum
-        # without a pass of its own that stores node_f and loads it again (1.3-3.3 % faster on
-        # the piles and the plate)
+        # without a pass of its own that stores node_f and loads it again
         nblk = asm_blocks(N, asm)
         if nblk == 2:
             f_lo = ti.max(lo, step.step_int[RANGE + 2])
@@ -185,14 +184,14 @@ def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.templat
     alpha = 0.0
     if ti.static(local_damping):
         alpha = step.step_real[QS_ALPHA]
-    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
+    ti.loop_config(serialize=True)   # a serial task: one thread, no parallel-loop launch
     for _ in range(1):
         step.step_real[VMAX] = 0.0
     for chunk in range((N + CHUNK - 1) // CHUNK):
         # g is read in the loop, not before it: a vector set outside a loop and read inside one
         # is a global temporary, which Taichi 1.7 places unaligned, and SPIR-V (Vulkan) stores an
-        # f64 vector at an offset of 4 mod 8 four bytes lower, over its neighbour: in a scene with
-        # a fluid that was this loop's end, so the nodes did not move (tests/test_gpu.py, fluid-f64)
+        # f64 vector at an offset of 4 mod 8 four bytes lower, over its neighbour (the loop's
+        # end in a scene with a fluid; tests/test_gpu.py, fluid-f64)
         g = step.step_gravity[None]
         vmax2, bad, work, local = integrate_span(chunk * CHUNK, ti.min(N, chunk * CHUNK + CHUNK), nodes, joints, asm,
                                                  step, dt, g, bc, bc_work, alpha, gathered, local_damping)
@@ -203,7 +202,7 @@ def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.templat
             ti.atomic_add(step.step_real[WORK_BOUNDARY], work)
         if ti.static(local_damping):
             ti.atomic_add(step.step_real[WORK_LOCAL], local)
-    ti.loop_config(serialize=True)   # a serial task: a 1-iteration parallel loop costs ~75 µs
+    ti.loop_config(serialize=True)   # a serial task: one thread, no parallel-loop launch
     for _ in range(1):
         if ti.static(gathered == 2):
             # the blocks' dissipated contact work, in block order (engine.step.phase_blocks)

@@ -114,7 +114,7 @@ def apply_loads(nodes: ti.template(), step: ti.template()):
     velocities for t_n + Δt/2; book the first half of the loads' work (:func:`apply_load`)."""
     t = step.step_real[TIME]
     dt = step.step_dt[None]
-    ti.loop_config(serialize=True)   # few entries: a parallel loop's launch (~75 µs) costs more
+    ti.loop_config(serialize=True)   # few entries: one thread, cheaper than a parallel loop's launch
     for k in range(nodes.load_nodes.shape[0]):
         apply_load(k, t, dt, nodes, step)
 
@@ -140,7 +140,7 @@ def book_load(k, dt, nodes: ti.template(), step: ti.template()):
 def book_load_work(nodes: ti.template(), step: ti.template()):
     """Second half of the loads' work over the step, with the new velocities (see the module)."""
     dt = step.step_dt[None]
-    ti.loop_config(serialize=True)   # few entries: a parallel loop's launch (~75 µs) costs more
+    ti.loop_config(serialize=True)   # few entries: one thread, cheaper than a parallel loop's launch
     for k in range(nodes.load_nodes.shape[0]):
         book_load(k, dt, nodes, step)
 

@@ -42,8 +42,7 @@ def direct_shear(material, width: float, height: float, h: float, normal_stress:
     progressively below ``peak_mc``.  With μ > 0 the peak exceeds c + σn tan φ: the intact
     joint adds μ × the compression of its carried contact share to its shear strength
     (docs/theory/joints.md §7.10), and the contact of its faces takes friction from its first
-    damage (measured, 0.1 × 0.05 m box, h = 12.5 mm, c = 2 MPa, φ = 30°, σn = 1 MPa,
-    G_II = 2 kJ/m²: 0.93 × c + σn tan φ at μ = 0, 1.24 × at μ = 0.5).
+    damage (docs/guide/lab.md gives the peak of one box at μ = 0 and μ = 0.5).
 
     Curve columns: time_s, shear_displacement_m, shear_stress_Pa, normal_stress_Pa,
     dilation_m.  Summary: peak_shear [Pa], residual_shear [Pa] (mean over the last fifth),

@@ -51,8 +51,8 @@ from .trimesh import DEGENERACY_TOL, MAX_GENERATED_TRIANGLES, TriMesh, merge
 __all__ = ["TriMesh", "rectangle", "disk", "annulus", "polygon", "plate_with_hole", "load", "load_groups", "load_tagged", "scene_from_groups",
            "merge", "Segments", "Polyline", "voronoi_grains", "GrainLabels"]
 
-# Pickles (checkpoints hold the scene's meshes) name the class taichi_fdem.mesh.TriMesh, as before
-# the split into modules, so that checkpoints written before and after it load either way.
+# Pickles (checkpoints hold the scene's meshes) name the class taichi_fdem.mesh.TriMesh, the
+# name checkpoint files of every format version use for it.
 TriMesh.__module__ = __name__
 
 # named constructors, scikit-fem style: TriMesh.disk(...), TriMesh.load(...), ...

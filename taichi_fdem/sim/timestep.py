@@ -1,10 +1,11 @@
 """Stable time-step estimates (docs/theory/elements.md §6.2) and the choice of the step at build.
 
 The book's estimates set the default step; the stable limit used to refuse a time step is
-tighter, by factors measured in the stress tests (docs/stability.md): face-on-face contact of
-coarse meshes went unstable at 0.45 × h√(ρ/p) (a corner node carries one triangle's mass and
-both passes push it), and viscous damping must be rated with the element size that sets k_s
-(h_eq), not the smallest altitude.
+tighter, by the factors of the stress tests (docs/stability.md): face-on-face contact of
+coarse meshes is unstable from 0.45 × h√(ρ/p) (a corner node carries one triangle's mass and
+both passes push it), so contact and joint terms count × :data:`CONTACT_LIMIT_FACTOR`; and
+viscous damping is rated with the element size that sets k_s (h_eq), not the smallest
+altitude.
 """
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ import math
 
 import numpy as np
 
-CONTACT_LIMIT_FACTOR = 0.4      # stable contact / joint step = 0.4 × the book's h√(ρ/p) (measured)
+CONTACT_LIMIT_FACTOR = 0.4      # stable contact / joint step = 0.4 × the book's h√(ρ/p) (docs/stability.md)
 
 
 def estimate_time_steps(*, altitude, area0, cp, beta, moving, contact_altitude, contact_penalty, rho_min,

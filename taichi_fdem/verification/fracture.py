@@ -171,7 +171,7 @@ def brazilian_scene(elements: int = 40, load_time: float = 100.0, D: float = 0.1
 
     The disc's caps are flattened over ±``alpha_deg`` (nodes clipped to ``|y|`` ≤ R cos α) so the
     load spreads over a few elements instead of one node.  The platens approach each other at
-    ±v, v chosen so that the approach at the expected peak (≈ 0.28 mm for D = 0.1 m, measured)
+    ±v, v chosen so that the approach at the expected peak (5.6 D f_t/E, ≈ 0.28 mm for D = 0.1 m)
     takes ``load_time`` × D/c_p.  ``strength``: a joint-strength distribution (``fdem.Weibull``,
     ``fdem.NormalStrength``) for a heterogeneous disc.  ``material``: the disc's Material (default
     ``BRAZILIAN_MATERIAL``) or a dict of Materials with ``groups`` (one label per triangle of
@@ -179,8 +179,8 @@ def brazilian_scene(elements: int = 40, load_time: float = 100.0, D: float = 0.1
     ``platen``: the platens' Material (default: E = 10 × the disc's, contact penalty 3 × the
     disc's E); ``joint_sets``: (name, selector, Material) triples added to the disc with
     :meth:`Scene.add_joint_set`; ``quasi_static``: passed to :meth:`Scene.build` (local
-    non-viscous damping of the disc and platens).  The platen speed scales with the expected approach at the peak, 5.6 D f_t/E
-    (0.28 mm measured for D = 0.1 m, f_t/E = 5e-4).  Returns (sim, (disc, top, bottom), params)
+    non-viscous damping of the disc and platens).  The platen speed scales with the expected
+    approach at the peak, 5.6 D f_t/E (0.28 mm for D = 0.1 m, f_t/E = 5e-4).  Returns (sim, (disc, top, bottom), params)
     with params = dict(v, load_time, cp, D, alpha_deg, mat, elements).
     """
     from ..mesh import TriMesh
@@ -226,7 +226,7 @@ def brazilian_load(sim, bodies, p, samples: int = 240, frame=None, window: float
     boundary work W of the prescribed platens.  The load reported, ``P``, is the platen load
     averaged over the last ``window`` × D/c_p: ΔW / Δapproach (the work the platens did over
     that window divided by their relative displacement), which removes the contact chatter
-    and the disc's ringing (periods 0.3–0.9 D/c_p measured); ``t_P`` and ``approach_P`` are the
+    and the disc's ringing (periods of 0.3–0.9 D/c_p); ``t_P`` and ``approach_P`` are the
     window's middle, where a linearly rising load equals that average.  Returns the record as
     arrays.
     """
