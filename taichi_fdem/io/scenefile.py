@@ -231,13 +231,17 @@ MATERIAL_KEYS = {
     "friction_angle": _F(unit="°"),
     "fracture_energy_shear": _F(unit="J/m²"),
     "joint_penalty": _F(unit="Pa"),
+    "like": _Key("str"),
 }
 BODY_KEYS = {
     "name": _Key("str"),
-    "material": _Key("str", required=True),
-    "shape": _Key("choice", choices=("disk", "rectangle", "annulus", "polygon")),
+    "material": _Key("str"),
+    "materials": _Key("names"),
+    "shape": _Key("choice", choices=("disk", "rectangle", "annulus", "polygon", "grains")),
     "file": _Key("str"),
     "cell_block": _Key("int", lo=0),
+    "groups": _Key("bool", False),
+    "group_key": _Key("str"),
     "radius": _POS("m"),
     "width": _POS("m"),
     "height": _POS("m"),
@@ -245,6 +249,11 @@ BODY_KEYS = {
     "layout": _Key("choice", "symmetric", choices=("symmetric", "spiral")),
     "r_inner": _POS("m"),
     "r_outer": _POS("m"),
+    "grain_size": _POS("m"),
+    "seed": _Key("int", 0, lo=0),
+    "minerals": _Key("weights"),
+    "outline": _Key("choice", "rectangle", choices=("rectangle", "disc")),
+    "relax": _Key("int", 3, lo=0, hi=1000),
     "vertices": _Key("vertices", unit="m"),
     "h": _POS("m"),
     "position": _Key("vec2", unit="m", hi=_COORD),
@@ -253,13 +262,16 @@ BODY_KEYS = {
     "rotation": _F(default=0.0, unit="rad", lo=-1e6, hi=1e6),
     "fixed": _Key("bool", False),
     "prescribed_velocity": _Key("vec2", unit="m/s", hi=_SPEED),
+    "velocity_curve": _Key("str"),
     "self_contact": _Key("bool", False),
-    "fracture": _Key("bool", False),
-    "cracks": _Key("polylines", unit="m"),
+    "fracture": _Key("edges", False),
+    "cracks": _Key("cracks", unit="m"),
     "crack_friction": _Key("float", lo=0.0, hi=1e3),
     "weibull_modulus": _Key("float", lo=0.0, lo_open=True, hi=1e3),
     "strength_cov": _Key("float", lo=0.0, hi=10.0),
     "strength_seed": _Key("int", 0, lo=0),
+    "strength_floor": _Key("float", 0.05, lo=0.0, lo_open=True, hi=0.999),
+    "strength_scale_energy": _Key("bool", False),
 }
 #: mesh parameters of each built-in shape: (required, optional)
 SHAPE_KEYS = {
@@ -267,13 +279,78 @@ SHAPE_KEYS = {
     "rectangle": (("width", "height", "h"), ("pattern",)),
     "annulus": (("r_inner", "r_outer", "h"), ("layout",)),
     "polygon": (("vertices",), ("h",)),
-    "file": (("file",), ("cell_block",)),
+    "grains": (("width", "height", "grain_size", "h"), ("seed", "minerals", "outline", "relax")),
+    "file": (("file",), ("cell_block", "groups", "group_key")),
 }
 _MESH_KEYS = {k for req, opt in SHAPE_KEYS.values() for k in req + opt}
-CONSTRAINT_KEYS = {
+#: a region of the plane (initial, placed coordinates): a box and/or a ring about a centre
+REGION_KEYS = {
     "xmin": _F(unit="m"), "xmax": _F(unit="m"), "ymin": _F(unit="m"), "ymax": _F(unit="m"),
+    "center": _Key("vec2", unit="m", hi=_COORD),
+    "r_min": _F(unit="m", lo=0.0, hi=_COORD), "r_max": _F(unit="m", lo=0.0, hi=_COORD),
+}
+_BOUNDS = ("xmin", "xmax", "ymin", "ymax", "r_min", "r_max")
+CONSTRAINT_KEYS = {
+    **REGION_KEYS,
     "body": _Key("str"),
     "vx": _F(unit="m/s", lo=-_SPEED, hi=_SPEED), "vy": _F(unit="m/s", lo=-_SPEED, hi=_SPEED),
+    "curve": _Key("str"),
+}
+CURVE_KEYS = {
+    "times": _Key("floats", unit="s"),
+    "values": _Key("floats"),
+    "ramp": _POS("s", hi=1e9),
+    "start": _F(default=0.0, unit="s", lo=-1e9, hi=1e9),
+}
+JOINT_SET_KEYS = {
+    "name": _Key("str", required=True),
+    "material": _Key("str", required=True),
+    "body": _Key("str"),
+    "interfaces": _Key("bool", False),
+    "lines": _Key("polylines", unit="m"),
+    **REGION_KEYS,
+    "weibull_modulus": BODY_KEYS["weibull_modulus"],
+    "strength_cov": BODY_KEYS["strength_cov"],
+    "strength_seed": BODY_KEYS["strength_seed"],
+    "strength_floor": BODY_KEYS["strength_floor"],
+    "strength_scale_energy": BODY_KEYS["strength_scale_energy"],
+}
+LOAD_KEYS = {
+    "kind": _Key("choice", choices=("pressure", "traction", "force", "absorbing"), required=True),
+    "pressure": _F(unit="Pa", lo=-1e15, hi=1e15),
+    "traction": _Key("vec2", unit="Pa", hi=1e15),
+    "force": _Key("vec2", unit="N/m", hi=1e15),
+    "body": _Key("str"),
+    "curve": _Key("str"),
+    **REGION_KEYS,
+}
+#: the value key of each load kind
+LOAD_VALUE = {"pressure": "pressure", "traction": "traction", "force": "force", "absorbing": None}
+INITIAL_STRESS_KEYS = {
+    "sxx": _F(unit="Pa", required=True, lo=-1e15, hi=1e15),
+    "syy": _F(unit="Pa", required=True, lo=-1e15, hi=1e15),
+    "sxy": _F(default=0.0, unit="Pa", lo=-1e15, hi=1e15),
+    "body": _Key("str"),
+    "gradient": _Key("floats", unit="Pa/m"),
+    "y_ref": _F(default=0.0, unit="m", lo=-_COORD, hi=_COORD),
+}
+INTERACTION_KEYS = {
+    "materials": _Key("strs", required=True),
+    "friction": _F(lo=0.0, hi=1e6),
+    "penalty": _POS("Pa", hi=1e16),
+    "tangential_penalty": _POS("Pa", hi=1e16),
+    "contact_damping": _F(lo=0.0, hi=1.0),
+}
+EXCAVATE_KEYS = {
+    "time": _F(unit="s", lo=0.0, hi=1e9, required=True),
+    "body": _Key("str"),
+    **REGION_KEYS,
+}
+CHECK_KEYS = {
+    "energy": _Key("bool", True),
+    "energy_tol": _POS("", default=0.1, hi=1e6),
+    "max_penetration": _F(default=0.5, lo=0.0, hi=1e6),
+    "every": _Key("int", None, lo=1),
 }
 SOLVER_KEYS = {
     "duration": _F(unit="s", lo=0.0, hi=1e9, required=True),
@@ -286,6 +363,7 @@ SOLVER_KEYS = {
     "joined_pairs": _Key("choice", "joint", choices=("joint", "contact")),
     "handover_damage": _Key("float", HANDOVER_DAMAGE, lo=0.0, hi=1.0),
     "quasi_static": _Key("float", 0.0, lo=0.0, hi=0.999),
+    "speed_limit": _POS("m/s", hi=1e9),
 }
 COLOR_BY = ("body", "material", "speed", "displacement", "von_mises", "max_principal", "min_principal", "damage",
             "fluid_pressure")
@@ -314,19 +392,44 @@ LAB_KEYS = {
     "confinement": _POS("Pa", hi=1e12),
     "normal_stress": _POS("Pa", hi=1e12),
     "rate_transits": _Key("float", 60.0, lo=0.0, lo_open=True, hi=1e6),
-    "load_time": _Key("float", 100.0, lo=0.0, lo_open=True, hi=1e6),
+    "load_time": _Key("float", None, lo=0.0, lo_open=True, hi=1e6),
     "joint": _Key("bool", False),
     "samples": _Key("int", None, lo=10, hi=100000),
     "plane": _Key("choice", "strain", choices=("strain", "stress")),
+    "check": _Key("choice", choices=("rate", "mesh", "both")),
+    "quasi_static": _Key("float", None, lo=0.0, hi=0.999),
+    "safety": _Key("float", None, lo=0.0, lo_open=True, hi=1.0),
+    "settle_transits": _Key("float", None, lo=0.0, hi=1e6),
+    "max_strain": _Key("float", None, lo=0.0, lo_open=True, hi=1.0),
+    "stop_drop": _Key("float", None, lo=0.0, lo_open=True, hi=1.0),
+    "handover_damage": _Key("float", None, lo=0.0, hi=1.0),
+    "penalty_factor": _Key("float", None, lo=0.0, lo_open=True, hi=1e6),
+    "joint_penalty_factor": _Key("float", None, lo=0.0, lo_open=True, hi=1e6),
+    "alpha_deg": _Key("float", None, lo=0.0, hi=45.0),
+    "max_time": _Key("float", None, lo=0.0, lo_open=True, hi=1e6),
+    "displacement": _POS("m", hi=_LEN),
+    "friction": _F(lo=0.0, hi=1e6),
+    "lower_material": _Key("str"),
+    "platen": _Key("str"),
+    "fracture": _Key("bool"),
+    "weibull_modulus": BODY_KEYS["weibull_modulus"],
+    "strength_cov": BODY_KEYS["strength_cov"],
+    "strength_seed": BODY_KEYS["strength_seed"],
+    "history": _Key("str"),
     "csv": _Key("str"),
     "video": _Key("str"),
 }
 #: keys of each lab test: (required, optional) besides test, material, h, samples, plane, csv, video
+_COMPRESSION = ("rate_transits", "check", "quasi_static", "safety", "settle_transits", "max_strain", "stop_drop",
+                "handover_damage", "penalty_factor", "platen", "fracture", "history")
 LAB_TEST_KEYS = {
-    "ucs": (("width", "height"), ("rate_transits",)),
-    "triaxial": (("width", "height", "confinement"), ("rate_transits",)),
-    "brazilian": (("diameter",), ("load_time",)),
-    "direct_shear": (("width", "height", "normal_stress"), ("rate_transits", "joint")),
+    "ucs": (("width", "height"), _COMPRESSION),
+    "triaxial": (("width", "height", "confinement"), _COMPRESSION),
+    "brazilian": (("diameter",), ("load_time", "check", "quasi_static", "safety", "alpha_deg", "max_time",
+                                  "joint_penalty_factor", "platen", "weibull_modulus", "strength_cov",
+                                  "strength_seed")),
+    "direct_shear": (("width", "height", "normal_stress"), ("rate_transits", "joint", "settle_transits", "safety",
+                                                            "displacement", "friction", "lower_material")),
 }
 FLUID_KEYS = {
     "density": _POS("kg/m³", default=1000.0),
@@ -338,13 +441,14 @@ FLUID_KEYS = {
     "conduct": _Key("choice", "broken", choices=("broken", "damaged")),
 }
 INJECT_KEYS = {
-    "xmin": _F(unit="m"), "xmax": _F(unit="m"), "ymin": _F(unit="m"), "ymax": _F(unit="m"),
+    **REGION_KEYS,
     "rate": _F(unit="m²/s", lo=0.0),
     "pressure": _F(unit="Pa", lo=0.0),
     "ramp": _POS("s"),
+    "curve": _Key("str"),
 }
-TOP_KEYS = ("description", "scene", "materials", "bodies", "constraints", "fluid", "inject", "solver", "output",
-            "lab")
+TOP_KEYS = ("description", "scene", "materials", "curves", "bodies", "joint_sets", "interactions", "constraints",
+            "loads", "initial_stress", "fluid", "inject", "excavate", "solver", "checks", "output", "lab")
 
 # ----------------------------------------------------------------------------------------------
 # overrides (sweeps)
@@ -434,20 +538,40 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
     if not mats_t:
         raise SceneFileError(f"{path}: no materials: add a [materials.NAME] table (density, young, poisson, ...)")
     materials = {}
-    for name, mt in mats_t.items():
+    pending = dict(mats_t)
+    while pending:                          # a material "like" another is made after it
+        name = next((n for n, mt in pending.items() if not (isinstance(mt, dict) and mt.get("like") in pending)),
+                    None)
+        if name is None:
+            name = next(iter(pending))
+            raise ck.error(("materials", name, "like"), f"materials refer to each other in a loop through 'like': "
+                           f"{', '.join(pending)}")
+        mt = pending.pop(name)
         mp = ("materials", name)
         ck.table(mt, mp, "density, young, poisson, friction, ...")
         ck.keys(mt, MATERIAL_KEYS, mp)
         vals = {k: v for k, v in ck.values(mt, MATERIAL_KEYS, mp).items() if v is not None}
+        like = vals.pop("like", None)
         try:
-            materials[name] = Material(**vals, name=name)
+            if like is not None:
+                if like not in materials:
+                    raise ck.error(mp + ("like",), f"unknown material {like!r}{_suggest(like, mats_t)}; defined: "
+                                   f"{', '.join(mats_t)}")
+                vals = {k: v for k, v in vals.items() if k in mt}      # only the keys given replace the base's
+                materials[name] = materials[like].with_(**vals, name=name)
+            else:
+                materials[name] = Material(**vals, name=name)
         except (ValueError, TypeError) as exc:
             bad = next((k for k in MATERIAL_KEYS if re.search(rf"\b{k}\b", str(exc)) and k in mt), None)
             raise ck.error(mp + ((bad,) if bad else ()), str(exc), table=mp) from None
 
+    materials = {n: materials[n] for n in mats_t}      # in the file's order
+    curves = _curve_tables(ck, data)
+
     if "lab" in data:
         return SceneSpec(path=path, scene=scene, materials=materials, bodies=[], constraints=[], solver={},
-                         output={}, description=description, lab=_lab_table(ck, data, materials), _checker=ck)
+                         output={}, description=description, lab=_lab_table(ck, data, materials), curves=curves,
+                         _checker=ck)
 
     # bodies
     bodies_t = data.get("bodies", [])
@@ -464,12 +588,17 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
         if b["name"] in names:
             raise ck.error(bp + ("name",), f"body name {b['name']!r} is used twice; names must be unique")
         names.add(b["name"])
-        if b["material"] not in materials:
-            raise ck.error(bp + ("material",), f"unknown material {b['material']!r}"
-                           f"{_suggest(b['material'], materials)}; defined: {', '.join(materials)}")
+        if ("material" in bt) == ("materials" in bt):
+            raise ck.error(bp, f"body {b['name']!r}: give exactly one of material = \"NAME\" or materials = "
+                           f"{{label = \"NAME\", ...}} (material groups)", table=bp)
+        for label, mname in ({"": b["material"]} if b["material"] is not None else b["materials"]).items():
+            if mname not in materials:
+                key = ("material",) if b["material"] is not None else ("materials",)
+                raise ck.error(bp + key, f"unknown material {mname!r}{_suggest(mname, materials)}"
+                               f"{' (group ' + repr(label) + ')' if label else ''}; defined: {', '.join(materials)}")
         if ("shape" in bt) == ("file" in bt):
             raise ck.error(bp, f"body {b['name']!r}: give exactly one of shape = \"disk\"|\"rectangle\"|\"annulus\"|"
-                           f"\"polygon\" or file = \"mesh.msh\"", table=bp)
+                           f"\"polygon\"|\"grains\" or file = \"mesh.msh\"", table=bp)
         shape = b["shape"] or "file"
         b["shape"] = shape
         required, optional = SHAPE_KEYS[shape]
@@ -482,6 +611,29 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
                 raise ck.error(bp + ((k,) if "shape" not in bt else ("shape",)),
                                f"body {b['name']!r}: {shape} needs {k!r}"
                                + (f" [{BODY_KEYS[k].unit}]" if BODY_KEYS[k].unit else ""), table=bp)
+        if b["materials"] is not None:
+            if shape == "grains" and b["minerals"] is None:
+                raise ck.error(bp + ("materials",), "materials = {mineral = \"NAME\"} needs minerals = {name = "
+                               "proportion, ...}; without minerals give one material = \"NAME\" for every grain")
+            if shape == "grains" and set(b["materials"]) != set(b["minerals"]):
+                raise ck.error(bp + ("materials",), f"materials must name one material for each mineral: minerals "
+                               f"{sorted(b['minerals'])}, materials for {sorted(b['materials'])}")
+            if shape == "file" and not b["groups"]:
+                raise ck.error(bp + ("materials",), "materials = {label = \"NAME\"} maps the material groups of "
+                               "the mesh file: it needs groups = true")
+            if shape not in ("grains", "file"):
+                raise ck.error(bp + ("materials",), f"a {shape!r} mesh has one material group: give material = "
+                               f"\"NAME\" (materials = {{...}} is for grains and for mesh files with groups = true)")
+        elif shape == "file" and b["groups"]:
+            raise ck.error(bp + ("groups",), "groups = true needs materials = {label = \"NAME\", ...}, one "
+                           "material per group of the file")
+        if "group_key" in bt and not b["groups"]:
+            raise ck.error(bp + ("group_key",), "group_key needs groups = true")
+        if shape == "grains" and b["h"] >= b["grain_size"]:
+            raise ck.error(bp + ("h",), f"h ({b['h']} m) must be smaller than grain_size ({b['grain_size']} m)")
+        if shape == "grains" and b["outline"] == "disc" and b["width"] != b["height"]:
+            raise ck.error(bp + ("height",), f"outline = \"disc\": width is the diameter and height must equal it "
+                           f"(got {b['width']} and {b['height']} m)")
         if shape == "annulus" and b["r_inner"] >= b["r_outer"]:
             raise ck.error(bp + ("r_inner",), f"r_inner ({b['r_inner']} m) must be < r_outer ({b['r_outer']} m)")
         if shape == "file":
@@ -490,12 +642,20 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
                 raise ck.error(bp + ("file",), f"mesh file {b['file']!r} not found (looked for {f}; paths are "
                                f"relative to the scene file's folder)")
             b["file"] = f
-        if b["weibull_modulus"] is not None and b["strength_cov"] is not None:
-            raise ck.error(bp + ("strength_cov",), "give either weibull_modulus or strength_cov, not both")
-        if (b["fracture"] or b["weibull_modulus"] is not None or b["strength_cov"] is not None) \
-                and not materials[b["material"]].can_fracture:
-            raise ck.error(bp + ("fracture",), f"body {b['name']!r}: joints need tensile_strength and "
-                           f"fracture_energy in [materials.{b['material']}]")
+        _strength_keys(ck, bt, b, bp)
+        b["fracture"] = _edge_selector(ck, bt.get("fracture", False), bp + ("fracture",))
+        b["cracks"], b["crack_regions"] = _cracks(ck, bt.get("cracks"), bp + ("cracks",))
+        mnames = [b["material"]] if b["material"] is not None else list(b["materials"].values())
+        if b["fracture"] is not False or b["weibull_modulus"] is not None or b["strength_cov"] is not None:
+            for mname in mnames:
+                if not materials[mname].can_fracture:
+                    raise ck.error(bp + ("fracture",), f"body {b['name']!r}: joints need tensile_strength and "
+                                   f"fracture_energy in [materials.{mname}]")
+        if b["velocity_curve"] is not None:
+            _known_curve(ck, curves, b["velocity_curve"], bp + ("velocity_curve",))
+            if b["prescribed_velocity"] is None:
+                raise ck.error(bp + ("velocity_curve",), "velocity_curve multiplies prescribed_velocity: give "
+                               "prescribed_velocity = [vx, vy]")
         if b["fixed"] and b["prescribed_velocity"] is not None:
             raise ck.error(bp + ("prescribed_velocity",), "give either fixed = true or prescribed_velocity, not both")
         bodies.append(b)
@@ -510,19 +670,24 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
         ck.table(ct, cp, "a box selector and a velocity")
         ck.keys(ct, CONSTRAINT_KEYS, cp)
         c = ck.values(ct, CONSTRAINT_KEYS, cp)
-        if all(c[b] is None for b in ("xmin", "xmax", "ymin", "ymax")):
-            raise ck.error(cp, "give at least one of xmin, xmax, ymin, ymax [m] (the box of nodes to constrain)",
-                           table=cp)
-        for lo, hi in (("xmin", "xmax"), ("ymin", "ymax")):
-            if c[lo] is not None and c[hi] is not None and c[lo] > c[hi]:
-                raise ck.error(cp + (lo,), f"{lo} ({c[lo]} m) must be <= {hi} ({c[hi]} m)")
+        _check_region(ck, c, cp, "the region of nodes to constrain")
+        if c["curve"] is not None:
+            _known_curve(ck, curves, c["curve"], cp + ("curve",))
         if c["vx"] is None and c["vy"] is None:
             raise ck.error(cp, "give vx and/or vy [m/s] (an absent component stays free)", table=cp)
         if c["body"] is not None and c["body"] not in names:
             raise ck.error(cp + ("body",), f"unknown body {c['body']!r}{_suggest(c['body'], names)}")
         constraints.append(c)
 
-    fluid, injections = _fluid_tables(ck, data)
+    fluid, injections = _fluid_tables(ck, data, curves)
+    joint_sets = _joint_set_tables(ck, data, materials, names)
+    interactions = _interaction_tables(ck, data, materials)
+    loads = _load_tables(ck, data, names, curves)
+    initial_stress = _initial_stress_tables(ck, data, names)
+    excavations = _excavate_tables(ck, data, names)
+    checks_t = ck.table(data.get("checks", {}), ("checks",), "energy, energy_tol, max_penetration, every")
+    ck.keys(checks_t, CHECK_KEYS, ("checks",))
+    checks = ck.values(checks_t, CHECK_KEYS, ("checks",))
 
     solver_t = ck.table(data.get("solver", {}), ("solver",), "duration, dt, safety, ...")
     ck.keys(solver_t, SOLVER_KEYS, ("solver",))
@@ -530,6 +695,10 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
         raise SceneFileError(f"{ck.where(('solver',))}: [solver] missing required key 'duration' "
                              f"(simulated time of the run, s)")
     solver = ck.values(solver_t, SOLVER_KEYS, ("solver",))
+    for k, e in enumerate(excavations):
+        if e["time"] > solver["duration"]:
+            raise ck.error(("excavate", k, "time"), f"time ({e['time']} s) is after the end of the run "
+                           f"([solver] duration = {solver['duration']} s)")
 
     output_t = ck.table(data.get("output", {}), ("output",), "video, fps, vtu, ...")
     ck.keys(output_t, OUTPUT_KEYS, ("output",))
@@ -554,12 +723,14 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
 
     return SceneSpec(path=path, scene=scene, materials=materials, bodies=bodies, constraints=constraints,
                      solver=solver, output=output, description=description, fluid=fluid, injections=injections,
-                     _checker=ck)
+                     curves=curves, joint_sets=joint_sets, interactions=interactions, loads=loads,
+                     initial_stress=initial_stress, excavations=excavations, checks=checks, _checker=ck)
 
 
 def _lab_table(ck, data: dict, materials: dict) -> dict:
     """The checked ``[lab]`` table: the test's keys resolved, the others refused."""
-    for other in ("bodies", "constraints", "fluid", "inject", "solver", "output"):
+    for other in ("bodies", "constraints", "fluid", "inject", "solver", "output", "joint_sets", "interactions",
+                  "loads", "initial_stress", "excavate", "checks"):
         if other in data:
             raise ck.error((other,), f"a scene file with [lab] runs a standard test: it has no [{other}] "
                            "(the test builds its specimen, loading and run)", table=())
@@ -581,6 +752,14 @@ def _lab_table(ck, data: dict, materials: dict) -> dict:
     for k in required:
         if k not in lab_t:
             raise ck.error(("lab",), f"the {lab['test']!r} test needs {k!r} [{LAB_KEYS[k].unit}]", table=("lab",))
+    for k in ("lower_material", "platen"):
+        if lab[k] is not None and lab[k] not in materials:
+            raise ck.error(("lab", k), f"unknown material {lab[k]!r}{_suggest(lab[k], materials)}; defined: "
+                           f"{', '.join(materials)}")
+    if lab["weibull_modulus"] is not None and lab["strength_cov"] is not None:
+        raise ck.error(("lab", "strength_cov"), "give either weibull_modulus or strength_cov, not both")
+    if "strength_seed" in lab_t and lab["weibull_modulus"] is None and lab["strength_cov"] is None:
+        raise ck.error(("lab", "strength_seed"), "strength_seed needs weibull_modulus or strength_cov")
     if lab["test"] == "brazilian" and not materials[lab["material"]].can_fracture:
         raise ck.error(("lab", "material"), f"the brazilian test needs tensile_strength and fracture_energy in "
                        f"[materials.{lab['material']}]")
@@ -588,7 +767,7 @@ def _lab_table(ck, data: dict, materials: dict) -> dict:
             or k in required + optional}
 
 
-def _fluid_tables(ck, data: dict):
+def _fluid_tables(ck, data: dict, curves: dict):
     """The checked ``[fluid]`` table (None without one) and ``[[inject]]`` list."""
     fluid = None
     if "fluid" in data:
@@ -617,12 +796,261 @@ def _fluid_tables(ck, data: dict):
         ck.table(it, ip, "a box of network nodes and a rate or a pressure")
         ck.keys(it, INJECT_KEYS, ip)
         c = ck.values(it, INJECT_KEYS, ip)
-        if all(c[b] is None for b in ("xmin", "xmax", "ymin", "ymax")):
-            raise ck.error(ip, "give at least one of xmin, xmax, ymin, ymax [m] (the box of network nodes)", table=ip)
-        for lo, hi in (("xmin", "xmax"), ("ymin", "ymax")):
-            if c[lo] is not None and c[hi] is not None and c[lo] > c[hi]:
-                raise ck.error(ip + (lo,), f"{lo} ({c[lo]} m) must be <= {hi} ({c[hi]} m)")
+        _check_region(ck, c, ip, "the region of network nodes")
+        if c["ramp"] is not None and c["curve"] is not None:
+            raise ck.error(ip + ("curve",), "give either ramp or curve, not both")
+        if c["curve"] is not None:
+            _known_curve(ck, curves, c["curve"], ip + ("curve",))
         if (c["rate"] is None) == (c["pressure"] is None):
             raise ck.error(ip, "give exactly one of rate [m²/s] or pressure [Pa]", table=ip)
         injections.append(c)
     return fluid, injections
+
+
+# ----------------------------------------------------------------------------------------------
+# regions, edge selectors, curves and the tables that use them
+# ----------------------------------------------------------------------------------------------
+def _check_region(ck, c: dict, path: tuple, what: str, required: bool = True) -> bool:
+    """Check the region keys of the resolved table ``c``; True when it has a bound."""
+    if all(c[k] is None for k in _BOUNDS):
+        if c.get("center") is not None:
+            raise ck.error(path + ("center",), "center needs r_min and/or r_max [m] (the ring about it)")
+        if required:
+            raise ck.error(path, f"give at least one of xmin, xmax, ymin, ymax, r_min, r_max [m] ({what})", table=path)
+        return False
+    for lo, hi in (("xmin", "xmax"), ("ymin", "ymax"), ("r_min", "r_max")):
+        if c[lo] is not None and c[hi] is not None and c[lo] > c[hi]:
+            raise ck.error(path + (lo,), f"{lo} ({c[lo]} m) must be <= {hi} ({c[hi]} m)")
+    if c.get("center") is not None and c["r_min"] is None and c["r_max"] is None:
+        raise ck.error(path + ("center",), "center needs r_min and/or r_max [m] (the ring about it)")
+    return True
+
+
+def region_of(c: dict):
+    """The region keys of a resolved table (None where absent)."""
+    return {k: c.get(k) for k in REGION_KEYS}
+
+
+_EDGE_TABLE_KEYS = {**REGION_KEYS, "lines": _Key("polylines", unit="m")}
+
+
+def _edge_table(ck, t, path: tuple) -> dict:
+    ck.table(t, path, "a region (xmin, ..., r_max) or lines = [[[x, y], ...], ...]")
+    ck.keys(t, _EDGE_TABLE_KEYS, path)
+    v = ck.values(t, _EDGE_TABLE_KEYS, path)
+    has_region = _check_region(ck, v, path, "the region of edge midpoints", required=v["lines"] is None)
+    if has_region and v["lines"] is not None:
+        raise ck.error(path + ("lines",), "give either a region (xmin, ..., r_max) or lines, not both", table=path)
+    return v
+
+
+def _edge_selector(ck, value, path: tuple):
+    """``fracture``: true/false, "interfaces", a table (a region of edge midpoints or lines) or a list of
+    "interfaces" and tables; returned checked (tables resolved)."""
+    if isinstance(value, bool):
+        return value
+    if value == "interfaces":
+        return value
+    if isinstance(value, dict):
+        return _edge_table(ck, value, path)
+    if isinstance(value, list) and value and all(v == "interfaces" or isinstance(v, dict) for v in value):
+        return [v if v == "interfaces" else _edge_table(ck, v, path + (i,)) for i, v in enumerate(value)]
+    raise ck.error(path, f"{path[-1]} must be true, false, \"interfaces\", a table {{xmin = ..., r_max = ...}} or "
+                   f"{{lines = [...]}}, or a list of these, got {value!r}")
+
+
+def _cracks(ck, value, path: tuple):
+    """``cracks``: polylines in the mesh's coordinates, or a region table (or a list of them) of
+    edge midpoints in placed coordinates.  Returns (polylines or None, region list or None)."""
+    if value is None:
+        return None, None
+    if isinstance(value, dict):
+        value = [value]
+    if isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
+        regions = []
+        for i, t in enumerate(value):
+            p = path + (i,) if len(value) > 1 else path
+            ck.table(t, p, "a region of edge midpoints")
+            ck.keys(t, REGION_KEYS, p)
+            v = ck.values(t, REGION_KEYS, p)
+            _check_region(ck, v, p, "the region of edge midpoints")
+            regions.append(v)
+        return None, regions
+    return ck.value({path[-1]: value}, path[-1], _Key("polylines", unit="m"), path[:-1]), None
+
+
+def _strength_keys(ck, raw: dict, v: dict, path: tuple) -> None:
+    if v["weibull_modulus"] is not None and v["strength_cov"] is not None:
+        raise ck.error(path + ("strength_cov",), "give either weibull_modulus or strength_cov, not both")
+    for k in ("strength_seed", "strength_scale_energy"):
+        if k in raw and v["weibull_modulus"] is None and v["strength_cov"] is None:
+            raise ck.error(path + (k,), f"{k} needs weibull_modulus or strength_cov")
+    if "strength_floor" in raw and v["strength_cov"] is None:
+        raise ck.error(path + ("strength_floor",), "strength_floor is the truncation of strength_cov: it needs "
+                       "strength_cov")
+
+
+def strength_of(v: dict):
+    """The ``strength=`` of the resolved body or joint-set table ``v`` (None without one)."""
+    from ..discontinuity import NormalStrength, Weibull
+    if v.get("weibull_modulus") is not None:
+        return Weibull(v["weibull_modulus"], seed=v["strength_seed"],
+                       scale_energy=v.get("strength_scale_energy") or False)
+    if v.get("strength_cov") is not None:
+        return NormalStrength(v["strength_cov"], seed=v["strength_seed"],
+                              floor=v.get("strength_floor") or 0.05,
+                              scale_energy=v.get("strength_scale_energy") or False)
+    return None
+
+
+def _known_curve(ck, curves: dict, name: str, path: tuple) -> None:
+    if name not in curves:
+        raise ck.error(path, f"unknown curve {name!r}{_suggest(name, curves)}; defined: "
+                       f"{', '.join(curves) or 'none (add a [curves.NAME] table)'}")
+
+
+def _curve_tables(ck, data: dict) -> dict:
+    """{name: {"times": [...], "values": [...]}} of the ``[curves.NAME]`` tables (ramps resolved as
+    ``Curve.ramp``)."""
+    curves_t = ck.table(data.get("curves", {}), ("curves",), "one [curves.NAME] table per load curve")
+    curves = {}
+    for name, t in curves_t.items():
+        cp = ("curves", name)
+        ck.table(t, cp, "times and values, or ramp")
+        ck.keys(t, CURVE_KEYS, cp)
+        c = ck.values(t, CURVE_KEYS, cp)
+        if c["ramp"] is not None:
+            for k in ("times", "values"):
+                if k in t:
+                    raise ck.error(cp + (k,), "give either ramp (and start) or times and values, not both")
+        else:
+            if c["times"] is None or c["values"] is None:
+                raise ck.error(cp, f"curve {name!r}: give times [s] and values, or ramp [s]", table=cp)
+            if "start" in t:
+                raise ck.error(cp + ("start",), "start goes with ramp (times and values give the whole curve)")
+        from ..scene import Curve
+        try:
+            curve = Curve.ramp(c["ramp"], c["start"], name=name) if c["ramp"] is not None \
+                else Curve(c["times"], c["values"], name=name)
+        except ValueError as exc:
+            raise ck.error(cp + ("times",), str(exc)) from None
+        curves[name] = {"times": curve.times.tolist(), "values": curve.values.tolist()}
+    return curves
+
+
+def _array(ck, data: dict, key: str, what: str) -> list:
+    t = data.get(key, [])
+    if not isinstance(t, list):
+        raise ck.error((key,), f"{key} must be an array of tables [[{key}]] ({what})", table=())
+    return t
+
+
+def _known_body(ck, names, c: dict, path: tuple) -> None:
+    if c.get("body") is not None and c["body"] not in names:
+        raise ck.error(path + ("body",), f"unknown body {c['body']!r}{_suggest(c['body'], names)}")
+
+
+def _joint_set_tables(ck, data: dict, materials: dict, names) -> list:
+    out, seen = [], set()
+    for k, t in enumerate(_array(ck, data, "joint_sets", "name, material and the edges")):
+        p = ("joint_sets", k)
+        ck.table(t, p, "a joint set")
+        ck.keys(t, JOINT_SET_KEYS, p)
+        c = ck.values(t, JOINT_SET_KEYS, p)
+        if c["name"] in seen or c["name"] == "default":
+            raise ck.error(p + ("name",), f"joint set name {c['name']!r} is used twice ('default' is the bodies' own)")
+        seen.add(c["name"])
+        if c["material"] not in materials:
+            raise ck.error(p + ("material",), f"unknown material {c['material']!r}"
+                           f"{_suggest(c['material'], materials)}; defined: {', '.join(materials)}")
+        if not materials[c["material"]].can_fracture:
+            raise ck.error(p + ("material",), f"a joint set's material needs tensile_strength and fracture_energy "
+                           f"([materials.{c['material']}])")
+        _known_body(ck, names, c, p)
+        has_region = _check_region(ck, c, p, "", required=False)
+        given = [w for w, on in (("interfaces", c["interfaces"]), ("lines", c["lines"] is not None),
+                                 ("a region", has_region)) if on]
+        if len(given) != 1:
+            raise ck.error(p, "give exactly one edge selector: interfaces = true, lines = [[[x, y], ...], ...] or a "
+                           f"region (xmin, ..., r_max) of edge midpoints; got {', '.join(given) or 'none'}", table=p)
+        _strength_keys(ck, t, c, p)
+        out.append(c)
+    return out
+
+
+def _interaction_tables(ck, data: dict, materials: dict) -> list:
+    out = []
+    for k, t in enumerate(_array(ck, data, "interactions", "materials = [a, b] and the contact values")):
+        p = ("interactions", k)
+        ck.table(t, p, "a pair of materials and their contact properties")
+        ck.keys(t, INTERACTION_KEYS, p)
+        c = ck.values(t, INTERACTION_KEYS, p)
+        if len(c["materials"]) != 2:
+            raise ck.error(p + ("materials",), f"materials must name two materials [a, b], got {c['materials']!r}")
+        for m in c["materials"]:
+            if m not in materials:
+                raise ck.error(p + ("materials",), f"unknown material {m!r}{_suggest(m, materials)}; defined: "
+                               f"{', '.join(materials)}")
+        if all(c[v] is None for v in ("friction", "penalty", "tangential_penalty", "contact_damping")):
+            raise ck.error(p, "give at least one of friction, penalty, tangential_penalty, contact_damping", table=p)
+        out.append(c)
+    return out
+
+
+def _load_tables(ck, data: dict, names, curves: dict) -> list:
+    out = []
+    for k, t in enumerate(_array(ck, data, "loads", "kind, its value and a region")):
+        p = ("loads", k)
+        ck.table(t, p, "a load")
+        ck.keys(t, LOAD_KEYS, p)
+        c = ck.values(t, LOAD_KEYS, p)
+        need = LOAD_VALUE[c["kind"]]
+        for v in ("pressure", "traction", "force"):
+            if v != need and v in t:
+                raise ck.error(p + (v,), f"a {c['kind']!r} load takes " + (f"{need!r}" if need else "no value")
+                               + f", not {v!r}")
+        if need is not None and c[need] is None:
+            raise ck.error(p, f"a {c['kind']!r} load needs {need!r} [{LOAD_KEYS[need].unit}]", table=p)
+        if c["kind"] == "absorbing" and c["curve"] is not None:
+            raise ck.error(p + ("curve",), "an absorbing boundary takes no curve")
+        _check_region(ck, c, p, "the region of the loaded nodes: an edge is loaded when both its nodes are in it")
+        _known_body(ck, names, c, p)
+        if c["curve"] is not None:
+            _known_curve(ck, curves, c["curve"], p + ("curve",))
+        out.append(c)
+    return out
+
+
+def _initial_stress_tables(ck, data: dict, names) -> list:
+    out = []
+    for k, t in enumerate(_array(ck, data, "initial_stress", "sxx, syy, sxy")):
+        p = ("initial_stress", k)
+        ck.table(t, p, "an initial stress")
+        ck.keys(t, INITIAL_STRESS_KEYS, p)
+        c = ck.values(t, INITIAL_STRESS_KEYS, p)
+        if c["gradient"] is not None and len(c["gradient"]) not in (2, 3):
+            raise ck.error(p + ("gradient",), f"gradient must be [dsxx/dy, dsyy/dy] or [dsxx/dy, dsyy/dy, dsxy/dy] "
+                           f"[Pa/m], got {c['gradient']!r}")
+        _known_body(ck, names, c, p)
+        out.append(c)
+    return out
+
+
+def _excavate_tables(ck, data: dict, names) -> list:
+    out = []
+    for k, t in enumerate(_array(ck, data, "excavate", "time and the body and/or region removed")):
+        p = ("excavate", k)
+        ck.table(t, p, "an excavation")
+        ck.keys(t, EXCAVATE_KEYS, p)
+        c = ck.values(t, EXCAVATE_KEYS, p)
+        has_region = _check_region(ck, c, p, "", required=False)
+        if not has_region and c["body"] is None:
+            raise ck.error(p, "give body and/or a region (xmin, ..., r_max) of triangle centroids to remove",
+                           table=p)
+        _known_body(ck, names, c, p)
+        out.append(c)
+    times = [c["time"] for c in out]
+    if times != sorted(times):
+        raise ck.error(("excavate", next(i for i in range(1, len(times)) if times[i] < times[i - 1]), "time"),
+                       "[[excavate]] tables must come in order of time")
+    return out
