@@ -54,18 +54,40 @@ cohesion               Pa      joints: cohesion c [f_t]
 friction_angle         °       joints: internal friction angle φ_i [30]
 fracture_energy_shear  J/m²    joints: mode II fracture energy G_II [5 × G_I]
 joint_penalty          Pa      joints: penalty p_f [10 × young]
+like                   —       a NAME of ``[materials]`` whose values this one starts from: the keys
+                               given replace them (``Material.with_``) [none]
 =====================  ======  ===============================================================
+
+``[curves.NAME]`` (a load curve ``fdem.Curve``, piecewise linear, constant past its ends)
+
+================  ======  =================================================================
+times             s       strictly increasing times of the points ``Curve(times, values)``
+values            —       the amplitude at each time (as many as times)
+ramp              s       or: a ramp from 0 to 1 over this time, then 1 (``Curve.ramp``)
+start             s       with ramp: the time the ramp starts [0.0]
+================  ======  =================================================================
 
 ``[[bodies]]`` (one table per body; the mesh is a ``shape`` or a ``file``)
 
 ===================  ======  ==============================================================
 name                 —       unique name, used by constraints and sweep metrics ["body<i>"]
-material             —       a NAME of ``[materials]`` (required)
-shape                —       "disk", "rectangle", "annulus" or "polygon" (or give ``file``)
+material             —       a NAME of ``[materials]`` (give it or ``materials``)
+materials            —       material groups: {label = "NAME", ...}: with ``shape = "grains"`` one
+                             material per mineral of ``minerals``; with ``file`` and ``groups``
+                             one per group of the file (``add_body(groups=)``) [none]
+shape                —       "disk", "rectangle", "annulus", "polygon" or "grains" (or give ``file``)
 file                 —       mesh file read by ``fdem.mesh.load`` (gmsh .msh, .vtu, ...)
 cell_block           —       with ``file``: index of the one triangle cell block to use [all]
+groups               —       with ``file``: read its material groups (``fdem.mesh.load_tagged``),
+                             one material each by ``materials`` [false]
+group_key            —       with ``groups``: the cell-data array of the group tags [gmsh:physical]
+grain_size           m       grains: mean grain edge length d > h (``fdem.mesh.voronoi_grains``)
+seed                 —       grains: seed of the random grains [0]
+minerals             —       grains: {name = proportion, ...}, the minerals' area shares [none]
+outline              —       grains: "rectangle" or "disc" (width = height = the diameter) ["rectangle"]
+relax                —       grains: Lloyd iterations of the seeds [3]
 radius               m       disk: radius, > 0
-width, height        m       rectangle: size, > 0
+width, height        m       rectangle, grains: size, > 0
 pattern              —       rectangle: "alternating", "crossed" or "right" ["alternating"]
 r_inner, r_outer     m       annulus: radii, 0 < r_inner < r_outer
 layout               —       disk, annulus: "symmetric" or "spiral" (``fdem.mesh.disk``) ["symmetric"]
@@ -79,26 +101,113 @@ angular_velocity     rad/s   initial spin about the centroid, counter-clockwise 
 rotation             rad     rotation about the centroid before placing, counter-clockwise [0.0]
 fixed                —       every node held still (floors, walls) [false]
 prescribed_velocity  m/s     [v_x, v_y] every node moves at this velocity (platens) [none]
+velocity_curve       —       a NAME of ``[curves]`` multiplying prescribed_velocity [none]
 self_contact         —       the body's own triangles can contact each other [false]
-fracture             —       a cohesive joint on every interior edge (docs/theory/joints.md §7) [false]
+fracture             —       where cohesive joints go (docs/theory/joints.md §7): true (every
+                             interior edge), false, "interfaces" (edges between material
+                             groups, grain boundaries), a table of a region of edge midpoints
+                             {xmin, xmax, ymin, ymax, center, r_min, r_max} (placed coordinates
+                             [m], as ``[[constraints]]``) or of lines = [[[x, y], ...], ...] (edges
+                             along them, in the mesh's own coordinates, as cracks), or a list of
+                             these [false]
 cracks               m       pre-existing open cracks: a list of polylines [[[x, y], ...], ...]
                              in the mesh's own coordinates (moved with the body by position and
                              rotation); a ``polygon`` body is meshed with edges along them,
-                             other meshes need edges there already [none]
+                             other meshes need edges there already; or a region table (or a list
+                             of them) of edge midpoints in placed coordinates [none]
 crack_friction       —       friction coefficient μ ≥ 0 of the crack faces [material's]
 weibull_modulus      —       Weibull modulus m > 0 of the joint strength (docs/theory/discontinuities.md §13.3) [none]
 strength_cov         —       or: coefficient of variation of a normal joint strength [none]
 strength_seed        —       seed of the joint-strength draws, ≥ 0 [0]
+strength_floor       —       strength_cov: truncation of the factor below (``floor``) [0.05]
+strength_scale_energy  —     the fracture energies scale with the strength factor [false]
 ===================  ======  ==============================================================
 
-``[[constraints]]`` (prescribe the velocity of the nodes inside a box, in the initial positions)
+A *region* (``[[constraints]]``, ``[[loads]]``, ``[[inject]]``, ``[[excavate]]``, ``[[joint_sets]]``,
+``fracture`` and ``cracks`` tables) selects the points (nodes, edge midpoints, triangle
+centroids) inside the box ``xmin ≤ x ≤ xmax``, ``ymin ≤ y ≤ ymax`` and the ring ``r_min ≤
+|(x, y) − center| ≤ r_max`` (all bounds inclusive, absent = unbounded), in the initial, placed
+coordinates [m]: the ``where(x, y)`` of the Python API.  At least one bound is required.
+
+``[[constraints]]`` (prescribe the velocity of the nodes inside a region, in the initial positions)
 
 ================  ======  =================================================================
 xmin, xmax        m       box along x, inclusive [−∞, +∞]; at least one bound is required
 ymin, ymax        m       box along y, inclusive [−∞, +∞]
+center            m       [x, y] centre of the ring r_min, r_max [[0, 0]]
+r_min, r_max      m       ring about center: distance bounds, inclusive [0, +∞]
 body              —       restrict to the nodes of this body [all bodies]
 vx, vy            m/s     prescribed velocity component; an absent component stays free
                           (a roller); at least one is required
+curve             —       a NAME of ``[curves]`` multiplying the velocity [none]
+================  ======  =================================================================
+
+``[[joint_sets]]`` (joints with their own properties, ``Scene.add_joint_set``, after all bodies)
+
+=====================  ======  ===============================================================
+name                   —       the set's name (required; not "default")
+material               —       a NAME of ``[materials]`` giving the joint properties (required)
+body                   —       only in this body [every body]
+interfaces             —       the edges between material groups (grain boundaries) [false]
+lines                  m       or: edges along these polylines [[[x, y], ...], ...] (placed
+                               coordinates) [none]
+xmin, xmax             m       or: a region of edge midpoints (and ymin, ymax, center, r_min,
+                               r_max as ``[[constraints]]``)
+ymin, ymax             m       region of edge midpoints along y
+center                 m       centre of the region's ring
+r_min, r_max           m       the region's ring
+weibull_modulus        —       Weibull modulus of the set's joint strength [none]
+strength_cov           —       or: coefficient of variation of a normal joint strength [none]
+strength_seed          —       seed of the strength draws [0]
+strength_floor         —       strength_cov: truncation below [0.05]
+strength_scale_energy  —       the fracture energies scale with the strength factor [false]
+=====================  ======  ===============================================================
+
+``[[interactions]]`` (contact properties of a pair of materials, ``Scene.set_interaction``)
+
+==================  ======  ===============================================================
+materials           —       the pair ["a", "b"] of ``[materials]`` NAMEs (required)
+friction            —       friction coefficient of the pair [the smaller]
+penalty             Pa      normal contact penalty of the pair [the smaller]
+tangential_penalty  Pa      tangential penalty of the pair [the smaller]
+contact_damping     —       normal contact damping ratio of the pair [the smaller]
+==================  ======  ===============================================================
+
+``[[loads]]`` (``Scene.apply_pressure``, ``apply_traction``, ``apply_force``, ``absorbing_boundary``)
+
+================  ======  =================================================================
+kind              —       "pressure", "traction", "force" or "absorbing" (required)
+pressure          Pa      pressure: normal follower pressure, positive pushes in
+traction          Pa      traction: [t_x, t_y] of fixed direction on the initial edges
+force             N/m     force: [F_x, F_y] at each selected node, per metre of thickness
+body              —       only on this body [all bodies]
+curve             —       a NAME of ``[curves]`` multiplying the load [none]
+xmin, xmax        m       region of the loaded nodes (and ymin, ymax, center, r_min, r_max)
+ymin, ymax        m       region along y
+center            m       centre of the region's ring
+r_min, r_max      m       the region's ring
+================  ======  =================================================================
+
+``[[initial_stress]]`` (in-situ stress, ``Scene.initial_stress``, tension positive)
+
+================  ======  =================================================================
+sxx, syy          Pa      σxx, σyy at y_ref (required)
+sxy               Pa      σxy at y_ref [0.0]
+body              —       only this body [all bodies]
+gradient          Pa/m    [dσxx/dy, dσyy/dy] or [dσxx/dy, dσyy/dy, dσxy/dy] [none]
+y_ref             m       height of the given stress [0.0]
+================  ======  =================================================================
+
+``[[excavate]]`` (``Simulation.remove`` during the run, in order of time)
+
+================  ======  =================================================================
+time              s       when, from the start of the run (after round(time / dt) steps) (required)
+body              —       remove this body's triangles (with a region: those in it) [none]
+xmin, xmax        m       region of triangle centroids removed (and ymin, ymax, center,
+                          r_min, r_max)
+ymin, ymax        m       region along y
+center            m       centre of the region's ring
+r_min, r_max      m       the region's ring
 ================  ======  =================================================================
 
 ``[fluid]`` (optional: a fluid in the cracks and broken joints, ``Scene.set_fluid``)
@@ -116,11 +225,14 @@ conduct           —       "broken" or "damaged": which joints conduct ["broken
 ``[[inject]]`` (a source of the fracture network, ``Scene.inject``; needs ``[fluid]``)
 
 ================  ======  =================================================================
-xmin, xmax        m       box of network nodes (initial positions), inclusive [−∞, +∞]; at
+xmin, xmax        m       region of network nodes (initial positions), inclusive [−∞, +∞]; at
 ymin, ymax        m       least one bound is required
+center            m       centre of the region's ring
+r_min, r_max      m       the region's ring
 rate              m²/s    volume rate per unit thickness ≥ 0, shared among the nodes [none]
 pressure          Pa      or: prescribed pressure ≥ 0 (a source or a drain) [none]
 ramp              s       the rate or pressure rises linearly from 0 over this time [none]
+curve             —       or: a NAME of ``[curves]`` multiplying the rate or pressure [none]
 ================  ======  =================================================================
 
 ``[solver]``
@@ -139,6 +251,16 @@ handover_damage  —       joint damage in [0, 1] at which contact takes over a 
                          (``Scene.build(handover_damage=...)``) [0]
 quasi_static     —       local non-viscous damping coefficient α in [0, 1) of
                          ``Scene.build(quasi_static=α)``; 0 = off, 0.7 = ``True`` [0]
+speed_limit      m/s     node speed that stops the run as unstable [2 × the largest c_p]
+===============  ======  ===================================================================
+
+``[checks]`` (the run's checks, ``fdem.Checks``)
+
+===============  ======  ===================================================================
+energy           —       the total energy must not rise [true]
+energy_tol       —       by more than this fraction of the energy scale [0.1]
+max_penetration  —       largest contact overlap over the element size; 0 = not checked [0.5]
+every            —       steps between checks [adaptive]
 ===============  ======  ===================================================================
 
 ``[output]`` (all optional)
@@ -173,16 +295,41 @@ confinement    Pa      triaxial: lateral pressure σ3, > 0
 normal_stress  Pa      direct_shear: normal stress σn, > 0
 rate_transits  —       ucs, triaxial, direct_shear: P-wave transits of the specimen to the
                        expected peak (``rate_transits=``) [60]
-load_time      —       brazilian: D/c_p transits to the expected peak (``load_time=``) [100]
+load_time      —       brazilian: D/c_p transits to the expected peak (``load_time=``) [the test's]
 joint          —       direct_shear: the shear plane is a cohesive joint of the material
                        (``joint=True``), not a contact between two blocks [false]
 samples        —       recorded samples of the curve [the test's default]
 plane          —       "strain" or "stress" ["strain"]
+check          —       "rate", "mesh" or "both": rerun at half the rate and/or h (``check=``) [none]
+quasi_static   —       local damping α of the specimen; 0 = off (``quasi_static=``) [the test's]
+safety         —       time-step safety (``safety=``) [the test's]
+settle_transits  —     triaxial, direct_shear: transits of the confinement ramp [the test's]
+max_strain     —       ucs, triaxial: largest axial strain [the test's]
+stop_drop      —       ucs, triaxial: stop below this fraction of the peak [0.8]
+handover_damage  —     ucs, triaxial: ``Scene.build(handover_damage=)`` [the test's]
+penalty_factor  —      ucs, triaxial: joint penalty / E where the material leaves it unset [200]
+joint_penalty_factor  —  brazilian: joint penalty / E where the material leaves it unset [50]
+alpha_deg      °       brazilian: half-angle of the flattened loading arc [10]
+max_time       —       brazilian: longest run, in loading times [3]
+displacement   m       direct_shear: shear displacement [5 % of the width]
+friction       —       direct_shear: friction of the interface [the materials']
+lower_material  —      direct_shear: a NAME of ``[materials]`` for the lower block [material]
+platen         —       ucs, triaxial, brazilian: a NAME of ``[materials]`` for the platens [the test's]
+fracture       —       ucs, triaxial: joints on every edge [when the material can fracture]
+weibull_modulus  —     brazilian: Weibull modulus of the joint strength [none]
+strength_cov   —       brazilian: or the coefficient of variation of a normal strength [none]
+strength_seed  —       brazilian: seed of the strength draws [0]
+history        —       ucs, triaxial: CSV of the run's energy history [none]
 csv            —       CSV file of the test's curve (``LabResult.to_csv``) [none]
 video          —       video of the test coloured by joint damage [none]
 =============  ======  ===================================================================
 
 A top-level ``description`` string is allowed (free text).
+
+Order: the scene is built as bodies, ``[[joint_sets]]``, ``[[interactions]]``,
+``[[constraints]]``, ``[[loads]]``, ``[[initial_stress]]``, ``[fluid]`` and ``[[inject]]``
+(each kind in the file's order), which is the order a Python script of the same scene uses
+when it adds the joint sets after the bodies.
 
 Sanity bounds (a value beyond them is refused as a typo; products of it would overflow):
 lengths (sizes, radii, ``h``, ``thickness``, ``buffer``) within [1e-9, 1e6] m, coordinates

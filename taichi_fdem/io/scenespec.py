@@ -322,7 +322,8 @@ class SceneSpec:
         import numpy as np
         pts = body.mesh.points if body is not None else np.concatenate([b.mesh.points for b in scene.bodies])
         if not where(pts[:, 0], pts[:, 1]).any():
-            raise self._error(path, f"the region selects no {what} (bounds are in the initial, placed positions, "
+            kind = "box" if where.ring == (None, None) else "region"
+            raise self._error(path, f"the {kind} selects no {what} (bounds are in the initial, placed positions, "
                               f"metres)")
 
     def build(self):
