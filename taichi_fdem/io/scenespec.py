@@ -130,8 +130,11 @@ class SceneSpec:
         if name is None:
             return None
         from ..scene import Curve
-        c = self.curves[name]
-        return Curve(c["times"], c["values"], name=name)
+        made = self.__dict__.setdefault("_made_curves", {})
+        if name not in made:                # one Curve per name: the uses of a name share it
+            c = self.curves[name]
+            made[name] = Curve(c["times"], c["values"], name=name)
+        return made[name]
 
     def run_lab(self):
         """Run the ``[lab]`` test of the file with :mod:`taichi_fdem.lab` (and write its ``csv``);
@@ -215,6 +218,7 @@ class SceneSpec:
         from ..scene import Scene
         from .scenefile import strength_of
         scene = Scene(gravity=self.scene["gravity"], plane=self.scene["plane"], thickness=self.scene["thickness"])
+        self.__dict__["_made_curves"] = {}
         bodies = {}
         for i, b in enumerate(self.bodies):
             built = self.build_mesh(i)
@@ -364,6 +368,7 @@ class SceneSpec:
     def __getstate__(self):
         state = dict(self.__dict__)
         state["_checker"] = None
+        state.pop("_made_curves", None)
         return state
 
 

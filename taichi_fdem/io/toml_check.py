@@ -168,7 +168,11 @@ class _Checker:
         for n in range(len(path), 0, -1):
             if tuple(path[:n]) in self.overridden:
                 return f"{self.path} (override {self.overridden[tuple(path[:n])]!r})"
-        line = self.loc.line(path)
+        line = None
+        for n in range(len(path), 0, -1):        # a key of an inline table: the line of the table
+            line = self.loc.line(tuple(path[:n]))
+            if line:
+                break
         return f"{self.path}:{line}" if line else self.path
 
     def error(self, path: tuple, message: str, table: tuple | None = None) -> SceneFileError:
