@@ -557,3 +557,27 @@ def test_new_tables_are_in_the_generated_reference():
     for title in ("[curves.NAME]", "[[joint_sets]]", "[[interactions]]", "[[loads]]", "[[initial_stress]]",
                   "[[excavate]]", "[checks]"):
         assert f"## `{title}`" in text, title
+
+
+def test_the_toml_blocks_of_the_scene_file_guide_load(tmp_path):
+    """The ```toml examples of docs/guide/scenefiles.md are valid scene files (checked, built)."""
+    import re
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    text = open(os.path.join(root, "docs", "guide", "scenefiles.md"), encoding="utf-8").read()
+    blocks = re.findall(r"^```toml\n(.*?)^```", text, re.S | re.M)
+    assert blocks
+    for k, block in enumerate(blocks):
+        spec = _load(tmp_path, block, f"guide_{k}.toml")
+        scene, bodies = _quiet(spec.build_scene)
+        assert bodies and scene.joint_sets
+
+
+def test_a_sweep_overrides_keys_of_the_new_tables(tmp_path):
+    text = ROCK_TOML + BODY + '\n[curves.c]\nramp = 1e-3\n\n[[loads]]\nkind = "pressure"\npressure = 1.0\n' \
+        'xmin = 0.0\ncurve = "c"\n' + SOLVER
+    path = tmp_path / "s.toml"
+    path.write_text(text, encoding="utf-8")
+    spec = scenefile.load(str(path), overrides={"loads.0.pressure": 5.0, "curves.c.ramp": 2e-3})
+    assert spec.loads[0]["pressure"] == 5.0 and spec.curves["c"]["times"] == [0.0, 2e-3]
+    with pytest.raises(SceneFileError, match=r"override 'loads.0.pressure'.*must be a number"):
+        scenefile.load(str(path), overrides={"loads.0.pressure": "high"})

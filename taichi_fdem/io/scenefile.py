@@ -597,6 +597,9 @@ INJECT_KEYS = {
 TOP_KEYS = ("description", "scene", "materials", "curves", "bodies", "joint_sets", "interactions", "constraints",
             "loads", "initial_stress", "fluid", "inject", "excavate", "solver", "checks", "output", "lab")
 
+#: the arrays of tables [[...]]
+_ARRAY_TABLES = ("bodies", "joint_sets", "interactions", "constraints", "loads", "initial_stress", "inject", "excavate")
+
 # ----------------------------------------------------------------------------------------------
 # overrides (sweeps)
 # ----------------------------------------------------------------------------------------------
@@ -632,7 +635,7 @@ def apply_overrides(data: dict, overrides: dict, path: str = "scene file") -> di
             elif isinstance(node, dict):
                 if part not in node:
                     allowed = list(node) if depth else list(TOP_KEYS)
-                    if depth == 0 and part in TOP_KEYS and part not in ("bodies", "constraints", "materials"):
+                    if depth == 0 and part in TOP_KEYS and part not in _ARRAY_TABLES + ("materials", "curves"):
                         node[part] = {}
                     else:
                         raise SceneFileError(f"{path}: override {dotted!r}: no table {'.'.join(parts[:depth + 1])!r}"
