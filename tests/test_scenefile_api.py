@@ -581,3 +581,17 @@ def test_a_sweep_overrides_keys_of_the_new_tables(tmp_path):
     assert spec.loads[0]["pressure"] == 5.0 and spec.curves["c"]["times"] == [0.0, 2e-3]
     with pytest.raises(SceneFileError, match=r"override 'loads.0.pressure'.*must be a number"):
         scenefile.load(str(path), overrides={"loads.0.pressure": "high"})
+
+
+def test_an_excavation_after_the_run_warns_and_a_resumed_run_does_not_repeat_one(tmp_path):
+    text = ROCK_TOML + BODY + '\n[[excavate]]\ntime = 4e-6\nxmin = 0.05\n' + \
+        '\n[solver]\nduration = 1e-5\ndt = 1e-6\ngravity = [0.0, 0.0]\n'.replace("gravity = [0.0, 0.0]\n", "")
+    sim, settings = _build(tmp_path, text)
+    with pytest.warns(RuntimeWarning, match=r"\[\[excavate\]\] at 4e-06 s is after the end of this run"):
+        settings.run(sim, progress=False, duration=2e-6)
+    assert (sim.state.tri_intact.to_numpy() >= 0).all()
+    settings.run(sim, progress=False, duration=2e-6)         # steps 2..4: the excavation at step 4
+    removed = (sim.state.tri_intact.to_numpy() < 0).sum()
+    assert removed > 0 and sim.step_count == 4
+    settings.run(sim, progress=False, duration=2e-6)         # already done: not repeated
+    assert (sim.state.tri_intact.to_numpy() < 0).sum() == removed

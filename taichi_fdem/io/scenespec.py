@@ -43,17 +43,29 @@ class RunSettings:
 
     def run(self, sim, progress: bool | None = None, duration: float | None = None) -> None:
         """Run ``sim`` for ``duration`` [s] (default: the file's) with the configured outputs, the
-        ``[checks]`` and the ``[[excavate]]`` removals (each after ``round(time / dt)`` steps of
-        this run, as ``sim.run(time); sim.remove(...)`` would)."""
+        ``[checks]`` and the ``[[excavate]]`` removals.
+
+        An excavation at ``time`` happens after step ``round(time / dt)`` of the simulation, as
+        ``sim.run(time); sim.remove(...)`` does from the start; one due before this run's first
+        step (a run resumed from a checkpoint written after it) has been done already, one due
+        after its last step is not done (RuntimeWarning)."""
         duration = self.duration if duration is None else float(duration)
         from ..sim.recorders import Checks, CrackEvents, History
         record = []
         pending = []
+        total = int(round(duration / sim.dt))
         for e in self.excavations:
-            if e["time"] <= 0.0:
+            at = int(round(e["time"] / sim.dt)) - sim.step_count
+            if at < 0 or (at == 0 and sim.step_count > 0):
+                continue                        # done by the run that wrote the checkpoint
+            if at == 0:
                 _excavate(sim, e)
+            elif at > total:
+                import warnings
+                warnings.warn(f"[[excavate]] at {e['time']:g} s is after the end of this run "
+                              f"(t = {sim.time + total * sim.dt:g} s): not done", RuntimeWarning, stacklevel=2)
             else:
-                pending.append(e)
+                pending.append((at, e))
         if pending:
             record.append(_excavations(pending))
         # frames every frame_dt (default: the video's, or 100 over the run); VTU every vtu_every-th
@@ -439,18 +451,18 @@ def _excavate(sim, e: dict) -> None:
     sim.remove(body=body, where=where)
 
 
-def _excavations(excavations: list):
-    """A recorder that removes the triangles of each ``[[excavate]]`` after ``round(time / dt)``
-    steps of the run (its rows fall on those steps)."""
+def _excavations(pending: list):
+    """A recorder that removes the triangles of each ``(steps, [[excavate]])`` of ``pending``
+    after that many steps of the run (its rows fall on those steps)."""
     from ..sim.recorders import Recorder
 
     class _Excavations(Recorder):
         def __init__(self):
-            self.excavations = list(excavations)
+            self.at = [a for a, _ in pending]
+            self.excavations = [e for _, e in pending]
 
         def open(self, sim, steps, duration):
             import math
-            self.at = [int(round(e["time"] / sim.dt)) for e in self.excavations]
             self.done = [False] * len(self.at)
             g = 0
             for a in self.at:
