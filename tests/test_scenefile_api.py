@@ -595,3 +595,60 @@ def test_an_excavation_after_the_run_warns_and_a_resumed_run_does_not_repeat_one
     assert removed > 0 and sim.step_count == 4
     settings.run(sim, progress=False, duration=2e-6)         # already done: not repeated
     assert (sim.state.tri_intact.to_numpy() < 0).sum() == removed
+
+
+def test_a_grain_specimen_in_a_lab_file(tmp_path, monkeypatch):
+    """[lab] grain_size, minerals, materials and [[lab.joint_sets]] become the test's mesh=,
+    groups=, material dict and joint_sets= triples."""
+    from taichi_fdem import lab
+    seen = {}
+    monkeypatch.setattr(lab, "brazilian", lambda *a, **kw: seen.update(args=a, kw=kw) or "result")
+    text = ROCK_TOML + """
+[materials.quartz]
+like = "rock"
+young = 2e9
+
+[materials.boundary]
+like = "rock"
+tensile_strength = 5e5
+cohesion = 1.5e6
+
+[lab]
+test = "brazilian"
+materials = { quartz = "quartz", feldspar = "rock" }
+diameter = 0.05
+h = 0.004
+grain_size = 0.012
+grain_seed = 5
+minerals = { quartz = 0.3, feldspar = 0.7 }
+
+[[lab.joint_sets]]
+name = "grain_boundaries"
+material = "boundary"
+interfaces = true
+
+[[lab.joint_sets]]
+name = "centre"
+material = "boundary"
+r_max = 0.005
+"""
+    spec = _load(tmp_path, text)
+    assert spec.run_lab() == "result"
+    mat, d, h = seen["args"]
+    kw = seen["kw"]
+    m, labels = fdem.mesh.voronoi_grains(0.05, 0.05, 0.012, 0.004, seed=5, minerals={"quartz": 0.3, "feldspar": 0.7},
+                                         shape="disc")
+    assert (d, h) == (0.05, 0.004)
+    assert np.array_equal(kw["mesh"].points, m.points) and np.array_equal(kw["mesh"].triangles, m.triangles)
+    assert np.array_equal(np.asarray(kw["groups"]), np.asarray(labels))
+    assert mat == labels.materials({"quartz": spec.materials["quartz"], "feldspar": spec.materials["rock"]})
+    (n1, s1, m1), (n2, s2, m2) = kw["joint_sets"]
+    assert (n1, s1, m1) == ("grain_boundaries", "interfaces", spec.materials["boundary"])
+    assert n2 == "centre" and m2 is spec.materials["boundary"]
+    assert list(s2(np.array([0.0, 0.004, 0.006]), np.zeros(3))) == [True, True, False]
+    with pytest.raises(SceneFileError, match=r"scene.toml:\d+: \[lab.joint_sets\[1\]\] give exactly one edge"):
+        _load(tmp_path, text.replace("r_max = 0.005\n", ""))
+    with pytest.raises(SceneFileError, match=r"\[lab\] materials must name one material for each mineral"):
+        _load(tmp_path, text.replace("minerals = { quartz = 0.3, feldspar = 0.7 }", "minerals = { quartz = 1.0 }"))
+    with pytest.raises(SceneFileError, match=r"\[lab\] needs exactly one of material"):
+        _load(tmp_path, text.replace('test = "brazilian"', 'test = "brazilian"\nmaterial = "rock"'))

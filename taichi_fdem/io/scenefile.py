@@ -69,59 +69,59 @@ start             s       with ramp: the time the ramp starts [0.0]
 
 ``[[bodies]]`` (one table per body; the mesh is a ``shape`` or a ``file``)
 
-===================  ======  ==============================================================
-name                 —       unique name, used by constraints and sweep metrics ["body<i>"]
-material             —       a NAME of ``[materials]`` (give it or ``materials``)
-materials            —       material groups: {label = "NAME", ...}: with ``shape = "grains"`` one
-                             material per mineral of ``minerals``; with ``file`` and ``groups``
-                             one per group of the file (``add_body(groups=)``) [none]
-shape                —       "disk", "rectangle", "annulus", "polygon" or "grains" (or give ``file``)
-file                 —       mesh file read by ``fdem.mesh.load`` (gmsh .msh, .vtu, ...)
-cell_block           —       with ``file``: index of the one triangle cell block to use [all]
-groups               —       with ``file``: read its material groups (``fdem.mesh.load_tagged``),
-                             one material each by ``materials`` [false]
-group_key            —       with ``groups``: the cell-data array of the group tags [gmsh:physical]
-grain_size           m       grains: mean grain edge length d > h (``fdem.mesh.voronoi_grains``)
-seed                 —       grains: seed of the random grains [0]
-minerals             —       grains: {name = proportion, ...}, the minerals' area shares [none]
-outline              —       grains: "rectangle" or "disc" (width = height = the diameter) ["rectangle"]
-relax                —       grains: Lloyd iterations of the seeds [3]
-radius               m       disk: radius, > 0
-width, height        m       rectangle, grains: size, > 0
-pattern              —       rectangle: "alternating", "crossed" or "right" ["alternating"]
-r_inner, r_outer     m       annulus: radii, 0 < r_inner < r_outer
-layout               —       disk, annulus: "symmetric" or "spiral" (``fdem.mesh.disk``) ["symmetric"]
-vertices             m       polygon: [[x, y], ...], a simple polygon
-h                    m       target element edge length, > 0 (required for disk, rectangle,
-                             annulus; polygon: [none: the vertices alone are triangulated])
-position             m       [x, y] where the mesh's area centroid is placed [mesh as built:
-                             shapes centred on (0, 0), files as read]
-velocity             m/s     [v_x, v_y] initial velocity [[0, 0]]
-angular_velocity     rad/s   initial spin about the centroid, counter-clockwise [0.0]
-rotation             rad     rotation about the centroid before placing, counter-clockwise [0.0]
-fixed                —       every node held still (floors, walls) [false]
-prescribed_velocity  m/s     [v_x, v_y] every node moves at this velocity (platens) [none]
-velocity_curve       —       a NAME of ``[curves]`` multiplying prescribed_velocity [none]
-self_contact         —       the body's own triangles can contact each other [false]
-fracture             —       where cohesive joints go (docs/theory/joints.md §7): true (every
-                             interior edge), false, "interfaces" (edges between material
-                             groups, grain boundaries), a table of a region of edge midpoints
-                             {xmin, xmax, ymin, ymax, center, r_min, r_max} (placed coordinates
-                             [m], as ``[[constraints]]``) or of lines = [[[x, y], ...], ...] (edges
-                             along them, in the mesh's own coordinates, as cracks), or a list of
-                             these [false]
-cracks               m       pre-existing open cracks: a list of polylines [[[x, y], ...], ...]
-                             in the mesh's own coordinates (moved with the body by position and
-                             rotation); a ``polygon`` body is meshed with edges along them,
-                             other meshes need edges there already; or a region table (or a list
-                             of them) of edge midpoints in placed coordinates [none]
-crack_friction       —       friction coefficient μ ≥ 0 of the crack faces [material's]
-weibull_modulus      —       Weibull modulus m > 0 of the joint strength (docs/theory/discontinuities.md §13.3) [none]
-strength_cov         —       or: coefficient of variation of a normal joint strength [none]
-strength_seed        —       seed of the joint-strength draws, ≥ 0 [0]
-strength_floor       —       strength_cov: truncation of the factor below (``floor``) [0.05]
-strength_scale_energy  —     the fracture energies scale with the strength factor [false]
-===================  ======  ==============================================================
+=====================  ======  ==============================================================
+name                   —       unique name, used by constraints and sweep metrics ["body<i>"]
+material               —       a NAME of ``[materials]`` (give it or ``materials``)
+materials              —       material groups: {label = "NAME", ...}: with ``shape = "grains"`` one
+                               material per mineral of ``minerals``; with ``file`` and ``groups``
+                               one per group of the file (``add_body(groups=)``) [none]
+shape                  —       "disk", "rectangle", "annulus", "polygon" or "grains" (or give ``file``)
+file                   —       mesh file read by ``fdem.mesh.load`` (gmsh .msh, .vtu, ...)
+cell_block             —       with ``file``: index of the one triangle cell block to use [all]
+groups                 —       with ``file``: read its material groups (``fdem.mesh.load_tagged``),
+                               one material each by ``materials`` [false]
+group_key              —       with ``groups``: the cell-data array of the group tags [gmsh:physical]
+grain_size             m       grains: mean grain edge length d > h (``fdem.mesh.voronoi_grains``)
+seed                   —       grains: seed of the random grains [0]
+minerals               —       grains: {name = proportion, ...}, the minerals' area shares [none]
+outline                —       grains: "rectangle" or "disc" (width = height = the diameter) ["rectangle"]
+relax                  —       grains: Lloyd iterations of the seeds [3]
+radius                 m       disk: radius, > 0
+width, height          m       rectangle, grains: size, > 0
+pattern                —       rectangle: "alternating", "crossed" or "right" ["alternating"]
+r_inner, r_outer       m       annulus: radii, 0 < r_inner < r_outer
+layout                 —       disk, annulus: "symmetric" or "spiral" (``fdem.mesh.disk``) ["symmetric"]
+vertices               m       polygon: [[x, y], ...], a simple polygon
+h                      m       target element edge length, > 0 (required for disk, rectangle,
+                               annulus; polygon: [none: the vertices alone are triangulated])
+position               m       [x, y] where the mesh's area centroid is placed [mesh as built:
+                               shapes centred on (0, 0), files as read]
+velocity               m/s     [v_x, v_y] initial velocity [[0, 0]]
+angular_velocity       rad/s   initial spin about the centroid, counter-clockwise [0.0]
+rotation               rad     rotation about the centroid before placing, counter-clockwise [0.0]
+fixed                  —       every node held still (floors, walls) [false]
+prescribed_velocity    m/s     [v_x, v_y] every node moves at this velocity (platens) [none]
+velocity_curve         —       a NAME of ``[curves]`` multiplying prescribed_velocity [none]
+self_contact           —       the body's own triangles can contact each other [false]
+fracture               —       where cohesive joints go (docs/theory/joints.md §7): true (every
+                               interior edge), false, "interfaces" (edges between material
+                               groups, grain boundaries), a table of a region of edge midpoints
+                               {xmin, xmax, ymin, ymax, center, r_min, r_max} (placed coordinates
+                               [m], as ``[[constraints]]``) or of lines = [[[x, y], ...], ...] (edges
+                               along them, in the mesh's own coordinates, as cracks), or a list of
+                               these [false]
+cracks                 m       pre-existing open cracks: a list of polylines [[[x, y], ...], ...]
+                               in the mesh's own coordinates (moved with the body by position and
+                               rotation); a ``polygon`` body is meshed with edges along them,
+                               other meshes need edges there already; or a region table (or a list
+                               of them) of edge midpoints in placed coordinates [none]
+crack_friction         —       friction coefficient μ ≥ 0 of the crack faces [material's]
+weibull_modulus        —       Weibull modulus m > 0 of the joint strength (docs/theory/discontinuities.md §13.3) [none]
+strength_cov           —       or: coefficient of variation of a normal joint strength [none]
+strength_seed          —       seed of the joint-strength draws, ≥ 0 [0]
+strength_floor         —       strength_cov: truncation of the factor below (``floor``) [0.05]
+strength_scale_energy  —       the fracture energies scale with the strength factor [false]
+=====================  ======  ==============================================================
 
 A *region* (``[[constraints]]``, ``[[loads]]``, ``[[inject]]``, ``[[excavate]]``, ``[[joint_sets]]``,
 ``fracture`` and ``cracks`` tables) selects the points (nodes, edge midpoints, triangle
@@ -285,44 +285,52 @@ history_every  —       steps between history rows (``fdem.History(every=...)``
 ``[lab]`` (a standard lab test instead of ``[[bodies]]``, ``[[constraints]]``, ``[solver]`` and
 ``[output]``: ``taichi-fdem run`` runs the test of ``fdem.lab`` and prints its summary)
 
-=============  ======  ===================================================================
-test           —       "ucs", "triaxial", "brazilian" or "direct_shear" (required)
-material       —       a NAME of ``[materials]`` (required)
-width, height  m       ucs, triaxial, direct_shear: specimen size, > 0
-diameter       m       brazilian: disc diameter, > 0
-h              m       element size, > 0 (required)
-confinement    Pa      triaxial: lateral pressure σ3, > 0
-normal_stress  Pa      direct_shear: normal stress σn, > 0
-rate_transits  —       ucs, triaxial, direct_shear: P-wave transits of the specimen to the
-                       expected peak (``rate_transits=``) [60]
-load_time      —       brazilian: D/c_p transits to the expected peak (``load_time=``) [the test's]
-joint          —       direct_shear: the shear plane is a cohesive joint of the material
-                       (``joint=True``), not a contact between two blocks [false]
-samples        —       recorded samples of the curve [the test's default]
-plane          —       "strain" or "stress" ["strain"]
-check          —       "rate", "mesh" or "both": rerun at half the rate and/or h (``check=``) [none]
-quasi_static   —       local damping α of the specimen; 0 = off (``quasi_static=``) [the test's]
-safety         —       time-step safety (``safety=``) [the test's]
-settle_transits  —     triaxial, direct_shear: transits of the confinement ramp [the test's]
-max_strain     —       ucs, triaxial: largest axial strain [the test's]
-stop_drop      —       ucs, triaxial: stop below this fraction of the peak [0.8]
-handover_damage  —     ucs, triaxial: ``Scene.build(handover_damage=)`` [the test's]
-penalty_factor  —      ucs, triaxial: joint penalty / E where the material leaves it unset [200]
-joint_penalty_factor  —  brazilian: joint penalty / E where the material leaves it unset [50]
-alpha_deg      °       brazilian: half-angle of the flattened loading arc [10]
-max_time       —       brazilian: longest run, in loading times [3]
-displacement   m       direct_shear: shear displacement [5 % of the width]
-friction       —       direct_shear: friction of the interface [the materials']
-lower_material  —      direct_shear: a NAME of ``[materials]`` for the lower block [material]
-platen         —       ucs, triaxial, brazilian: a NAME of ``[materials]`` for the platens [the test's]
-fracture       —       ucs, triaxial: joints on every edge [when the material can fracture]
-weibull_modulus  —     brazilian: Weibull modulus of the joint strength [none]
-strength_cov   —       brazilian: or the coefficient of variation of a normal strength [none]
-strength_seed  —       brazilian: seed of the strength draws [0]
-history        —       ucs, triaxial: CSV of the run's energy history [none]
-csv            —       CSV file of the test's curve (``LabResult.to_csv``) [none]
-video          —       video of the test coloured by joint damage [none]
-=============  ======  ===================================================================
+====================  ======  ===================================================================
+test                  —       "ucs", "triaxial", "brazilian" or "direct_shear" (required)
+material              —       a NAME of ``[materials]`` (or ``materials`` for grains)
+width, height         m       ucs, triaxial, direct_shear: specimen size, > 0
+diameter              m       brazilian: disc diameter, > 0
+h                     m       element size, > 0 (required)
+confinement           Pa      triaxial: lateral pressure σ3, > 0
+normal_stress         Pa      direct_shear: normal stress σn, > 0
+rate_transits         —       ucs, triaxial, direct_shear: P-wave transits of the specimen to the
+                              expected peak (``rate_transits=``) [60]
+load_time             —       brazilian: D/c_p transits to the expected peak (``load_time=``) [the test's]
+joint                 —       direct_shear: the shear plane is a cohesive joint of the material
+                              (``joint=True``), not a contact between two blocks [false]
+samples               —       recorded samples of the curve [the test's default]
+plane                 —       "strain" or "stress" ["strain"]
+check                 —       "rate", "mesh" or "both": rerun at half the rate and/or h (``check=``) [none]
+quasi_static          —       local damping α of the specimen; 0 = off (``quasi_static=``) [the test's]
+safety                —       time-step safety (``safety=``) [the test's]
+settle_transits       —       triaxial, direct_shear: transits of the confinement ramp [the test's]
+max_strain            —       ucs, triaxial: largest axial strain [the test's]
+stop_drop             —       ucs, triaxial: stop below this fraction of the peak [0.8]
+handover_damage       —       ucs, triaxial: ``Scene.build(handover_damage=)`` [the test's]
+penalty_factor        —       ucs, triaxial: joint penalty / E where the material leaves it unset [200]
+joint_penalty_factor  —       brazilian: joint penalty / E where the material leaves it unset [50]
+alpha_deg             °       brazilian: half-angle of the flattened loading arc [10]
+max_time              —       brazilian: longest run, in loading times [3]
+displacement          m       direct_shear: shear displacement [5 % of the width]
+friction              —       direct_shear: friction of the interface [the materials']
+lower_material        —       direct_shear: a NAME of ``[materials]`` for the lower block [material]
+platen                —       ucs, triaxial, brazilian: a NAME of ``[materials]`` for the platens [the test's]
+fracture              —       ucs, triaxial: joints on every edge [when the material can fracture]
+weibull_modulus       —       brazilian: Weibull modulus of the joint strength [none]
+strength_cov          —       brazilian: or the coefficient of variation of a normal strength [none]
+strength_seed         —       brazilian: seed of the strength draws [0]
+history               —       ucs, triaxial: CSV of the run's energy history [none]
+materials             —       grains: {mineral = "NAME", ...}, a material per mineral (instead of material)
+grain_size            m       ucs, triaxial, brazilian: a grain specimen (``fdem.mesh.voronoi_grains``,
+                              a disc for brazilian) of this mean grain size > h [none: the test's mesh]
+grain_seed            —       grains: seed of the random grains [0]
+minerals              —       grains: {name = proportion, ...} [none: one material for every grain]
+relax                 —       grains: Lloyd iterations of the seeds [3]
+joint_sets            —       [[lab.joint_sets]] tables (name, material and interfaces = true, lines or
+                              a region, as ``[[joint_sets]]``): the test's ``joint_sets=`` [none]
+csv                   —       CSV file of the test's curve (``LabResult.to_csv``) [none]
+video                 —       video of the test coloured by joint damage [none]
+====================  ======  ===================================================================
 
 A top-level ``description`` string is allowed (free text).
 
@@ -462,6 +470,10 @@ JOINT_SET_KEYS = {
     "strength_floor": BODY_KEYS["strength_floor"],
     "strength_scale_energy": BODY_KEYS["strength_scale_energy"],
 }
+#: a joint set of a lab test (``joint_sets=`` triples: no body, no strength spread)
+LAB_JOINT_SET_KEYS = {k: v for k, v in JOINT_SET_KEYS.items() if k not in
+                      ("body", "weibull_modulus", "strength_cov", "strength_seed", "strength_floor",
+                       "strength_scale_energy")}
 LOAD_KEYS = {
     "kind": _Key("choice", choices=("pressure", "traction", "force", "absorbing"), required=True),
     "pressure": _F(unit="Pa", lo=-1e15, hi=1e15),
@@ -531,7 +543,8 @@ OUTPUT_KEYS = {
 }
 LAB_KEYS = {
     "test": _Key("choice", choices=("ucs", "triaxial", "brazilian", "direct_shear"), required=True),
-    "material": _Key("str", required=True),
+    "material": _Key("str"),
+    "materials": _Key("names"),
     "width": _POS("m", hi=_LEN),
     "height": _POS("m", hi=_LEN),
     "diameter": _POS("m", hi=_LEN),
@@ -563,18 +576,24 @@ LAB_KEYS = {
     "strength_cov": BODY_KEYS["strength_cov"],
     "strength_seed": BODY_KEYS["strength_seed"],
     "history": _Key("str"),
+    "grain_size": _POS("m", hi=_LEN),
+    "grain_seed": _Key("int", 0, lo=0),
+    "minerals": _Key("weights"),
+    "relax": _Key("int", 3, lo=0, hi=1000),
+    "joint_sets": _Key("joint_sets"),
     "csv": _Key("str"),
     "video": _Key("str"),
 }
 #: keys of each lab test: (required, optional) besides test, material, h, samples, plane, csv, video
+_GRAINS = ("grain_size", "grain_seed", "minerals", "materials", "relax", "joint_sets")
 _COMPRESSION = ("rate_transits", "check", "quasi_static", "safety", "settle_transits", "max_strain", "stop_drop",
-                "handover_damage", "penalty_factor", "platen", "fracture", "history")
+                "handover_damage", "penalty_factor", "platen", "fracture", "history") + _GRAINS
 LAB_TEST_KEYS = {
     "ucs": (("width", "height"), _COMPRESSION),
     "triaxial": (("width", "height", "confinement"), _COMPRESSION),
     "brazilian": (("diameter",), ("load_time", "check", "quasi_static", "safety", "alpha_deg", "max_time",
                                   "joint_penalty_factor", "platen", "weibull_modulus", "strength_cov",
-                                  "strength_seed")),
+                                  "strength_seed") + _GRAINS),
     "direct_shear": (("width", "height", "normal_stress"), ("rate_transits", "joint", "settle_transits", "safety",
                                                             "displacement", "friction", "lower_material")),
 }
@@ -886,13 +905,17 @@ def _lab_table(ck, data: dict, materials: dict) -> dict:
                            "(the test builds its specimen, loading and run)", table=())
     lab_t = ck.table(data["lab"], ("lab",), "test, material, h, ...")
     ck.keys(lab_t, LAB_KEYS, ("lab",))
-    for k in ("test", "material"):
-        if k not in lab_t:
-            raise ck.error(("lab",), f"[lab] needs {k!r}", table=("lab",))
+    if "test" not in lab_t:
+        raise ck.error(("lab",), "[lab] needs 'test'", table=("lab",))
+    if ("material" in lab_t) == ("materials" in lab_t):
+        raise ck.error(("lab",), "[lab] needs exactly one of material = \"NAME\" or materials = {mineral = "
+                       "\"NAME\", ...} (grains)", table=("lab",))
     lab = ck.values(lab_t, LAB_KEYS, ("lab",))
-    if lab["material"] not in materials:
-        raise ck.error(("lab", "material"), f"unknown material {lab['material']!r}"
-                       f"{_suggest(lab['material'], materials)}; defined: {', '.join(materials)}")
+    for label, mname in ({"": lab["material"]} if lab["material"] is not None else lab["materials"]).items():
+        if mname not in materials:
+            key = ("material",) if lab["material"] is not None else ("materials",)
+            raise ck.error(("lab",) + key, f"unknown material {mname!r}{_suggest(mname, materials)}"
+                           f"{' (mineral ' + repr(label) + ')' if label else ''}; defined: {', '.join(materials)}")
     required, optional = LAB_TEST_KEYS[lab["test"]]
     specific = {k for req, opt in LAB_TEST_KEYS.values() for k in req + opt}
     for k in specific & set(lab_t):
@@ -910,9 +933,27 @@ def _lab_table(ck, data: dict, materials: dict) -> dict:
         raise ck.error(("lab", "strength_cov"), "give either weibull_modulus or strength_cov, not both")
     if "strength_seed" in lab_t and lab["weibull_modulus"] is None and lab["strength_cov"] is None:
         raise ck.error(("lab", "strength_seed"), "strength_seed needs weibull_modulus or strength_cov")
-    if lab["test"] == "brazilian" and not materials[lab["material"]].can_fracture:
-        raise ck.error(("lab", "material"), f"the brazilian test needs tensile_strength and fracture_energy in "
-                       f"[materials.{lab['material']}]")
+    for k in ("grain_seed", "minerals", "relax", "materials"):
+        if k in lab_t and lab["grain_size"] is None:
+            raise ck.error(("lab", k), f"{k} belongs to a grain specimen: it needs grain_size [m]")
+    if lab["materials"] is not None:
+        if lab["minerals"] is None or set(lab["materials"]) != set(lab["minerals"]):
+            raise ck.error(("lab", "materials"), "materials must name one material for each mineral of minerals = "
+                           "{name = proportion, ...}")
+    if lab["grain_size"] is not None and lab["h"] >= lab["grain_size"]:
+        raise ck.error(("lab", "h"), f"h ({lab['h']} m) must be smaller than grain_size ({lab['grain_size']} m)")
+    if lab["grain_size"] is not None and lab["check"] in ("mesh", "both"):
+        raise ck.error(("lab", "check"), "check = \"mesh\" refines the test's own mesh: a grain specimen cannot be "
+                       "refined here (use \"rate\")")
+    if lab["joint_sets"] is not None:
+        lab["joint_sets"] = _joint_set_list(ck, lab["joint_sets"], ("lab", "joint_sets"), materials, None,
+                                            LAB_JOINT_SET_KEYS)
+    if lab["test"] == "brazilian":
+        for mname in ([lab["material"]] if lab["material"] is not None else lab["materials"].values()):
+            if not materials[mname].can_fracture:
+                key = "material" if lab["material"] is not None else "materials"
+                raise ck.error(("lab", key), f"the brazilian test needs tensile_strength and fracture_energy in "
+                               f"[materials.{mname}]")
     return {k: v for k, v in lab.items() if k in ("test", "material", "h", "samples", "plane", "csv", "video")
             or k in required + optional}
 
@@ -1101,12 +1142,19 @@ def _known_body(ck, names, c: dict, path: tuple) -> None:
 
 
 def _joint_set_tables(ck, data: dict, materials: dict, names) -> list:
+    return _joint_set_list(ck, _array(ck, data, "joint_sets", "name, material and the edges"), ("joint_sets",),
+                           materials, names, JOINT_SET_KEYS)
+
+
+def _joint_set_list(ck, items, base: tuple, materials: dict, names, schema: dict) -> list:
+    if not isinstance(items, list):
+        raise ck.error(base, f"{_fmt(base)} must be an array of tables [[{_fmt(base)}]]", table=())
     out, seen = [], set()
-    for k, t in enumerate(_array(ck, data, "joint_sets", "name, material and the edges")):
-        p = ("joint_sets", k)
+    for k, t in enumerate(items):
+        p = base + (k,)
         ck.table(t, p, "a joint set")
-        ck.keys(t, JOINT_SET_KEYS, p)
-        c = ck.values(t, JOINT_SET_KEYS, p)
+        ck.keys(t, schema, p)
+        c = ck.values(t, schema, p)
         if c["name"] in seen or c["name"] == "default":
             raise ck.error(p + ("name",), f"joint set name {c['name']!r} is used twice ('default' is the bodies' own)")
         seen.add(c["name"])
@@ -1116,16 +1164,22 @@ def _joint_set_tables(ck, data: dict, materials: dict, names) -> list:
         if not materials[c["material"]].can_fracture:
             raise ck.error(p + ("material",), f"a joint set's material needs tensile_strength and fracture_energy "
                            f"([materials.{c['material']}])")
-        _known_body(ck, names, c, p)
+        if names is not None:
+            _known_body(ck, names, c, p)
         has_region = _check_region(ck, c, p, "", required=False)
         given = [w for w, on in (("interfaces", c["interfaces"]), ("lines", c["lines"] is not None),
                                  ("a region", has_region)) if on]
         if len(given) != 1:
             raise ck.error(p, "give exactly one edge selector: interfaces = true, lines = [[[x, y], ...], ...] or a "
                            f"region (xmin, ..., r_max) of edge midpoints; got {', '.join(given) or 'none'}", table=p)
-        _strength_keys(ck, t, c, p)
+        if "weibull_modulus" in schema:
+            _strength_keys(ck, t, c, p)
         out.append(c)
     return out
+
+
+def _fmt(path: tuple) -> str:
+    return ".".join(str(p) for p in path)
 
 
 def _interaction_tables(ck, data: dict, materials: dict) -> list:

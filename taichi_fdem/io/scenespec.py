@@ -155,8 +155,27 @@ class SceneSpec:
             raise ValueError(f"{self.path}: no [lab] table: build() and run it as a scene")
         from .. import lab as _lab
         p = dict(self.lab)
-        test, mat, h, csv = p.pop("test"), self.materials[p.pop("material")], p.pop("h"), p.pop("csv", None)
+        test, h, csv = p.pop("test"), p.pop("h"), p.pop("csv", None)
+        mname, mnames = p.pop("material", None), p.pop("materials", None)
+        grain = {k: p.pop(k, None) for k in ("grain_size", "grain_seed", "minerals", "relax")}
+        joint_sets = p.pop("joint_sets", None)
         kw = {k: v for k, v in p.items() if v is not None}
+        mat = self.materials[mname] if mname is not None else None
+        if grain["grain_size"] is not None:
+            from .. import mesh as _mesh
+            width, height = (kw["diameter"], kw["diameter"]) if test == "brazilian" else (kw["width"], kw["height"])
+            m, labels = _mesh.voronoi_grains(width, height, grain["grain_size"], h, seed=grain["grain_seed"],
+                                             minerals=grain["minerals"], relax=grain["relax"],
+                                             shape="disc" if test == "brazilian" else "rectangle")
+            import numpy as np
+            mat = labels.materials({k: self.materials[n] for k, n in mnames.items()}) if mnames is not None \
+                else {g: mat for g in np.unique(np.asarray(labels)).tolist()}
+            kw.update(mesh=m, groups=labels)
+        if joint_sets:
+            from .. import mesh as _mesh
+            kw["joint_sets"] = [(j["name"], "interfaces" if j["interfaces"] else
+                                 [_mesh.Polyline(line) for line in j["lines"]] if j["lines"] is not None
+                                 else _Region(**_region(j)), self.materials[j["material"]]) for j in joint_sets]
         for k in ("platen", "lower_material"):
             if k in kw:
                 kw[k] = self.materials[kw[k]]
