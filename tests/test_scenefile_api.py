@@ -652,3 +652,46 @@ r_max = 0.005
         _load(tmp_path, text.replace("minerals = { quartz = 0.3, feldspar = 0.7 }", "minerals = { quartz = 1.0 }"))
     with pytest.raises(SceneFileError, match=r"\[lab\] needs exactly one of material"):
         _load(tmp_path, text.replace('test = "brazilian"', 'test = "brazilian"\nmaterial = "rock"'))
+
+
+def test_one_body_per_group_of_a_mesh_file(tmp_path):
+    """group = "NAME" takes one group of a file (fdem.mesh.load_groups): two [[bodies]] give the
+    bodies of fdem.mesh.scene_from_groups, bit for bit; an unknown group is refused by name."""
+    import meshio
+    src = fdem.mesh.rectangle(0.2, 0.1, 0.025)
+    c = src.points[src.triangles].mean(axis=1)
+    tag = np.where(c[:, 0] < 0.0, 1, 2)
+    meshio.write(tmp_path / "two.msh",
+                 meshio.Mesh(np.c_[src.points, np.zeros(src.point_count)], [("triangle", src.triangles)],
+                             cell_data={"gmsh:physical": [tag], "gmsh:geometrical": [tag]},
+                             field_data={"host": np.array([1, 2]), "dyke": np.array([2, 2])}),
+                 file_format="gmsh22", binary=False)
+    text = ROCK_TOML + """
+[[bodies]]
+name = "host"
+file = "two.msh"
+group = "host"
+velocity = [1.0, 0.0]
+
+[[bodies]]
+name = "dyke"
+file = "two.msh"
+group = "dyke"
+velocity = [1.0, 0.0]
+material = "rock"
+
+[solver]
+duration = 1e-3
+check_overlap = false
+""".replace('group = "host"\n', 'group = "host"\nmaterial = "rock"\n')
+    sim_toml, _ = _build(tmp_path, text)
+    rock = fdem.Material(**ROCK, name="rock")
+    scene = fdem.Scene()
+    fdem.mesh.scene_from_groups(scene, tmp_path / "two.msh", rock, velocity=(1.0, 0.0))
+    sim_py = _quiet(scene.build, check_overlap=False)
+    sim_py.step(10)
+    sim_toml.step(10)
+    _assert_same(sim_py, sim_toml, "groups as bodies")
+    with pytest.raises(SceneFileError, match=r"scene.toml:\d+: \[bodies\[1\]\] body 'dyke': cannot make its file "
+                                             r"mesh: no group 'dike' in the file; its groups: host, dyke"):
+        _build(tmp_path, text.replace('group = "dyke"', 'group = "dike"'))

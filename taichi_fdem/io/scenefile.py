@@ -80,7 +80,11 @@ file                   —       mesh file read by ``fdem.mesh.load`` (gmsh .msh
 cell_block             —       with ``file``: index of the one triangle cell block to use [all]
 groups                 —       with ``file``: read its material groups (``fdem.mesh.load_tagged``),
                                one material each by ``materials`` [false]
-group_key              —       with ``groups``: the cell-data array of the group tags [gmsh:physical]
+group                  —       with ``file``: only this group of the file (``fdem.mesh.load_groups``;
+                               its name, or its integer tag), one body per group as
+                               ``fdem.mesh.scene_from_groups`` [none]
+group_key              —       with ``groups`` or ``group``: the cell-data array of the group tags
+                               [gmsh:physical]
 grain_size             m       grains: mean grain edge length d > h (``fdem.mesh.voronoi_grains``)
 seed                   —       grains: seed of the random grains [0]
 minerals               —       grains: {name = proportion, ...}, the minerals' area shares [none]
@@ -92,6 +96,7 @@ pattern                —       rectangle: "alternating", "crossed" or "right" 
 r_inner, r_outer       m       annulus: radii, 0 < r_inner < r_outer
 layout                 —       disk, annulus: "symmetric" or "spiral" (``fdem.mesh.disk``) ["symmetric"]
 vertices               m       polygon: [[x, y], ...], a simple polygon
+engine                 —       polygon: the mesher, "builtin" or "gmsh" (``fdem.mesh.polygon``) ["builtin"]
 h                      m       target element edge length, > 0 (required for disk, rectangle,
                                annulus; polygon: [none: the vertices alone are triangulated])
 position               m       [x, y] where the mesh's area centroid is placed [mesh as built:
@@ -396,6 +401,7 @@ BODY_KEYS = {
     "file": _Key("str"),
     "cell_block": _Key("int", lo=0),
     "groups": _Key("bool", False),
+    "group": _Key("str"),
     "group_key": _Key("str"),
     "radius": _POS("m"),
     "width": _POS("m"),
@@ -410,6 +416,7 @@ BODY_KEYS = {
     "outline": _Key("choice", "rectangle", choices=("rectangle", "disc")),
     "relax": _Key("int", 3, lo=0, hi=1000),
     "vertices": _Key("vertices", unit="m"),
+    "engine": _Key("choice", "builtin", choices=("builtin", "gmsh")),
     "h": _POS("m"),
     "position": _Key("vec2", unit="m", hi=_COORD),
     "velocity": _Key("vec2", (0.0, 0.0), "m/s", hi=_SPEED),
@@ -433,9 +440,9 @@ SHAPE_KEYS = {
     "disk": (("radius", "h"), ("layout",)),
     "rectangle": (("width", "height", "h"), ("pattern",)),
     "annulus": (("r_inner", "r_outer", "h"), ("layout",)),
-    "polygon": (("vertices",), ("h",)),
+    "polygon": (("vertices",), ("h", "engine")),
     "grains": (("width", "height", "grain_size", "h"), ("seed", "minerals", "outline", "relax")),
-    "file": (("file",), ("cell_block", "groups", "group_key")),
+    "file": (("file",), ("cell_block", "groups", "group", "group_key")),
 }
 _MESH_KEYS = {k for req, opt in SHAPE_KEYS.values() for k in req + opt}
 #: a region of the plane (initial, placed coordinates): a box and/or a ring about a centre
@@ -796,8 +803,11 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
         elif shape == "file" and b["groups"]:
             raise ck.error(bp + ("groups",), "groups = true needs materials = {label = \"NAME\", ...}, one "
                            "material per group of the file")
-        if "group_key" in bt and not b["groups"]:
-            raise ck.error(bp + ("group_key",), "group_key needs groups = true")
+        if "group_key" in bt and not b["groups"] and b["group"] is None:
+            raise ck.error(bp + ("group_key",), "group_key needs groups = true or group = \"NAME\"")
+        if b["group"] is not None and (b["groups"] or "cell_block" in bt):
+            raise ck.error(bp + ("group",), "group = \"NAME\" (one group of the file as the body) goes with "
+                           "neither groups = true nor cell_block")
         if shape == "grains" and b["h"] >= b["grain_size"]:
             raise ck.error(bp + ("h",), f"h ({b['h']} m) must be smaller than grain_size ({b['grain_size']} m)")
         if shape == "grains" and b["outline"] == "disc" and b["width"] != b["height"]:

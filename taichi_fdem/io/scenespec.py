@@ -219,6 +219,13 @@ class SceneSpec:
             if shape == "file":
                 if b.get("groups"):
                     return mesh.load_tagged(b["file"], key=b.get("group_key"))[:2]
+                if b.get("group") is not None:
+                    groups = mesh.load_groups(b["file"], key=b.get("group_key"))
+                    by_text = {str(g): g for g in groups}
+                    if b["group"] not in by_text:
+                        raise ValueError(f"no group {b['group']!r} in the file; its groups: "
+                                         f"{', '.join(by_text)}")
+                    return groups[by_text[b["group"]]]
                 return mesh.load(b["file"], cell_block=b["cell_block"])
             if shape == "grains":
                 return mesh.voronoi_grains(b["width"], b["height"], b["grain_size"], b["h"], seed=b["seed"],
@@ -230,7 +237,7 @@ class SceneSpec:
             if shape == "annulus":
                 return mesh.annulus(b["r_inner"], b["r_outer"], b["h"], layout=b["layout"])
             lines = [mesh.Polyline(line) for line in (b.get("cracks") or []) + _fracture_lines(b)] or None
-            return mesh.polygon(b["vertices"], h=b["h"], lines=lines)
+            return mesh.polygon(b["vertices"], h=b["h"], lines=lines, engine=b.get("engine") or "builtin")
         except (ValueError, TypeError, OSError) as exc:
             raise self._body_error(i, "file" if shape == "file" else "shape",
                                    f"body {b['name']!r}: cannot make its {shape} mesh: {exc}") from None
