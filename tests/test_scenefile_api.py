@@ -526,7 +526,9 @@ def test_bad_tables_name_the_file_table_and_key(tmp_path, extra, pattern):
      r"\[bodies\[0\]\] body 'b': give exactly one of material"),
     ('h = 0.05\n', 'h = 0.05\nfracture = "interface"\n', r"\[bodies\[0\]\] fracture must be true, false, \"interfaces\""),
     ('h = 0.05\n', 'h = 0.05\nfracture = { lines = [[[0.0, 0.0], [0.1, 0.0]]], xmin = 0.0 }\n',
-     r"\[bodies\[0\].fracture\] give either a region"),
+     r"\[bodies\[0\].fracture\] give one of a region \(xmin, ..., r_max\), lines or line_group"),
+    ('h = 0.05\n', 'h = 0.05\ncracks = { line_group = "fault" }\n',
+     r"\[bodies\[0\]\] line_group selects edges along a line group of the body's mesh file: it needs file"),
     ('h = 0.05\n', 'h = 0.05\ncracks = { xmin = 0.0, zmax = 1.0 }\n',
      r"scene.toml:\d+: \[bodies\[0\].cracks\] unknown key 'zmax' \(did you mean"),
     ('h = 0.05\n', 'h = 0.05\nvelocity_curve = "c"\n', r"\[bodies\[0\]\] unknown curve 'c'"),
@@ -695,3 +697,48 @@ check_overlap = false
     with pytest.raises(SceneFileError, match=r"scene.toml:\d+: \[bodies\[1\]\] body 'dyke': cannot make its file "
                                              r"mesh: no group 'dike' in the file; its groups: host, dyke"):
         _build(tmp_path, text.replace('group = "dyke"', 'group = "dike"'))
+
+
+def test_line_groups_of_a_mesh_file_select_cracks_and_joints(tmp_path):
+    """cracks = { line_group = "fault" }, fracture = { line_group = "joint" }: the physical line
+    groups of the body's file, as the Segments of fdem.mesh.load_groups(..., lines=True)."""
+    import meshio
+    src = fdem.mesh.rectangle(0.2, 0.1, 0.025)
+    pts3 = np.c_[src.points, np.zeros(src.point_count)]
+    on_y0 = [e for e in src.edges().tolist() if abs(src.points[e[0], 1]) < 1e-12 and abs(src.points[e[1], 1]) < 1e-12]
+    on_x0 = [e for e in src.edges().tolist() if abs(src.points[e[0], 0]) < 1e-12 and abs(src.points[e[1], 0]) < 1e-12]
+    lines = np.array(on_y0 + on_x0)
+    ltag = np.array([10] * len(on_y0) + [11] * len(on_x0))
+    ttag = np.ones(src.triangle_count, int)
+    meshio.write(tmp_path / "faults.msh",
+                 meshio.Mesh(pts3, [("line", lines), ("triangle", src.triangles)],
+                             cell_data={"gmsh:physical": [ltag, ttag], "gmsh:geometrical": [ltag, ttag]},
+                             field_data={"fault": np.array([10, 1]), "joint": np.array([11, 1]),
+                                         "rock": np.array([1, 2])}),
+                 file_format="gmsh22", binary=False)
+    text = ROCK_TOML + """
+[[bodies]]
+material = "rock"
+file = "faults.msh"
+cracks = { line_group = "fault" }
+fracture = { line_group = "joint" }
+velocity = [0.5, 0.0]
+angular_velocity = 3.0
+
+[solver]
+duration = 1e-3
+"""
+    sim_toml, _ = _build(tmp_path, text)
+    assert (sim_toml.bodies[0].joint_count, sim_toml.bodies[0].crack_count) == (4, 8)
+    groups, line_groups = fdem.mesh.load_groups(tmp_path / "faults.msh", lines=True)
+    scene = fdem.Scene()
+    scene.add_body(fdem.mesh.load(tmp_path / "faults.msh"), fdem.Material(**ROCK, name="rock"),
+                   cracks=line_groups["fault"], fracture=line_groups["joint"], velocity=(0.5, 0.0),
+                   angular_velocity=3.0)
+    sim_py = _quiet(scene.build)
+    sim_py.step(10)
+    sim_toml.step(10)
+    _assert_same(sim_py, sim_toml, "line groups")
+    with pytest.raises(SceneFileError, match=r"\[bodies\[0\]\] body 'body0': no line group 'faults' in its mesh "
+                                             r"file; its line groups: fault, joint"):
+        _build(tmp_path, text.replace('{ line_group = "fault" }', '{ line_group = "faults" }'))

@@ -112,10 +112,12 @@ fracture               —       where cohesive joints go (docs/theory/joints.md
                                interior edge), false, "interfaces" (edges between material
                                groups, grain boundaries), a table of a region of edge midpoints
                                {xmin, xmax, ymin, ymax, center, r_min, r_max} (placed coordinates
-                               [m], as ``[[constraints]]``) or of lines = [[[x, y], ...], ...] (edges
-                               along them, in the mesh's own coordinates, as cracks), or a list of
-                               these [false]
-cracks                 m       pre-existing open cracks: a list of polylines [[[x, y], ...], ...]
+                               [m], as ``[[constraints]]``), of lines = [[[x, y], ...], ...] (edges
+                               along them, in the mesh's own coordinates, as cracks) or of
+                               line_group = "NAME" (a physical line group of the body's mesh file,
+                               ``fdem.mesh.load_groups(..., lines=True)``), or a list of these [false]
+cracks                 m       pre-existing open cracks (the same selectors as fracture but
+                               "interfaces"): a list of polylines [[[x, y], ...], ...]
                                in the mesh's own coordinates (moved with the body by position and
                                rotation); a ``polygon`` body is meshed with edges along them,
                                other meshes need edges there already; or a region table (or a list
@@ -824,6 +826,12 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
         _strength_keys(ck, bt, b, bp)
         b["fracture"] = _edge_selector(ck, bt.get("fracture", False), bp + ("fracture",))
         b["cracks"], b["crack_regions"] = _cracks(ck, bt.get("cracks"), bp + ("cracks",))
+        for key in ("fracture", "crack_regions"):
+            v = b[key]
+            if shape != "file" and any(isinstance(t, dict) and t.get("line_group") is not None
+                                       for t in (v if isinstance(v, list) else [v])):
+                raise ck.error(bp + ("fracture" if key == "fracture" else "cracks",), "line_group selects edges "
+                               "along a line group of the body's mesh file: it needs file")
         mnames = [b["material"]] if b["material"] is not None else list(b["materials"].values())
         if b["fracture"] is not False or b["weibull_modulus"] is not None or b["strength_cov"] is not None:
             for mname in mnames:
@@ -1032,16 +1040,19 @@ def region_of(c: dict):
     return {k: c.get(k) for k in REGION_KEYS}
 
 
-_EDGE_TABLE_KEYS = {**REGION_KEYS, "lines": _Key("polylines", unit="m")}
+_EDGE_TABLE_KEYS = {**REGION_KEYS, "lines": _Key("polylines", unit="m"), "line_group": _Key("str")}
 
 
-def _edge_table(ck, t, path: tuple) -> dict:
-    ck.table(t, path, "a region (xmin, ..., r_max) or lines = [[[x, y], ...], ...]")
-    ck.keys(t, _EDGE_TABLE_KEYS, path)
-    v = ck.values(t, _EDGE_TABLE_KEYS, path)
-    has_region = _check_region(ck, v, path, "the region of edge midpoints", required=v["lines"] is None)
-    if has_region and v["lines"] is not None:
-        raise ck.error(path + ("lines",), "give either a region (xmin, ..., r_max) or lines, not both", table=path)
+def _edge_table(ck, t, path: tuple, keys=None) -> dict:
+    keys = _EDGE_TABLE_KEYS if keys is None else keys
+    ck.table(t, path, "a region (xmin, ..., r_max), lines = [[[x, y], ...], ...] or line_group = \"NAME\"")
+    ck.keys(t, keys, path)
+    v = ck.values(t, keys, path)
+    other = [k for k in ("lines", "line_group") if v.get(k) is not None]
+    has_region = _check_region(ck, v, path, "the region of edge midpoints", required=not other)
+    if len(other) + has_region > 1:
+        raise ck.error(path + (other[-1],), "give one of a region (xmin, ..., r_max), lines or line_group",
+                       table=path)
     return v
 
 
@@ -1068,15 +1079,8 @@ def _cracks(ck, value, path: tuple):
     if isinstance(value, dict):
         value = [value]
     if isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
-        regions = []
-        for i, t in enumerate(value):
-            p = path + (i,) if len(value) > 1 else path
-            ck.table(t, p, "a region of edge midpoints")
-            ck.keys(t, REGION_KEYS, p)
-            v = ck.values(t, REGION_KEYS, p)
-            _check_region(ck, v, p, "the region of edge midpoints")
-            regions.append(v)
-        return None, regions
+        keys = {**REGION_KEYS, "line_group": _Key("str")}
+        return None, [_edge_table(ck, t, path + (i,) if len(value) > 1 else path, keys) for i, t in enumerate(value)]
     return ck.value({path[-1]: value}, path[-1], _Key("polylines", unit="m"), path[:-1]), None
 
 

@@ -271,18 +271,23 @@ class SceneSpec:
             ca, sa = np.cos(b["rotation"]), np.sin(b["rotation"])
             rot = np.array([[ca, -sa], [sa, ca]])
             shift = (np.asarray(b["position"]) - c0) if b["position"] is not None else np.zeros(2)
-            place = lambda line: _mesh.Polyline((np.asarray(line) - c0) @ rot.T + c0 + shift)  # noqa: E731
+            moved = b["position"] is not None or b["rotation"] != 0.0
+            move = (lambda p: (np.asarray(p) - c0) @ rot.T + c0 + shift) if moved else np.asarray  # noqa: E731
+            line_groups = self._line_groups(i)
+            place = lambda line: _mesh.Polyline(move(line))  # noqa: E731
+            place_group = lambda name: _mesh.Segments(  # noqa: E731
+                move(line_groups(name).segments.reshape(-1, 2)).reshape(-1, 2, 2), name=name)
             cracks = None
             if b.get("cracks"):
                 cracks = [place(line) for line in b["cracks"]]
             elif b.get("crack_regions"):
-                cracks = [_Region(**r) for r in b["crack_regions"]]
+                cracks = [_edges(r, place, place_group) for r in b["crack_regions"]]
             try:
                 bodies[b["name"]] = scene.add_body(
                     m, material, position=b["position"], velocity=b["velocity"],
                     angular_velocity=b["angular_velocity"], rotation=b["rotation"], fixed=b["fixed"],
                     prescribed_velocity=b["prescribed_velocity"], self_contact=b["self_contact"], name=b["name"],
-                    fracture=_edges(b.get("fracture", False), place), cracks=cracks,
+                    fracture=_edges(b.get("fracture", False), place, place_group), cracks=cracks,
                     crack_friction=b.get("crack_friction"), strength=strength_of(b), groups=groups,
                     velocity_curve=self.curve(b.get("velocity_curve")))
             except (ValueError, TypeError) as exc:
@@ -336,6 +341,26 @@ class SceneSpec:
                 curve = Curve.ramp(c["ramp"]) if c["ramp"] is not None else self.curve(c.get("curve"))
                 scene.inject(_Region(**_region(c)), rate=c["rate"], pressure=c["pressure"], curve=curve)
         return scene, bodies
+
+    def _line_groups(self, i: int):
+        """``get(name)``: the Segments of the physical line group ``name`` of body ``i``'s mesh
+        file (read when first asked for)."""
+        b, cache = self.bodies[i], {}
+
+        def get(name):
+            from .. import mesh as _mesh
+            if "groups" not in cache:
+                try:
+                    cache["groups"] = _mesh.load_groups(b["file"], key=b.get("group_key"), lines=True)[1]
+                except (ValueError, OSError) as exc:
+                    raise self._body_error(i, "fracture", f"body {b['name']!r}: cannot read the line groups of "
+                                           f"its mesh file: {exc}") from None
+            by_text = {str(g): g for g in cache["groups"]}
+            if name not in by_text:
+                raise self._body_error(i, "fracture", f"body {b['name']!r}: no line group {name!r} in its mesh "
+                                       f"file; its line groups: {', '.join(by_text) or 'none'}")
+            return cache["groups"][by_text[name]]
+        return get
 
     def _group_materials(self, i: int, labels):
         """The ``material`` dict of add_body(groups=labels) for body ``i`` (grains or a tagged file)."""
@@ -456,13 +481,15 @@ def _fracture_lines(b: dict) -> list:
     return [line for t in tables if isinstance(t, dict) and t.get("lines") for line in t["lines"]]
 
 
-def _edges(value, place):
-    """add_body's ``fracture=`` of a checked ``fracture`` value (tables made selectors)."""
+def _edges(value, place, place_group):
+    """add_body's ``fracture=`` (or ``cracks=``) of a checked value (tables made selectors)."""
     if isinstance(value, list):
-        return [_edges(v, place) for v in value]
+        return [_edges(v, place, place_group) for v in value]
     if isinstance(value, dict):
         if value.get("lines"):
             return [place(line) for line in value["lines"]]
+        if value.get("line_group") is not None:
+            return place_group(value["line_group"])
         return _Region(**_region(value))
     return value
 
