@@ -742,3 +742,39 @@ duration = 1e-3
     with pytest.raises(SceneFileError, match=r"\[bodies\[0\]\] body 'body0': no line group 'faults' in its mesh "
                                              r"file; its line groups: fault, joint"):
         _build(tmp_path, text.replace('{ line_group = "fault" }', '{ line_group = "faults" }'))
+
+
+def test_a_plate_with_a_hole(tmp_path):
+    text = ROCK_TOML + """
+[[bodies]]
+material = "rock"
+shape = "plate_with_hole"
+width = 0.2
+height = 0.1
+radius = 0.02
+h = 0.01
+
+[[loads]]
+kind = "traction"
+traction = [1e5, 0.0]
+xmin = 0.0999
+
+[[constraints]]
+xmax = -0.0999
+vx = 0.0
+
+[solver]
+duration = 1e-3
+"""
+    sim_toml, _ = _build(tmp_path, text)
+    scene = fdem.Scene()
+    scene.add_body(fdem.mesh.plate_with_hole(0.2, 0.1, 0.02, 0.01), fdem.Material(**ROCK, name="rock"))
+    scene.apply_traction(lambda x, y: x >= 0.0999, (1e5, 0.0))
+    scene.fix_nodes(lambda x, y: x <= -0.0999, velocity=(0.0, None))
+    sim_py = _quiet(scene.build)
+    sim_py.step(10)
+    sim_toml.step(10)
+    _assert_same(sim_py, sim_toml, "plate with a hole")
+    with pytest.raises(SceneFileError, match=r"\[bodies\[0\]\] body 'body0': cannot make its plate_with_hole mesh: "
+                                             r"plate_with_hole: the hole"):
+        _build(tmp_path, text.replace("radius = 0.02", "radius = 0.06"))

@@ -75,7 +75,8 @@ material               —       a NAME of ``[materials]`` (give it or ``materia
 materials              —       material groups: {label = "NAME", ...}: with ``shape = "grains"`` one
                                material per mineral of ``minerals``; with ``file`` and ``groups``
                                one per group of the file (``add_body(groups=)``) [none]
-shape                  —       "disk", "rectangle", "annulus", "polygon" or "grains" (or give ``file``)
+shape                  —       "disk", "rectangle", "annulus", "polygon", "grains" or "plate_with_hole"
+                               (or give ``file``)
 file                   —       mesh file read by ``fdem.mesh.load`` (gmsh .msh, .vtu, ...)
 cell_block             —       with ``file``: index of the one triangle cell block to use [all]
 groups                 —       with ``file``: read its material groups (``fdem.mesh.load_tagged``),
@@ -90,15 +91,16 @@ seed                   —       grains: seed of the random grains [0]
 minerals               —       grains: {name = proportion, ...}, the minerals' area shares [none]
 outline                —       grains: "rectangle" or "disc" (width = height = the diameter) ["rectangle"]
 relax                  —       grains: Lloyd iterations of the seeds [3]
-radius                 m       disk: radius, > 0
-width, height          m       rectangle, grains: size, > 0
+radius                 m       disk: radius, > 0; plate_with_hole: the central hole's radius
+width, height          m       rectangle, grains, plate_with_hole: size, > 0
 pattern                —       rectangle: "alternating", "crossed" or "right" ["alternating"]
 r_inner, r_outer       m       annulus: radii, 0 < r_inner < r_outer
 layout                 —       disk, annulus: "symmetric" or "spiral" (``fdem.mesh.disk``) ["symmetric"]
 vertices               m       polygon: [[x, y], ...], a simple polygon
 engine                 —       polygon: the mesher, "builtin" or "gmsh" (``fdem.mesh.polygon``) ["builtin"]
 h                      m       target element edge length, > 0 (required for disk, rectangle,
-                               annulus; polygon: [none: the vertices alone are triangulated])
+                               annulus, grains; plate_with_hole: the edge at the hole, graded
+                               outwards; polygon: [none: the vertices alone are triangulated])
 position               m       [x, y] where the mesh's area centroid is placed [mesh as built:
                                shapes centred on (0, 0), files as read]
 velocity               m/s     [v_x, v_y] initial velocity [[0, 0]]
@@ -399,7 +401,7 @@ BODY_KEYS = {
     "name": _Key("str"),
     "material": _Key("str"),
     "materials": _Key("names"),
-    "shape": _Key("choice", choices=("disk", "rectangle", "annulus", "polygon", "grains")),
+    "shape": _Key("choice", choices=("disk", "rectangle", "annulus", "polygon", "grains", "plate_with_hole")),
     "file": _Key("str"),
     "cell_block": _Key("int", lo=0),
     "groups": _Key("bool", False),
@@ -444,6 +446,7 @@ SHAPE_KEYS = {
     "annulus": (("r_inner", "r_outer", "h"), ("layout",)),
     "polygon": (("vertices",), ("h", "engine")),
     "grains": (("width", "height", "grain_size", "h"), ("seed", "minerals", "outline", "relax")),
+    "plate_with_hole": (("width", "height", "radius", "h"), ()),
     "file": (("file",), ("cell_block", "groups", "group", "group_key")),
 }
 _MESH_KEYS = {k for req, opt in SHAPE_KEYS.values() for k in req + opt}
@@ -776,7 +779,7 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
                                f"{' (group ' + repr(label) + ')' if label else ''}; defined: {', '.join(materials)}")
         if ("shape" in bt) == ("file" in bt):
             raise ck.error(bp, f"body {b['name']!r}: give exactly one of shape = \"disk\"|\"rectangle\"|\"annulus\"|"
-                           f"\"polygon\"|\"grains\" or file = \"mesh.msh\"", table=bp)
+                           f"\"polygon\"|\"grains\"|\"plate_with_hole\" or file = \"mesh.msh\"", table=bp)
         shape = b["shape"] or "file"
         b["shape"] = shape
         required, optional = SHAPE_KEYS[shape]

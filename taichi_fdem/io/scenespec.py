@@ -227,6 +227,8 @@ class SceneSpec:
                                          f"{', '.join(by_text)}")
                     return groups[by_text[b["group"]]]
                 return mesh.load(b["file"], cell_block=b["cell_block"])
+            if shape == "plate_with_hole":
+                return mesh.plate_with_hole(b["width"], b["height"], b["radius"], b["h"])
             if shape == "grains":
                 return mesh.voronoi_grains(b["width"], b["height"], b["grain_size"], b["h"], seed=b["seed"],
                                            minerals=b["minerals"], shape=b["outline"], relax=b["relax"])
