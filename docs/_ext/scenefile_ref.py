@@ -15,11 +15,18 @@ import re
 SECTIONS = (  # (title, schema attribute, docstring header)
     ("[scene]", "SCENE_KEYS", "``[scene]``"),
     ("[materials.NAME]", "MATERIAL_KEYS", "``[materials.NAME]``"),
+    ("[curves.NAME]", "CURVE_KEYS", "``[curves.NAME]``"),
     ("[[bodies]]", "BODY_KEYS", "``[[bodies]]``"),
+    ("[[joint_sets]]", "JOINT_SET_KEYS", "``[[joint_sets]]``"),
+    ("[[interactions]]", "INTERACTION_KEYS", "``[[interactions]]``"),
     ("[[constraints]]", "CONSTRAINT_KEYS", "``[[constraints]]``"),
+    ("[[loads]]", "LOAD_KEYS", "``[[loads]]``"),
+    ("[[initial_stress]]", "INITIAL_STRESS_KEYS", "``[[initial_stress]]``"),
     ("[fluid]", "FLUID_KEYS", "``[fluid]``"),
     ("[[inject]]", "INJECT_KEYS", "``[[inject]]``"),
+    ("[[excavate]]", "EXCAVATE_KEYS", "``[[excavate]]``"),
     ("[solver]", "SOLVER_KEYS", "``[solver]``"),
+    ("[checks]", "CHECK_KEYS", "``[checks]``"),
     ("[output]", "OUTPUT_KEYS", "``[output]``"),
     ("[lab]", "LAB_KEYS", "``[lab]``"),
 )

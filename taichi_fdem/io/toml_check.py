@@ -138,7 +138,9 @@ def _fmt_path(path: tuple) -> str:
 # ----------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class _Key:
-    kind: str              # float, int, bool, str, vec2, vertices, polylines, choice
+    kind: str              # float, int, bool, str, vec2, vertices, polylines, choice, floats (a list of
+    #                        numbers), strs (a list of strings), names ({label: str}), weights ({name: > 0});
+    #                        any other kind is passed through for the caller to check
     default: Any = None
     unit: str = ""
     lo: float | None = None          # inclusive lower bound
@@ -166,7 +168,11 @@ class _Checker:
         for n in range(len(path), 0, -1):
             if tuple(path[:n]) in self.overridden:
                 return f"{self.path} (override {self.overridden[tuple(path[:n])]!r})"
-        line = self.loc.line(path)
+        line = None
+        for n in range(len(path), 0, -1):        # a key of an inline table: the line of the table
+            line = self.loc.line(tuple(path[:n]))
+            if line:
+                break
         return f"{self.path}:{line}" if line else self.path
 
     def error(self, path: tuple, message: str, table: tuple | None = None) -> SceneFileError:
@@ -238,6 +244,24 @@ class _Checker:
                 raise self.error(kp, f"{key} must be a list of polylines [[[x, y], [x, y], ...], ...] of at least "
                                  f"2 points each{unit}, got {v!r}")
             v = [[(float(p[0]), float(p[1])) for p in line] for line in v]
+        elif spec.kind == "floats":
+            if (not isinstance(v, list) or not v
+                    or any(isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c) for c in v)):
+                raise self.error(kp, f"{key} must be a list of finite numbers{unit}, got {v!r}")
+            v = [float(c) for c in v]
+        elif spec.kind == "strs":
+            if not isinstance(v, list) or not v or any(not isinstance(c, str) or not c for c in v):
+                raise self.error(kp, f"{key} must be a list of non-empty strings, got {v!r}")
+        elif spec.kind == "names":
+            if (not isinstance(v, dict) or not v
+                    or any(not isinstance(c, str) or not c for c in v.values())):
+                raise self.error(kp, f"{key} must be a table {{label = \"name\", ...}}, got {v!r}")
+        elif spec.kind == "weights":
+            if (not isinstance(v, dict) or not v
+                    or any(isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c) or c <= 0
+                           for c in v.values())):
+                raise self.error(kp, f"{key} must be a table {{name = proportion, ...}} of positive numbers, got {v!r}")
+            v = {k: float(c) for k, c in v.items()}
         if spec.kind in ("float", "int"):
             if spec.lo is not None and (v < spec.lo or (spec.lo_open and v == spec.lo)):
                 raise self.error(kp, f"{key} must be {'>' if spec.lo_open else '>='} {spec.lo:g}{unit}, got {v!r}")
