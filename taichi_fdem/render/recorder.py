@@ -17,15 +17,15 @@ __all__ = ["Video"]
 class Video(Recorder):
     """Render the simulation every ``frame_dt`` seconds of simulated time into a video.
 
-    path : ``.mp4``, ``.gif``, or a directory for a PNG sequence.
-    fps : frames per second of the video.
-    frame_dt : simulated time between two frames [s] (default: the run spread over 5 s of video
-        at ``fps``).  Frames are drawn at the start, every ``frame_dt`` and at the end, never
-        every step, and streamed to the file.
-    renderer : a :class:`~taichi_fdem.render.RendererImage` (default: fitted view, body colours).
-    png_dir : also write every frame as PNG into this directory.
-    cracks : draw the broken joints (both crack faces) with the default renderer; with
-        ``renderer=``, set its ``cracks`` option instead (both raise ValueError).
+    * ``path``: ``.mp4``, ``.gif``, or a directory for a PNG sequence.
+    * ``fps``: frames per second of the video.
+    * ``frame_dt``: simulated time between two frames [s] (default: the run spread over 5 s of video
+      at ``fps``).  Frames are drawn at the start, every ``frame_dt`` and at the end, never
+      every step, and streamed to the file.
+    * ``renderer``: a :class:`~taichi_fdem.render.RendererImage` (default: fitted view, body colours).
+    * ``png_dir``: also write every frame as PNG into this directory.
+    * ``cracks``: draw the broken joints (both crack faces) with the default renderer; with
+      ``renderer=``, set its ``cracks`` option instead (both raise ValueError).
     """
 
     def __init__(self, path, fps: int = 30, frame_dt: float | None = None, renderer=None, png_dir=None,

@@ -5,9 +5,9 @@ included in the masses):
 
 - mass M = Σ m_i, centre of mass c = Σ m_i x_i / M, velocity of the centre v_c = Σ m_i v_i / M;
 - angular momentum about the centre L = Σ m_i (x_i − c) × (v_i − v_c) (the z component),
-  polar moment of inertia I = Σ m_i |x_i − c|², angular velocity ω = L / I;
-- kinetic energy K = ½ Σ m_i |v_i|² = K_translation + K_rotation + K_vibration with
-  K_translation = ½ M |v_c|², K_rotation = ½ I ω² = ½ L² / I, and K_vibration the rest: the
+  polar moment of inertia I = Σ m_i ‖x_i − c‖², angular velocity ω = L / I;
+- kinetic energy K = ½ Σ m_i ‖v_i‖² = K_translation + K_rotation + K_vibration with
+  K_translation = ½ M ‖v_c‖², K_rotation = ½ I ω² = ½ L² / I, and K_vibration the rest: the
   energy of the motion relative to the best-fitting rigid motion, ≥ 0 (Koenig's theorem and
   the least-squares rigid fit of the velocity field).
 """

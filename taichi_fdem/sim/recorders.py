@@ -133,14 +133,14 @@ class Checks:
     """The checks :meth:`Simulation.run` makes after every chunk of steps (besides the
     kernels' own per-step checks of non-finite values, inverted elements and ``speed_limit``).
 
-    energy : the total of :meth:`energies` must not rise above its value at the start of the
-        run by more than ``energy_tol`` × the energy scale (the largest kinetic + strain +
-        contact + dissipated + ``|boundary work|`` seen so far).
-    energy_tol : that fraction (> 0).
-    max_penetration : no contact couple may overlap by more than this fraction of its element
-        size (:func:`taichi_fdem.sim.guards.max_couple_penetration`); None: not checked.
-    every : steps between two checks (None: adaptive, keeping their cost near 10 % of the
-        stepping time, between every 20 and every 500 steps).
+    * ``energy``: the total of :meth:`energies` must not rise above its value at the start of the
+      run by more than ``energy_tol`` × the energy scale (the largest kinetic + strain +
+      contact + dissipated + ``|boundary work|`` seen so far).
+    * ``energy_tol``: that fraction (> 0).
+    * ``max_penetration``: no contact couple may overlap by more than this fraction of its element
+      size (:func:`taichi_fdem.sim.guards.max_couple_penetration`); None: not checked.
+    * ``every``: steps between two checks (None: adaptive, keeping their cost near 10 % of the
+      stepping time, between every 20 and every 500 steps).
     """
     energy: bool = True
     energy_tol: float = 0.1
