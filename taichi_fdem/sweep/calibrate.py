@@ -427,18 +427,29 @@ def _run_de(ev, bounds, budget, seed, popsize, tol):
     return str(res.message)
 
 
+def _log_residual(m: float, t: float) -> float:
+    """log(m / t) for m, t > 0 (a power law of the parameter is linear in log-log); a finite value
+    of the right sign otherwise."""
+    if t > 0 and m > 0:
+        return math.log(m / t)
+    return (m - t) / abs(t) - (50.0 if m <= 0 < t else 0.0) + (50.0 if m >= 0 > t else 0.0)
+
+
 def _run_bracket(ev, bounds, xrtol):
     from scipy.optimize import brentq
     (name,) = ev.names
-    (target,) = [k for k, (_, w) in ev.cal.targets.items()]
+    (target,) = list(ev.cal.targets)
+    t = ev.cal.targets[target][0]
     lo, hi = bounds[name]
+    logs = lo > 0
     seen = {}
 
     def residual(rec):
         if rec["status"] != "ok":
             raise _Stopped(f"stopped: the evaluation at {name} = {rec[name]!r} failed ({rec['error']}); "
                            f"a bracketing method needs every evaluation")
-        return (float(rec[target]) - ev.cal.targets[target][0]) / ev.cal.targets[target][0]
+        m = float(rec[target])
+        return _log_residual(m, t) if logs else (m - t) / t
 
     ends = ev.batch([[lo], [hi]])
     for r in ends:
@@ -449,40 +460,51 @@ def _run_bracket(ev, bounds, xrtol):
         raise _BudgetReached
     fa, fb = residual(ends[0]), residual(ends[1])
     if fa * fb > 0:
-        return (f"the target {target!r} is not bracketed: its relative error is {fa:+.3g} at {name} = {lo:g} "
-                f"and {fb:+.3g} at {name} = {hi:g}; widen the box")
+        ea, eb = ((float(r[target]) - t) / t for r in ends)
+        return (f"the target {target!r} is not bracketed: its relative error is {ea:+.3g} at {name} = {lo:g} "
+                f"and {eb:+.3g} at {name} = {hi:g}; widen the box")
 
-    def f(x):
-        r = seen.get(float(x))
+    def f(s):
+        x = min(hi, max(lo, math.exp(s) if logs else s))
+        r = seen.get(x)
         if r is None:
             (r,) = ev.batch([[x]])
-            seen[r[name]] = r
+            seen[x] = r
             if ev.matched(r):
                 raise _Converged
         return residual(r)
 
-    xtol = xrtol * (hi - lo)
-    brentq(f, lo, hi, xtol=xtol, rtol=4 * np.finfo(float).eps, maxiter=10 ** 6)
-    return f"the bracket of {name} is narrower than {xtol:g}"
+    a, b = (math.log(lo), math.log(hi)) if logs else (lo, hi)
+    seen[math.exp(a) if logs else a] = ends[0]
+    seen[math.exp(b) if logs else b] = ends[1]
+    brentq(f, a, b, xtol=xrtol * (b - a), rtol=4 * np.finfo(float).eps, maxiter=10 ** 6)
+    return f"the bracket of {name} is narrower than {xrtol:g} of the box"
 
 
 def _run_least_squares(ev, bounds, start, diff_step, xrtol):
     from scipy.optimize import least_squares
     names = ev.names
     lo = np.array([bounds[k][0] for k in names])
-    span = np.array([bounds[k][1] for k in names]) - lo
+    hi = np.array([bounds[k][1] for k in names])
+    logs = lo > 0                                    # positive ranges are searched in logarithms
+    a = np.where(logs, np.log(np.where(logs, lo, 1.0)), lo)
+    b = np.where(logs, np.log(np.where(logs, hi, 1.0)), hi)
     tg = [(k, t, math.sqrt(w)) for k, (t, w) in ev.cal.targets.items() if w > 0]
     cache = {}
+
+    def to_x(u):
+        v = a + (b - a) * np.asarray(u, float)
+        return np.clip(np.where(logs, np.exp(v), v), lo, hi)
 
     def residuals(rec):
         if rec["status"] != "ok":
             return np.full(len(tg), _FAILED_RESIDUAL)
-        return np.array([s * (float(rec[k]) - t) / t for k, t, s in tg])
+        return np.array([s * _log_residual(float(rec[k]), t) for k, t, s in tg])
 
     def evaluate(us):
         todo = [u for u in us if tuple(u) not in cache]
         if todo:
-            recs = ev.batch([lo + span * u for u in todo])
+            recs = ev.batch([to_x(u) for u in todo])
             for u, r in zip(todo, recs):
                 cache[tuple(u)] = residuals(r)
             for r in recs:
@@ -508,7 +530,11 @@ def _run_least_squares(ev, bounds, start, diff_step, xrtol):
         fs = evaluate([v for v, _ in steps])
         return np.column_stack([(fi - f0) / h for fi, (_, h) in zip(fs, steps)])
 
-    u0 = np.full(len(names), 0.5) if start is None else (np.array([start[k] for k in names], float) - lo) / span
+    if start is None:
+        u0 = np.full(len(names), 0.5)
+    else:
+        x0 = np.array([float(start[k]) for k in names])
+        u0 = np.clip((np.where(logs, np.log(np.where(logs, x0, 1.0)), x0) - a) / (b - a), 0.0, 1.0)
     res = least_squares(fun, u0, jac=jac, bounds=(0.0, 1.0), method="trf", x_scale=1.0,
                         xtol=xrtol, ftol=1e-10, gtol=1e-10, max_nfev=10 ** 6)
     return str(res.message)
