@@ -98,6 +98,36 @@ def readme_table(data: dict) -> str:
     return "\n".join(out)
 
 
+def calibration_table(rows: list[dict]) -> str:
+    """Markdown: evaluations each calibration method needed to reach 2 % / 5 % per problem."""
+    out = ["| problem | method | budget | evaluations run | to 2 % | to 5 % | error of the best |",
+           "|:--|:--|--:|--:|--:|--:|:--|"]
+    for r in rows:
+        err = ", ".join(f"{k} {v * 100:+.2f} %" for k, v in r["best_error"].items())
+        out.append(f"| {r['problem']} | {r['method']} | {r['budget']} | {r['evaluations']} | "
+                   f"{r['to_2pc'] or '—'} | {r['to_5pc'] or '—'} | {err} |")
+    return "\n".join(out)
+
+
+def extra_sections(data: dict) -> str:
+    """The sections after the README's table: the calibration comparison (``calibration``
+    rows of ``benchmarks/calibration.py --json``) and the measured tables kept as text
+    (``sections``: [{"title", "text"}])."""
+    parts = []
+    for sec in data.get("sections", []):
+        parts.append(f"## {sec['title']}\n\n{sec['text']}\n")
+    if data.get("calibration"):
+        parts.append(f"""## Calibration methods (`benchmarks/calibration.py`)
+
+`{data['calibration_command']}`
+
+{data.get('calibration_note', '')}
+
+{calibration_table(data['calibration'])}
+""")
+    return "".join("\n" + p for p in parts)
+
+
 def write_markdown(data: dict, path: str = MD_PATH) -> str:
     """Write results.md from ``data`` (the content of results.json); returns the text."""
     st = data.get("startup", {})
@@ -131,7 +161,7 @@ M triangle-steps/s.
 ## The README's table
 
 {readme_table(data)}
-"""
+{extra_sections(data)}"""
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(text)
     return text
