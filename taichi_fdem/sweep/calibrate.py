@@ -15,14 +15,15 @@ evaluations (``method=``):
 
 * ``"bracket"`` (one parameter, one target whose value is monotone in it): the two ends of the
   box (one batch), then Brent's method (:func:`scipy.optimize.brentq`: inverse quadratic
-  interpolation safeguarded by bisection; Brent 1973) on the target's relative error
-  ``(m - t) / t``.  A response proportional to the parameter is matched by the first
-  interpolated point.
+  interpolation safeguarded by bisection; Brent 1973) on the residual ``log(m / t)`` against
+  ``log(x)`` (``(m - t) / t`` against ``x`` where the range or the values are not positive), so
+  that a power law ``m = k x**p`` is matched by the first interpolated point.
 * ``"least_squares"`` (any number of parameters and targets): SciPy's trust-region reflective
-  least squares (:func:`scipy.optimize.least_squares`, ``method="trf"``) on the weighted relative
-  errors ``sqrt(w_k) (m_k - t_k) / t_k``, in the box scaled to the unit cube, from its centre
-  (or ``start``); the Jacobian by forward differences of ``diff_step`` (a fraction of each
-  range), its ``d`` evaluations one batch.
+  least squares (:func:`scipy.optimize.least_squares`, ``method="trf"``) on the residuals
+  ``sqrt(w_k) log(m_k / t_k)``, over the logarithms of the parameters with a positive range (the
+  others linear), the box scaled to the unit cube, from its centre (or ``start``); the Jacobian
+  by forward differences of ``diff_step`` (a fraction of each scaled range), its ``d``
+  evaluations one batch.
 * ``"bayes"``: Bayesian optimisation of the objective by Optuna's TPE sampler (Bergstra et al.
   2011) or its Gaussian-process sampler (``sampler="gp"``, which needs PyTorch), ``workers``
   trials per batch; ``pip install "taichi-fdem[calibrate]"``.
@@ -33,9 +34,9 @@ evaluations (``method=``):
   ``tol``) is given; else ``"bracket"`` for one parameter and one target; else
   ``"least_squares"``.
 
-``"bracket"`` and ``"least_squares"`` stop when every target's relative error is at most
-``rtol`` (a converged calibration, ``converged`` True), or when their own step tolerance is met
-or the budget is used.  A batch runs on the sweep runner's local worker processes (kept for the
+``"bracket"``, ``"least_squares"`` and ``"bayes"`` stop once an evaluation has every target's
+relative error at most ``rtol`` (a converged calibration, ``converged`` True), or when their
+own step tolerance is met (the first two) or the budget is used.  A batch runs on the sweep runner's local worker processes (kept for the
 whole calibration, so that each initialises Taichi once), or as a
 :class:`~taichi_fdem.sweep.Sweep` on a Dask scheduler; ``workers=1`` runs it in this process
 through :func:`~taichi_fdem.sweep.run_point`, the sweep's worker function.  The evaluations
