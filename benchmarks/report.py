@@ -4,8 +4,9 @@
     python benchmarks/report.py --pile out/pile.csv --fracture out/fracture.json --host "..." --date 2026-12-04
     python benchmarks/report.py --readme                           # also print the README's table
 
-``--pile`` takes the CSV of ``benchmarks/pile.py --csv`` and ``--fracture`` the JSON of
-``benchmarks/fracture.py --json``; their rows replace those of results.json, which is written
+``--pile`` takes the CSV of ``benchmarks/pile.py --csv``, ``--fracture`` the JSON of
+``benchmarks/fracture.py --json`` and ``--calibration`` that of ``benchmarks/calibration.py
+--json``; their rows replace those of results.json, which is written
 back, and results.md is generated from it.  results.md is generated: edit results.json (or
 re-run the benchmarks), not results.md.
 """
@@ -171,6 +172,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--pile", help="CSV of benchmarks/pile.py --csv: replaces the pile rows")
     ap.add_argument("--fracture", help="JSON of benchmarks/fracture.py --json: replaces the plate rows")
+    ap.add_argument("--calibration", help="JSON of benchmarks/calibration.py --json: replaces the calibration rows")
     ap.add_argument("--host", help="the host the new rows were measured on")
     ap.add_argument("--date", help="the date of the new rows")
     ap.add_argument("--json", default=JSON_PATH, help="results.json to read and update")
@@ -189,6 +191,10 @@ def main(argv=None) -> int:
         changed = True
     if args.fracture:
         data["plate"] = plate_rows_from_json(args.fracture)
+        changed = True
+    if args.calibration:
+        with open(args.calibration) as fh:
+            data["calibration"] = json.load(fh)
         changed = True
     for key in ("host", "date"):
         if getattr(args, key):
