@@ -4,8 +4,9 @@
     python benchmarks/report.py --pile out/pile.csv --fracture out/fracture.json --host "..." --date 2026-12-04
     python benchmarks/report.py --readme                           # also print the README's table
 
-``--pile`` takes the CSV of ``benchmarks/pile.py --csv`` and ``--fracture`` the JSON of
-``benchmarks/fracture.py --json``; their rows replace those of results.json, which is written
+``--pile`` takes the CSV of ``benchmarks/pile.py --csv``, ``--fracture`` the JSON of
+``benchmarks/fracture.py --json`` and ``--calibration`` that of ``benchmarks/calibration.py
+--json``; their rows replace those of results.json, which is written
 back, and results.md is generated from it.  results.md is generated: edit results.json (or
 re-run the benchmarks), not results.md.
 """
@@ -98,6 +99,36 @@ def readme_table(data: dict) -> str:
     return "\n".join(out)
 
 
+def calibration_table(rows: list[dict]) -> str:
+    """Markdown: evaluations each calibration method needed to reach 2 % / 5 % per problem."""
+    out = ["| problem | method | budget | evaluations run | to 2 % | to 5 % | error of the best |",
+           "|:--|:--|--:|--:|--:|--:|:--|"]
+    for r in rows:
+        err = ", ".join(f"{k} {v * 100:+.2f} %" for k, v in r["best_error"].items())
+        out.append(f"| {r['problem']} | {r['method']} | {r['budget']} | {r['evaluations']} | "
+                   f"{r['to_2pc'] or '—'} | {r['to_5pc'] or '—'} | {err} |")
+    return "\n".join(out)
+
+
+def extra_sections(data: dict) -> str:
+    """The sections after the README's table: the calibration comparison (``calibration``
+    rows of ``benchmarks/calibration.py --json``) and the measured tables kept as text
+    (``sections``: [{"title", "text"}])."""
+    parts = []
+    for sec in data.get("sections", []):
+        parts.append(f"## {sec['title']}\n\n{sec['text']}\n")
+    if data.get("calibration"):
+        parts.append(f"""## Calibration methods (`benchmarks/calibration.py`)
+
+`{data['calibration_command']}`
+
+{data.get('calibration_note', '')}
+
+{calibration_table(data['calibration'])}
+""")
+    return "".join("\n" + p for p in parts)
+
+
 def write_markdown(data: dict, path: str = MD_PATH) -> str:
     """Write results.md from ``data`` (the content of results.json); returns the text."""
     st = data.get("startup", {})
@@ -131,7 +162,7 @@ M triangle-steps/s.
 ## The README's table
 
 {readme_table(data)}
-"""
+{extra_sections(data)}"""
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(text)
     return text
@@ -141,6 +172,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--pile", help="CSV of benchmarks/pile.py --csv: replaces the pile rows")
     ap.add_argument("--fracture", help="JSON of benchmarks/fracture.py --json: replaces the plate rows")
+    ap.add_argument("--calibration", help="JSON of benchmarks/calibration.py --json: replaces the calibration rows")
     ap.add_argument("--host", help="the host the new rows were measured on")
     ap.add_argument("--date", help="the date of the new rows")
     ap.add_argument("--json", default=JSON_PATH, help="results.json to read and update")
@@ -159,6 +191,10 @@ def main(argv=None) -> int:
         changed = True
     if args.fracture:
         data["plate"] = plate_rows_from_json(args.fracture)
+        changed = True
+    if args.calibration:
+        with open(args.calibration) as fh:
+            data["calibration"] = json.load(fh)
         changed = True
     for key in ("host", "date"):
         if getattr(args, key):

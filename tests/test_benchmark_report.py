@@ -54,3 +54,19 @@ def test_report_reads_the_pile_csv_and_the_fracture_json(tmp_path):
     # 2,000 steps/s of 1,000 triangles = 2.0 M triangle-steps/s
     assert "| 1,000 | 600 | 2,000 (2.0 M) [2,100] | 3,000 (3.0 M) [3,100] |" in text
     assert "| 600 | 1 | serial | 4.00 M | 3.50 M | 2.00 M | 7 | 1.0e-04 |" in text
+
+
+def test_report_reads_the_calibration_json(tmp_path):
+    cal = tmp_path / "calibration.json"
+    cal.write_text(json.dumps([{"problem": "bts", "method": "bracket", "budget": 12, "evaluations": 4, "to_2pc": 4,
+                                "to_5pc": 3, "best_error": {"tensile_strength": -0.001}, "converged": True},
+                               {"problem": "bts", "method": "de", "budget": 12, "evaluations": 10, "to_2pc": None,
+                                "to_5pc": None, "best_error": {"tensile_strength": 0.09}, "converged": False}]))
+    js = tmp_path / "results.json"
+    js.write_text(json.dumps(_data()))
+    md = tmp_path / "results.md"
+    assert report.main(["--calibration", str(cal), "--json", str(js), "--out", str(md)]) == 0
+    assert json.loads(js.read_text())["calibration"][0]["method"] == "bracket"
+    text = md.read_text()
+    assert "| bts | bracket | 12 | 4 | 4 | 3 | tensile_strength -0.10 % |" in text
+    assert "| bts | de | 12 | 10 | — | — | tensile_strength +9.00 % |" in text

@@ -65,7 +65,8 @@ Modules
 :mod:`.params` (parameters, :class:`SweepError`, CSV cells), :mod:`.metrics` (:data:`METRICS`),
 :mod:`.worker` (one point in a worker process: :func:`run_point`), :mod:`.table` (the CSV),
 :mod:`.runner` (:class:`Sweep` and its local and Dask runs), :mod:`.sweepfile` (:func:`load`) and
-:mod:`.calibrate` (``fdem.calibrate``: differential evolution over batches of sweep points).
+:mod:`.calibrate` (``fdem.calibrate``: bracketing, least squares, Bayesian or differential
+evolution over batches of sweep points).
 Every public name is importable from ``taichi_fdem.sweep``.
 """
 from __future__ import annotations

@@ -3,26 +3,52 @@
 ::
 
     def model(p):                                   # module-level: sent to worker processes
-        r = fdem.lab.ucs(fdem.Material(young=p["young"], ...), 0.05, 0.1, 0.005)
-        return {"E": r.young, "ucs": r.peak_stress}
+        r = fdem.lab.brazilian(fdem.Material(tensile_strength=p["tensile_strength"], ...), 0.05, 0.0025)
+        return {"bts": r.centre_stress}
 
-    cal = fdem.calibrate(model, params={"young": (10e9, 80e9), "tensile_strength": (2e6, 20e6)},
-                         targets={"E": 69e9, "ucs": (200e6, 2.0)}, budget=200, seed=1, workers=2)
-    cal.best, cal.history, cal.plot("convergence.png"), cal.to_csv("history.csv")
+    cal = fdem.calibrate(model, params={"tensile_strength": (2e6, 20e6)}, targets={"bts": 9.8e6},
+                         budget=12, workers=2)
+    cal.best, cal.uncertainty, cal.history, cal.plot("convergence.png"), cal.to_csv("history.csv")
 
-The optimiser is SciPy's differential evolution (Storn & Price 1997;
-:func:`scipy.optimize.differential_evolution`; SciPy is a dependency of the package),
-with a Latin-hypercube initial population and deferred updating, so that each generation is one batch
-of evaluations: the batch runs on the sweep runner's local worker processes (kept for the whole
-calibration, so that each initialises Taichi once), or as a :class:`~taichi_fdem.sweep.Sweep` on
-a Dask scheduler; ``workers=1`` runs it in this process through
-:func:`~taichi_fdem.sweep.run_point`, the sweep's worker function.  The same seed gives the same
-sequence of evaluations, whatever the number of workers.
+Each evaluation is a simulation of seconds to minutes, so the methods are chosen for few
+evaluations (``method=``):
+
+* ``"bracket"`` (one parameter, one target whose value is monotone in it): the two ends of the
+  box (one batch), then Brent's method (:func:`scipy.optimize.brentq`: inverse quadratic
+  interpolation safeguarded by bisection; Brent 1973) on the residual ``log(m / t)`` against
+  ``log(x)`` (``(m - t) / t`` against ``x`` where the range or the values are not positive), so
+  that a power law ``m = k x**p`` is matched by the first interpolated point.
+* ``"least_squares"`` (any number of parameters and targets): SciPy's trust-region reflective
+  least squares (:func:`scipy.optimize.least_squares`, ``method="trf"``) on the residuals
+  ``sqrt(w_k) log(m_k / t_k)``, over the logarithms of the parameters with a positive range (the
+  others linear), the box scaled to the unit cube, from its centre (or ``start``); the Jacobian
+  by forward differences of ``diff_step`` (a fraction of each scaled range), its ``d``
+  evaluations one batch.
+* ``"bayes"``: Bayesian optimisation of the objective by Optuna's TPE sampler (Bergstra et al.
+  2011) or its Gaussian-process sampler (``sampler="gp"``, which needs PyTorch), ``workers``
+  trials per batch; ``pip install "taichi-fdem[calibrate]"``.
+* ``"de"``: SciPy's differential evolution (Storn & Price 1997;
+  :func:`scipy.optimize.differential_evolution`) with a Latin-hypercube initial population and
+  deferred updating, each generation one batch.
+* ``"auto"`` (the default): ``"de"`` when a setting of differential evolution (``popsize``,
+  ``tol``) is given; else ``"bracket"`` for one parameter and one target; else
+  ``"least_squares"``.
+
+``"bracket"``, ``"least_squares"`` and ``"bayes"`` stop once an evaluation has every target's
+relative error at most ``rtol`` (a converged calibration, ``converged`` True), or when their
+own step tolerance is met (the first two) or the budget is used.  A batch runs on the sweep runner's local worker processes (kept for the
+whole calibration, so that each initialises Taichi once), or as a
+:class:`~taichi_fdem.sweep.Sweep` on a Dask scheduler; ``workers=1`` runs it in this process
+through :func:`~taichi_fdem.sweep.run_point`, the sweep's worker function.  The evaluations
+are a function of the inputs and ``seed`` alone, whatever the number of workers, except for
+``"bayes"``, whose batches hold ``workers`` trials.
 
 Objective: ``sum_k w_k ((m_k - t_k) / t_k)**2`` over the targets k (measured m_k, target t_k,
 weight w_k; relative errors, so targets of different units weigh alike).  An evaluation that
 fails (raises, is unstable, lacks a target's value or returns a non-finite one) is recorded in
-the history with its error and scored :data:`FAILED_SCORE`.
+the history with its error and scored :data:`FAILED_SCORE`.  The uncertainty of the result is
+the spread of the evaluated points whose every target lies within ``tolerance``
+(:attr:`Calibration.uncertainty`).
 """
 from __future__ import annotations
 
@@ -31,20 +57,35 @@ import math
 import os
 import pickle
 import tempfile
+import time
 
 import numpy as np
 
 from .params import SweepError
 from .worker import FunctionPoint, run_point
 
-__all__ = ["calibrate", "Calibration", "FAILED_SCORE"]
+__all__ = ["calibrate", "Calibration", "FAILED_SCORE", "METHODS"]
 
 #: objective value of a failed evaluation (finite, so the optimiser's statistics stay defined)
 FAILED_SCORE = 1.0e6
 
+#: the values of ``calibrate(method=...)``
+METHODS = ("auto", "bracket", "least_squares", "bayes", "de")
+
+#: relative error standing in for each target of a failed evaluation in ``"least_squares"``
+_FAILED_RESIDUAL = 10.0
+
 
 class _BudgetReached(Exception):
     pass
+
+
+class _Converged(Exception):
+    pass
+
+
+class _Stopped(Exception):
+    """A method cannot go on (its message says why); the calibration returns what it has."""
 
 
 class Calibration:
@@ -55,12 +96,18 @@ class Calibration:
     * ``history`` -- list of dicts, one per evaluation in order: ``evaluation``, ``batch``,
       the parameters, the measured values, ``score``, ``status`` ("ok" or the failure),
       ``error``, ``wall_s``;
-    * ``evaluations``, ``batches``, ``wall_s`` (total wall time [s]), ``message`` (the
-      optimiser's), ``params``, ``targets`` (name -> (value, weight)).
+    * ``within`` -- the records of ``history`` whose every target (of non-zero weight) is
+      within ``tolerance`` (relative error); ``uncertainty`` -- {parameter: (low, high)}, the
+      range of those points (NaN when none is);
+    * ``evaluations``, ``batches``, ``wall_s`` (total wall time [s]), ``method`` (the one
+      run), ``converged`` (the method's own convergence test stopped it, not the budget),
+      ``message`` (why it stopped), ``params``, ``targets`` (name -> (value, weight)),
+      ``tolerance``.
     """
 
-    def __init__(self, params, targets):
+    def __init__(self, params, targets, tolerance: float = 0.02, method: str = "de"):
         self.params, self.targets = params, targets
+        self.tolerance, self.method = float(tolerance), method
         self.history: list = []
         self.best: dict = {}
         self.best_score = math.inf
@@ -68,15 +115,55 @@ class Calibration:
         self.batches = 0
         self.wall_s = 0.0
         self.message = ""
+        self.converged = False
 
     @property
     def evaluations(self) -> int:
         """Number of model evaluations (failures included)."""
         return len(self.history)
 
-    def relative_errors(self) -> dict:
-        """(m - t) / t of every target at ``best``."""
-        return {k: (self.best_measured.get(k, math.nan) - t) / t for k, (t, _) in self.targets.items()}
+    def relative_errors(self, record: dict | None = None) -> dict:
+        """(m - t) / t of every target at ``best`` (or at a record of :attr:`history`)."""
+        got = self.best_measured if record is None else record
+        out = {}
+        for k, (t, _) in self.targets.items():
+            v = got.get(k)
+            out[k] = (float(v) - t) / t if v is not None else math.nan
+        return out
+
+    @property
+    def within(self) -> list:
+        """The ``ok`` records of :attr:`history` whose every target of non-zero weight has a
+        relative error of at most :attr:`tolerance`."""
+        out = []
+        for r in self.history:
+            if r["status"] != "ok":
+                continue
+            e = self.relative_errors(r)
+            if all(abs(e[k]) <= self.tolerance for k, (_, w) in self.targets.items() if w > 0):
+                out.append(r)
+        return out
+
+    @property
+    def uncertainty(self) -> dict:
+        """{parameter: (low, high)}: the range of the points within :attr:`tolerance` (a zero
+        width when one point is; NaN when none is)."""
+        pts = self.within
+        if not pts:
+            return {k: (math.nan, math.nan) for k in self.params}
+        return {k: (min(r[k] for r in pts), max(r[k] for r in pts)) for k in self.params}
+
+    def evaluations_to(self, true: dict, rel: float) -> int | None:
+        """The number of evaluations after which the best point so far first has every
+        parameter within ``rel`` (relative) of ``true`` = {parameter: value} (a calibration to
+        targets of known origin); None if it never has."""
+        best = math.inf
+        for i, r in enumerate(self.history):
+            if r["status"] == "ok" and r["score"] < best:
+                best = r["score"]
+                if all(abs(r[k] / v - 1) <= rel for k, v in true.items()):
+                    return i + 1
+        return None
 
     def to_csv(self, path) -> str:
         """Write :attr:`history` as CSV (one row per evaluation); returns the path."""
@@ -112,8 +199,8 @@ class Calibration:
         return fig
 
     def __repr__(self) -> str:
-        return (f"Calibration(best={self.best}, score={self.best_score:.3g}, evaluations={self.evaluations}, "
-                f"wall_s={self.wall_s:.1f})")
+        return (f"Calibration(method={self.method!r}, best={self.best}, score={self.best_score:.3g}, "
+                f"evaluations={self.evaluations}, converged={self.converged}, wall_s={self.wall_s:.1f})")
 
 
 def _check(params, targets, weights, budget, workers):
@@ -218,10 +305,286 @@ class _Pool:
             w["conn"].close()
 
 
+class _Evaluator:
+    """Runs batches of points (in this process, on local worker processes or on Dask), records
+    each evaluation in the Calibration and keeps the budget."""
+
+    def __init__(self, cal, model, names, budget, workers, scheduler, timeout, init, workdir, on_batch):
+        self.cal, self.names, self.budget = cal, names, int(budget)
+        self.point = FunctionPoint(model)
+        self.workers, self.scheduler, self.timeout, self.init = int(workers), scheduler, timeout, init
+        self.workdir, self.on_batch = workdir, on_batch
+        self.pool = None
+        self.t_start = time.perf_counter()
+        self.rtol = None
+
+    @property
+    def left(self) -> int:
+        return self.budget - self.cal.evaluations
+
+    def score(self, measured: dict):
+        s = 0.0
+        for k, (t, w) in self.cal.targets.items():
+            v = measured.get(k)
+            if v is None:
+                return None, f"the model returned no {k!r} (it returned {sorted(measured)})"
+            try:
+                v = float(v)
+            except (TypeError, ValueError):
+                return None, f"the model's {k!r} is not a number: {v!r}"
+            if not math.isfinite(v):
+                return None, f"the model's {k!r} is {v}"
+            s += w * ((v - t) / t) ** 2
+        return s, ""
+
+    def run(self, pts: list) -> list:
+        names, init = self.names, self.init
+        if self.scheduler is None:
+            if self.pool is None:
+                raw = [run_point(self.point, p, None, None, init) for p in pts]
+            else:
+                raw = self.pool.map([pickle.dumps((self.point, p, None, None)) for p in pts])
+            return [{**p, **r["metrics"], "status": r["status"], "error": r["error"], "wall_s": r["wall_s"]}
+                    for p, r in zip(pts, raw)]
+        from .runner import Sweep
+        uniq = list({tuple(p[k] for k in names): p for p in pts}.values())
+        sw = Sweep(self.point, points=uniq, metrics=_no_metrics, init=init)
+        path = os.path.join(self.workdir, f"batch{self.cal.batches:04d}.csv")
+        rows = sw.run(workers=self.workers, output=path, resume=False, scheduler=self.scheduler,
+                      timeout=self.timeout)
+        by = {tuple(r[k] for k in names): r for r in rows}
+        results = []
+        for p in pts:
+            r = by.get(tuple(p[k] for k in names))
+            results.append(dict(r) if r is not None else {**p, "status": "failed", "error": "no result", "wall_s": 0.0})
+        return results
+
+    def batch(self, xs) -> list:
+        """Evaluate the parameter vectors ``xs`` (as many as the budget leaves; raises
+        _BudgetReached when it leaves none) and return their history records."""
+        cal, names = self.cal, self.names
+        if self.left <= 0:
+            raise _BudgetReached
+        xs = [np.asarray(x, float) for x in xs][:self.left]
+        pts = [{k: float(x[i]) for i, k in enumerate(names)} for x in xs]
+        results = self.run(pts)
+        out = []
+        for p, r in zip(pts, results):
+            measured = {k: r[k] for k in r if k not in ("status", "error", "wall_s", "worker") and k not in names}
+            rec = {"evaluation": cal.evaluations + 1, "batch": cal.batches, **p}
+            s, err = (None, r.get("error") or r.get("status"))
+            if r.get("status") == "ok":
+                s, err = self.score(measured)
+            rec.update({k: measured.get(k) for k in cal.targets})
+            rec.update(score=FAILED_SCORE if s is None else s, status="ok" if s is not None else
+                       (r.get("status") if r.get("status") != "ok" else "failed"),
+                       error=err or "", wall_s=float(r.get("wall_s") or 0.0))
+            cal.history.append(rec)
+            if s is not None and s < cal.best_score:
+                cal.best_score, cal.best, cal.best_measured = s, dict(p), measured
+            out.append(rec)
+        cal.batches += 1
+        cal.wall_s = time.perf_counter() - self.t_start
+        if self.on_batch is not None:
+            self.on_batch(cal)
+        return out
+
+    def matched(self, rec) -> bool:
+        """Every target of the record within ``rtol`` (the stopping test of the local methods)."""
+        if rec["status"] != "ok" or self.rtol is None:
+            return False
+        e = self.cal.relative_errors(rec)
+        return all(abs(e[k]) <= self.rtol for k, (_, w) in self.cal.targets.items() if w > 0)
+
+
+# ----------------------------------------------------------------------------------------------
+# the methods
+# ----------------------------------------------------------------------------------------------
+def _run_de(ev, bounds, budget, seed, popsize, tol):
+    from scipy.optimize import differential_evolution
+    names = ev.names
+    d = len(names)
+    if popsize is None:
+        popsize = max(5, min(15, int(budget // (5 * d))))
+    if popsize * d > budget:
+        raise ValueError(f"calibrate: budget {budget} is smaller than one generation (popsize {popsize} × "
+                         f"{d} parameters = {popsize * d} evaluations)")
+
+    def mapper(func, iterable):
+        xs = list(iterable)
+        out = [r["score"] for r in ev.batch(xs)]
+        # the budget cut the batch short: the optimiser still needs one score per member
+        return out + [FAILED_SCORE] * (len(xs) - len(out))
+
+    def single(x):
+        return ev.batch([x])[0]["score"]
+
+    gens = max(1, budget // (popsize * d))
+    res = differential_evolution(single, [bounds[k] for k in names], seed=seed, popsize=popsize,
+                                 maxiter=max(1, gens - 1), tol=1e-6 if tol is None else tol,
+                                 init="latinhypercube", polish=False, updating="deferred", workers=mapper,
+                                 callback=lambda *a, **k: ev.left <= 0)
+    ev.cal.converged = bool(res.success) and ev.left > 0
+    return str(res.message)
+
+
+def _log_residual(m: float, t: float) -> float:
+    """log(m / t) for m, t > 0 (a power law of the parameter is linear in log-log); a finite value
+    of the right sign otherwise."""
+    if t > 0 and m > 0:
+        return math.log(m / t)
+    return (m - t) / abs(t) - (50.0 if m <= 0 < t else 0.0) + (50.0 if m >= 0 > t else 0.0)
+
+
+def _run_bracket(ev, bounds, xrtol):
+    from scipy.optimize import brentq
+    (name,) = ev.names
+    (target,) = list(ev.cal.targets)
+    t = ev.cal.targets[target][0]
+    lo, hi = bounds[name]
+    logs = lo > 0
+    seen = {}
+
+    def residual(rec):
+        if rec["status"] != "ok":
+            raise _Stopped(f"stopped: the evaluation at {name} = {rec[name]!r} failed ({rec['error']}); "
+                           f"a bracketing method needs every evaluation")
+        m = float(rec[target])
+        return _log_residual(m, t) if logs else (m - t) / t
+
+    ends = ev.batch([[lo], [hi]])
+    for r in ends:
+        seen[r[name]] = r
+        if ev.matched(r):
+            raise _Converged
+    if len(ends) < 2:
+        raise _BudgetReached
+    fa, fb = residual(ends[0]), residual(ends[1])
+    if fa * fb > 0:
+        ea, eb = ((float(r[target]) - t) / t for r in ends)
+        return (f"the target {target!r} is not bracketed: its relative error is {ea:+.3g} at {name} = {lo:g} "
+                f"and {eb:+.3g} at {name} = {hi:g}; widen the box")
+
+    def f(s):
+        x = min(hi, max(lo, math.exp(s) if logs else s))
+        r = seen.get(x)
+        if r is None:
+            (r,) = ev.batch([[x]])
+            seen[x] = r
+            if ev.matched(r):
+                raise _Converged
+        return residual(r)
+
+    a, b = (math.log(lo), math.log(hi)) if logs else (lo, hi)
+    seen[math.exp(a) if logs else a] = ends[0]
+    seen[math.exp(b) if logs else b] = ends[1]
+    brentq(f, a, b, xtol=xrtol * (b - a), rtol=4 * np.finfo(float).eps, maxiter=10 ** 6)
+    return f"the bracket of {name} is narrower than {xrtol:g} of the box"
+
+
+def _run_least_squares(ev, bounds, start, diff_step, xrtol):
+    from scipy.optimize import least_squares
+    names = ev.names
+    lo = np.array([bounds[k][0] for k in names])
+    hi = np.array([bounds[k][1] for k in names])
+    logs = lo > 0                                    # positive ranges are searched in logarithms
+    a = np.where(logs, np.log(np.where(logs, lo, 1.0)), lo)
+    b = np.where(logs, np.log(np.where(logs, hi, 1.0)), hi)
+    tg = [(k, t, math.sqrt(w)) for k, (t, w) in ev.cal.targets.items() if w > 0]
+    cache = {}
+
+    def to_x(u):
+        v = a + (b - a) * np.asarray(u, float)
+        return np.clip(np.where(logs, np.exp(v), v), lo, hi)
+
+    def residuals(rec):
+        if rec["status"] != "ok":
+            return np.full(len(tg), _FAILED_RESIDUAL)
+        return np.array([s * _log_residual(float(rec[k]), t) for k, t, s in tg])
+
+    def evaluate(us):
+        todo = [u for u in us if tuple(u) not in cache]
+        if todo:
+            recs = ev.batch([to_x(u) for u in todo])
+            for u, r in zip(todo, recs):
+                cache[tuple(u)] = residuals(r)
+            for r in recs:
+                if ev.matched(r):
+                    raise _Converged
+            if len(recs) < len(todo):
+                raise _BudgetReached
+        return [cache[tuple(u)] for u in us]
+
+    def fun(u):
+        return evaluate([np.asarray(u, float)])[0]
+
+    def jac(u, f0=None):
+        u = np.asarray(u, float)
+        if f0 is None:
+            f0 = fun(u)
+        steps = []
+        for i in range(len(u)):
+            h = diff_step if u[i] + diff_step <= 1.0 else -diff_step
+            v = u.copy()
+            v[i] += h
+            steps.append((v, h))
+        fs = evaluate([v for v, _ in steps])
+        return np.column_stack([(fi - f0) / h for fi, (_, h) in zip(fs, steps)])
+
+    if start is None:
+        u0 = np.full(len(names), 0.5)
+    else:
+        x0 = np.array([float(start[k]) for k in names])
+        u0 = np.clip((np.where(logs, np.log(np.where(logs, x0, 1.0)), x0) - a) / (b - a), 0.0, 1.0)
+    res = least_squares(fun, u0, jac=jac, bounds=(0.0, 1.0), method="trf", x_scale=1.0,
+                        xtol=xrtol, ftol=1e-10, gtol=1e-10, max_nfev=10 ** 6)
+    return str(res.message)
+
+
+def _run_bayes(ev, bounds, seed, sampler, budget):
+    try:
+        import optuna
+    except ImportError as exc:
+        raise ImportError('calibrate(method="bayes") needs Optuna, an optional dependency: '
+                          'pip install "taichi-fdem[calibrate]" (or pip install optuna)') from exc
+    names = ev.names
+    d = len(names)
+    startup = min(max(2, 2 * d + 1), max(1, budget // 3))
+    if sampler == "tpe":
+        smp = optuna.samplers.TPESampler(seed=seed, n_startup_trials=startup, multivariate=True,
+                                         constant_liar=ev.workers > 1)
+    else:
+        try:
+            import torch  # noqa: F401
+        except ImportError as exc:
+            raise ImportError('calibrate(method="bayes", sampler="gp") needs PyTorch (Optuna\'s GP sampler): '
+                              'pip install torch, or use sampler="tpe"') from exc
+        smp = optuna.samplers.GPSampler(seed=seed, n_startup_trials=startup)
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    study = optuna.create_study(direction="minimize", sampler=smp)
+    while ev.left > 0:
+        trials = [study.ask() for _ in range(min(ev.workers, ev.left))]
+        xs = [[t.suggest_float(k, *bounds[k]) for k in names] for t in trials]
+        recs = ev.batch(xs)
+        for t, r in zip(trials, recs):
+            if r["status"] == "ok":
+                study.tell(t, math.log10(r["score"] + 1e-30))
+            else:
+                study.tell(t, state=optuna.trial.TrialState.FAIL)
+        if any(ev.matched(r) for r in recs):
+            raise _Converged
+    raise _BudgetReached
+
+
+# ----------------------------------------------------------------------------------------------
+# the function
+# ----------------------------------------------------------------------------------------------
 def calibrate(model, params: dict, targets: dict, budget: int = 200, seed: int = 0, workers: int = 1,
-              weights: dict | None = None, popsize: int | None = None, tol: float = 1e-6,
+              weights: dict | None = None, popsize: int | None = None, tol: float | None = None,
               scheduler=None, timeout: float | None = None, init: dict | None = None,
-              workdir=None, on_batch=None) -> Calibration:
+              workdir=None, on_batch=None, *, method: str = "auto", tolerance: float = 0.02,
+              rtol: float | None = None, start: dict | None = None, diff_step: float = 0.02,
+              sampler: str = "tpe") -> Calibration:
     """Tune ``params`` until ``model(params)`` matches ``targets``.
 
     Parameters
@@ -235,22 +598,22 @@ def calibrate(model, params: dict, targets: dict, budget: int = 200, seed: int =
         {measured name: value} or {name: (value, weight)}; ``weights`` = {name: weight}
         is the other way to weigh them (default weight 1).
     budget : int
-        The largest number of model evaluations.  Differential evolution runs generations
-        of ``popsize × len(params)`` evaluations (the Latin-hypercube initial population is
-        the first) until its convergence test (``tol``, relative spread of the population's
-        objectives) or the budget stops it; the budget must hold the initial population.
+        The largest number of model evaluations (at least 2).
     seed : int
-        The optimiser's seed: the same seed gives the same evaluations and result.
+        The seed of ``"de"`` and ``"bayes"``: the same seed gives the same evaluations and
+        result (``"bracket"`` and ``"least_squares"`` are deterministic).
     workers : int
         Evaluations run at once (local worker processes of the sweep runner; 1: in this
         process).
     weights : dict or None
         {name: weight} of the targets (default 1 each).
     popsize : int or None
-        Population multiplier (SciPy's ``popsize``; default 15, or what fits the budget
-        with at least 5 generations, at least 5).
-    tol : float
-        Convergence tolerance of differential evolution (relative spread of the objectives).
+        ``"de"``: population multiplier (SciPy's ``popsize``; default 15, or what fits the
+        budget with at least 5 generations, at least 5); one generation is ``popsize ×
+        len(params)`` evaluations and the budget must hold one.
+    tol : float or None
+        ``"de"``: convergence tolerance (relative spread of the population's objectives;
+        default 1e-6).
     scheduler : None, str or dask.distributed.Client
         A Dask scheduler address or Client instead of local processes.
     timeout : float or None
@@ -258,17 +621,35 @@ def calibrate(model, params: dict, targets: dict, budget: int = 200, seed: int =
     init : dict or None
         Keyword arguments of :func:`taichi_fdem.init` in the workers.
     workdir : str or None
-        Folder of the sweep CSVs of each batch (default: a temporary folder).
+        Folder of the sweep CSVs of each batch on Dask (default: a temporary folder).
     on_batch : callable or None
         ``on_batch(calibration)`` called after every batch (progress).
+    method : str
+        One of :data:`METHODS` (see the module docstring); ``"auto"``: ``"de"`` when
+        ``popsize`` or ``tol`` is given, else ``"bracket"`` for one parameter and one target,
+        else ``"least_squares"``.
+    tolerance : float
+        Relative error of every target within which an evaluated point counts for
+        :attr:`Calibration.uncertainty` (default 2 %).
+    rtol : float or None
+        ``"bracket"``, ``"least_squares"``, ``"bayes"``: stop once an evaluation has every
+        target within this relative error (default ``tolerance / 10``).
+    start : dict or None
+        ``"least_squares"``: the first point {name: value} (default: the centre of the box).
+    diff_step : float
+        ``"least_squares"``: the finite-difference step of the Jacobian, a fraction of each
+        parameter's range (default 0.02; above the model's noise).
+    sampler : str
+        ``"bayes"``: ``"tpe"`` (default) or ``"gp"``.
 
     Returns
     -------
     Calibration
-        ``best``, ``history``, ``plot(path)``, ``to_csv(path)``.
+        ``best``, ``uncertainty``, ``history``, ``evaluations``, ``converged``, ``plot(path)``,
+        ``to_csv(path)``.
     """
     try:
-        from scipy.optimize import differential_evolution
+        import scipy.optimize  # noqa: F401
     except ImportError as exc:  # pragma: no cover - depends on the installation
         raise ImportError("calibrate needs SciPy, a dependency of taichi-fdem that is missing from this "
                           "environment: pip install scipy") from exc
@@ -277,109 +658,75 @@ def calibrate(model, params: dict, targets: dict, budget: int = 200, seed: int =
     bounds, tg = _check(params, targets, weights, budget, workers)
     names = list(bounds)
     d = len(names)
-    if popsize is None:
-        popsize = max(5, min(15, int(budget // (5 * d))))
-    if popsize * d > budget:
-        raise ValueError(f"calibrate: budget {budget} is smaller than one generation (popsize {popsize} × "
-                         f"{d} parameters = {popsize * d} evaluations)")
-    cal = Calibration(dict(bounds), tg)
-    point = FunctionPoint(model)
+    if method not in METHODS:
+        raise ValueError(f"calibrate: method must be one of {', '.join(map(repr, METHODS))}, got {method!r}")
+    de_only = [k for k, v in (("popsize", popsize), ("tol", tol)) if v is not None]
+    positive = [k for k, (_, w) in tg.items() if w > 0]
+    if not positive:
+        raise ValueError("calibrate: every target has weight 0; give at least one a positive weight")
+    if method == "auto":
+        method = "de" if de_only else ("bracket" if d == 1 and len(tg) == 1 else "least_squares")
+    elif de_only and method != "de":
+        raise ValueError(f"calibrate: {', '.join(de_only)} {'is a setting' if len(de_only) == 1 else 'are settings'} "
+                         f"of method='de', not of method={method!r}")
+    for key, val, m in (("start", start, "least_squares"), ("sampler", None if sampler == "tpe" else sampler, "bayes"),
+                        ("diff_step", None if diff_step == 0.02 else diff_step, "least_squares")):
+        if val is not None and method != m:
+            raise ValueError(f"calibrate: {key} is a setting of method={m!r}, not of method={method!r}")
+    if method == "bracket" and (d != 1 or len(tg) != 1):
+        raise ValueError(f"calibrate: method='bracket' solves for one parameter from one target, got "
+                         f"{d} parameters {names} and {len(tg)} targets {sorted(tg)}; use 'least_squares'")
+    if not (isinstance(tolerance, (int, float)) and math.isfinite(tolerance) and tolerance > 0):
+        raise ValueError(f"calibrate: tolerance must be a relative error > 0, got {tolerance!r}")
+    if rtol is None:
+        rtol = tolerance / 10.0
+    elif not (isinstance(rtol, (int, float)) and math.isfinite(rtol) and rtol >= 0):
+        raise ValueError(f"calibrate: rtol must be a relative error >= 0, got {rtol!r}")
+    if not (isinstance(diff_step, (int, float)) and 0 < diff_step <= 0.5):
+        raise ValueError(f"calibrate: diff_step must be a fraction of the range in (0, 0.5], got {diff_step!r}")
+    if sampler not in ("tpe", "gp"):
+        raise ValueError(f"calibrate: sampler must be 'tpe' or 'gp', got {sampler!r}")
+    if start is not None:
+        if not isinstance(start, dict) or set(start) != set(names):
+            raise ValueError(f"calibrate: start must be a dict with a value for each of {names}, got {start!r}")
+        for k in names:
+            if not bounds[k][0] <= float(start[k]) <= bounds[k][1]:
+                raise ValueError(f"calibrate: start[{k!r}] = {start[k]!r} lies outside its box {bounds[k]}")
+    cal = Calibration(dict(bounds), tg, tolerance=tolerance, method=method)
     tmp = None
-    if workdir is None:
+    if workdir is None and scheduler is not None:
         tmp = tempfile.TemporaryDirectory(prefix="fdem-calibrate-")
         workdir = tmp.name
-    import time
-    t_start = time.perf_counter()
-
-    def score(measured: dict):
-        s = 0.0
-        for k, (t, w) in tg.items():
-            v = measured.get(k)
-            if v is None:
-                return None, f"the model returned no {k!r} (it returned {sorted(measured)})"
-            try:
-                v = float(v)
-            except (TypeError, ValueError):
-                return None, f"the model's {k!r} is not a number: {v!r}"
-            if not math.isfinite(v):
-                return None, f"the model's {k!r} is {v}"
-            s += w * ((v - t) / t) ** 2
-        return s, ""
-
-    def evaluate(xs):
-        """Objectives of a batch of parameter vectors (one sweep)."""
-        left = budget - cal.evaluations
-        if left <= 0:
-            raise _BudgetReached
-        xs = [np.asarray(x, float) for x in xs]
-        asked = len(xs)
-        xs = xs[:left]
-        pts = [{k: float(x[i]) for i, k in enumerate(names)} for x in xs]
-        if scheduler is None:
-            if pool is None:
-                raw = [run_point(point, p, None, None, init) for p in pts]
-            else:
-                raw = pool.map([pickle.dumps((point, p, None, None)) for p in pts])
-            results = [{**p, **r["metrics"], "status": r["status"], "error": r["error"], "wall_s": r["wall_s"]}
-                       for p, r in zip(pts, raw)]
-        else:
-            from .runner import Sweep
-            uniq = list({tuple(p[k] for k in names): p for p in pts}.values())
-            sw = Sweep(point, points=uniq, metrics=_no_metrics, init=init)
-            path = os.path.join(workdir, f"batch{cal.batches:04d}.csv")
-            rows = sw.run(workers=int(workers), output=path, resume=False, scheduler=scheduler, timeout=timeout)
-            by = {tuple(r[k] for k in names): r for r in rows}
-            results = []
-            for p in pts:
-                r = by.get(tuple(p[k] for k in names))
-                results.append(dict(r) if r is not None else {**p, "status": "failed", "error": "no result", "wall_s": 0.0})
-        out = []
-        for p, r in zip(pts, results):
-            measured = {k: r[k] for k in r if k not in ("status", "error", "wall_s", "worker") and k not in names}
-            rec = {"evaluation": cal.evaluations + 1, "batch": cal.batches, **p}
-            s, err = (None, r.get("error") or r.get("status"))
-            if r.get("status") == "ok":
-                s, err = score(measured)
-            rec.update({k: measured.get(k) for k in tg})
-            rec.update(score=FAILED_SCORE if s is None else s, status="ok" if s is not None else
-                       (r.get("status") if r.get("status") != "ok" else "failed"),
-                       error=err or "", wall_s=float(r.get("wall_s") or 0.0))
-            cal.history.append(rec)
-            if s is not None and s < cal.best_score:
-                cal.best_score, cal.best, cal.best_measured = s, dict(p), measured
-            out.append(rec["score"])
-        cal.batches += 1
-        cal.wall_s = time.perf_counter() - t_start
-        if on_batch is not None:
-            on_batch(cal)
-        # the budget cut the batch short: the optimiser still needs one score per member
-        out += [FAILED_SCORE] * (asked - len(out))
-        return out
-
-    def mapper(func, iterable):
-        return evaluate(list(iterable))
-
-    def single(x):
-        return evaluate([x])[0]
-
-    gens = max(1, budget // (popsize * d))
-    pool = None
+    ev = _Evaluator(cal, model, names, budget, workers, scheduler, timeout, init, workdir, on_batch)
+    if method != "de":
+        ev.rtol = float(rtol)
+    xrtol = 1e-4
     try:
         if workers > 1 and scheduler is None:
-            pool = _Pool(int(workers), init)
-        res = differential_evolution(single, [bounds[k] for k in names], seed=seed, popsize=popsize,
-                                     maxiter=max(1, gens - 1), tol=tol, init="latinhypercube", polish=False,
-                                     updating="deferred", workers=mapper,
-                                     callback=lambda *a, **k: cal.evaluations >= budget)
-        cal.message = str(res.message)
+            ev.pool = _Pool(int(workers), init)
+        if method == "de":
+            cal.message = _run_de(ev, bounds, budget, seed, popsize, tol)
+        elif method == "bracket":
+            cal.message = _run_bracket(ev, bounds, xrtol)
+            cal.converged = cal.message.startswith("the bracket")
+        elif method == "least_squares":
+            cal.message = _run_least_squares(ev, bounds, start, diff_step, xrtol)
+            cal.converged = True
+        else:
+            cal.message = _run_bayes(ev, bounds, seed, sampler, budget)
     except _BudgetReached:
         cal.message = f"stopped: the budget of {budget} evaluations is used"
+    except _Stopped as exc:
+        cal.message = str(exc)
+    except _Converged:
+        cal.converged = True
+        cal.message = f"every target is within rtol = {rtol:g}"
     finally:
-        if pool is not None:
-            pool.close()
+        if ev.pool is not None:
+            ev.pool.close()
         if tmp is not None:
             tmp.cleanup()
-    cal.wall_s = time.perf_counter() - t_start
+    cal.wall_s = time.perf_counter() - ev.t_start
     if not cal.best:
         raise SweepError(f"calibrate: every one of the {cal.evaluations} evaluations failed; the first error: "
                          f"{cal.history[0]['error'] if cal.history else 'none'}")
