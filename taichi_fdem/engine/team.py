@@ -89,21 +89,20 @@ def run_pre(nblk, T, J, C, detect_in, G: ti.template(), feat: ti.template()):
     """Stage PRE: contact detection when due (the serial broad phase of
     :func:`taichi_fdem.engine.step.detect_serial`: the same couples in the same order; a buffer
     too small sets code bit 0 and writes nothing), then the couple split when due."""
-    step = ti.static(G.step)
     fits = True
     couples = C
     if ti.static(feat.contact):
-        if detect_in != 0 and step.step_real[DACC] >= step.step_buffer[None]:
-            phase_detect_count(G.nodes, G.tris, G.contact, G.detect, step)
-            if step.step_int[FOUND] <= G.contact.couple_a.shape[0]:
-                phase_detect_fill(G.tris, G.contact, G.detect, step, feat.friction)
-                couples = step.step_int[COUPLES]
+        if detect_in != 0 and G.step.step_real[DACC] >= G.step.step_buffer[None]:
+            phase_detect_count(G.nodes, G.tris, G.contact, G.detect, G.step)
+            if G.step.step_int[FOUND] <= G.contact.couple_a.shape[0]:
+                phase_detect_fill(G.tris, G.contact, G.detect, G.step, feat.friction)
+                couples = G.step.step_int[COUPLES]
             else:
                 fits = False
                 G.asm.asm_sync[SYNC_CODE] |= 1
-    if fits and step.step_int[REBALANCE] <= 0:
-        rebalance_blocks(nblk, T, J, couples, G.nodes, G.tris, G.contact, G.joints, step, feat)
-        step.step_int[REBALANCE] = REBALANCE_STEPS
+    if fits and G.step.step_int[REBALANCE] <= 0:
+        rebalance_blocks(nblk, T, J, couples, G.nodes, G.tris, G.contact, G.joints, G.step, feat)
+        G.step.step_int[REBALANCE] = REBALANCE_STEPS
 
 
 @ti.func
@@ -229,29 +228,28 @@ def team_worker(w, nwork, nsteps, flags, spin_max, G: ti.template(), feat: ti.te
     finish the stage they are in: a launch always stops at a stage boundary).  ``flags``: as
     :func:`taichi_fdem.engine.step.run_steps_blocks`; ``G``: the groups
     (:class:`~taichi_fdem.engine.bundle.Groups`)."""
-    asm = ti.static(G.asm)
     detect_in = flags & 1
     N = G.nodes.node_x.shape[0]
-    nblk = asm_blocks(N, asm)
+    nblk = asm_blocks(N, G.asm)
     nch = chunk_count(N)
     while True:
-        stage = sync_get(asm, SYNC_STAGE)
+        stage = sync_get(G.asm, SYNC_STAGE)
         kind = stage % KINDS
-        if kind == END or sync_get(asm, SYNC_ABORT) != 0:
+        if kind == END or sync_get(G.asm, SYNC_ABORT) != 0:
             break
         n = stage_units(kind, nblk, nch)
         ticket = stage + 1
         for k in range(n):
             u = unit_of(kind, k, w, nwork, n)
-            if ti.atomic_max(asm.asm_sync[SYNC_CLAIM + u], ticket) < ticket:
+            if ti.atomic_max(G.asm.asm_sync[SYNC_CLAIM + u], ticket) < ticket:
                 run_unit(kind, u, nblk, nch, detect_in, G, feat)
-                if ti.atomic_add(asm.asm_sync[SYNC_DONE], 1) == n - 1:
+                if ti.atomic_add(G.asm.asm_sync[SYNC_DONE], 1) == n - 1:
                     end_stage(kind, nblk, nch, nsteps, flags, G.nodes, G.step, G.asm, feat)
         tries = 0
-        while sync_get(asm, SYNC_STAGE) == stage:
+        while sync_get(G.asm, SYNC_STAGE) == stage:
             tries += 1
             if tries >= spin_max:
-                ti.atomic_max(asm.asm_sync[SYNC_ABORT], 1)
+                ti.atomic_max(G.asm.asm_sync[SYNC_ABORT], 1)
                 break
 
 

@@ -85,13 +85,13 @@ class TeamScheduler:
         core: a legitimate wait is for a unit another worker runs, a small share of a step."""
         return int(min(2**31 - 1, TEAM_SPINS_PER_S * max(TEAM_WAIT_MIN, TEAM_WAIT_STEPS * self.step_s)))
 
-    def launch(self, sim, nsteps: int, nwork: int, flags: int, switches) -> int:
+    def launch(self, sim, nsteps: int, nwork: int, flags: int, feat) -> int:
         """One team launch of ``nsteps`` steps; a launch that stopped at a stage boundary because a
         wait ran past its bound is resumed by one worker (the same bits).  Returns the kernel's
         result with the steps of every part, and judges the launch (:meth:`judge`)."""
         idle0 = idle_seconds() if nwork == 1 and self.solo else None
         t0, c0 = _time.perf_counter(), _time.process_time()
-        args = (*sim._groups["team"], *switches)
+        args = (sim._packs["team"], feat)
         ret = sim._launch_cached("run_steps_blocks", kernels.run_steps_blocks, nsteps, nwork, flags,
                                  self.spin_bound(), *args)
         timed_out = bool(ret & kernels.TIMEOUT_BIT)
@@ -161,17 +161,18 @@ class TeamScheduler:
             return 1
         return max(1, min(most, int(TEAM_TRIAL_S / max(self.step_s, 1e-9))))
 
-    def run(self, sim, n: int, due: bool, switches) -> None:
+    def run(self, sim, n: int, due: bool, feat) -> None:
         """Advance ``sim`` by ``n`` steps in team launches of at most ``sim.solver.steps_per_launch()``
-        steps (:meth:`launch_steps`); small scenes detect inside the launch (the serial task of
-        ``Simulation._detect``), large ones return to the host for the parallel broad phase."""
+        steps (:meth:`launch_steps`) with the compile-time features ``feat``; small scenes detect
+        inside the launch (the serial broad phase), large ones return to the host for the parallel
+        broad phase."""
         per_launch = sim.solver.steps_per_launch()
         flags = int(sim._detect_serially())
         while n > 0:
             if due:
                 sim._detect()
             nwork = self.workers(sim)
-            ret = self.launch(sim, self.launch_steps(nwork, min(n, per_launch)), nwork, flags, switches)
+            ret = self.launch(sim, self.launch_steps(nwork, min(n, per_launch)), nwork, flags, feat)
             sim.step_count += ret & _STEPS
             n -= ret & _STEPS
             due = bool(sim.model.contact and ret & kernels.DUE_BIT)
