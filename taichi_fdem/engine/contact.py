@@ -135,8 +135,7 @@ def edge_integrals(a, b, ci, cj, t0, t1, t2, inv2Ac):
 def release_slip(hist: ti.template(), k, kt):
     """Reset the elastic slip of a contactor edge that left the target.  The energy its
     friction spring held, ½ k_t s², leaves the model with it; it is returned, to be booked as
-    friction work so that the energy account stays closed (it was dropped unbooked before:
-    1.3 J of a 425 J fragmenting-slab impact, measured)."""
+    friction work so that the energy account stays closed."""
     s = hist[k]
     w = 0.0
     if s != 0.0:
@@ -392,7 +391,7 @@ def edge_pair_bonded(A, B, tris: ti.template()):
     undamaged (:func:`taichi_fdem.engine.joints.pair_carried`) it adds the contact's compression
     stiffness 3p(1/h_A + 1/h_B) to its own (:func:`taichi_fdem.engine.joints.carried_share`): a
     thin overlap strip along the edge gives the same force and energy as the contact kernel
-    (within 0.3 %, measured), and at the first damage the joint hands the energy that stiffness
+    (tests/test_joined_pairs.py), and at the first damage the joint hands the energy that stiffness
     holds over to contact, which takes the pair from the next step on.  False for corner
     neighbours (one original node in common), whose rule is the fans'
     (:func:`taichi_fdem.engine.joints.fan_links`): bonded while a chain of undamaged joints

@@ -24,14 +24,14 @@ from . import guards
 
 TEAM_WAIT_MIN = 0.02             # a team's wait is bounded by this [s], or by TEAM_WAIT_STEPS of its steps
 TEAM_WAIT_STEPS = 8.0            # (mean step times of the last launch), whichever is longer
-TEAM_SPINS_PER_S = 5e7           # tries of a team's wait per second (an i32 atomic each, ~10-20 ns)
+TEAM_SPINS_PER_S = 5e7           # tries of a team's wait per second (an i32 atomic read each)
 TEAM_CPU_SHARE = 0.85            # a team launch whose workers got less CPU time than this share of their
                                  # wall time was descheduled: one worker runs on
 TEAM_IDLE_SHARE = 0.75           # one worker returns to the team when the other usable cores were idle
                                  # this share of its wall time
 TEAM_JUDGE_S = 0.05              # a verdict needs launches that span this long [s] (added up)
 TEAM_TRIAL_S = 0.1               # a team's first launches, and its first after one worker ran, last about this
-                                 # long [s] until one is judged: a shared CPU is seen within ~0.1 s
+                                 # long [s] until one is judged
 TEAM_RETRY_FIRST = 1.0           # the least time one worker runs after a team launch was descheduled [s],
 TEAM_RETRY_MAX = 16.0            # twice as long after each return that failed, up to this [s]
 
