@@ -9,6 +9,11 @@ module             holds
 ``detection``      broad phase: hashed grid, counting sort, couple criterion (§4)
 ``joints``         cohesive joints: softening, Mohr–Coulomb, breakage (§7)
 ``integrate``      central-difference integration, prescribed velocities, guards (§6)
+``loads``          applied loads, absorbing boundaries, curve-driven velocities (§12)
+``fluid``          the fluid in the fracture network, a sub-step coupled into the step
+``bundle``         the groups of a step in the convention's order (one compile-time tuple)
+``blocks``         the block assembly of the parallel strategy on the CPU
+``team``           the team of worker threads that runs many parallel steps per launch
 ``step``           the phases of a step and the serial / parallel kernels built from them
 ``diagnostics``    energies, overlaps, penetrations (not on the hot path)
 =================  =============================================================================

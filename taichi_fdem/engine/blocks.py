@@ -20,33 +20,41 @@ from .tiutil import vec2
 
 
 @ti.func
-def item_counts(tris: ti.template(), joints: ti.template(), step: ti.template(), contact: ti.template(),
-                fracture: ti.template()):
-    """(triangles, joints, couples) whose forces a step evaluates (0 for an absent feature)."""
+def item_counts(tris: ti.template(), joints: ti.template(), step: ti.template(), feat: ti.template()):
+    """(triangles, joints, couples) whose forces a step evaluates (0 for a feature ``feat`` lacks)."""
     T = tris.tri_nodes.shape[0]
     J = 0
     C = 0
-    if ti.static(fracture):
+    if ti.static(feat.fracture):
         J = joints.joint_nodes.shape[0]
-    if ti.static(contact):
+    if ti.static(feat.contact):
         C = step.step_int[COUPLES]
     return T, J, C
 
 
+class Target:
+    """Where a block adds its items' nodal forces (a compile-time choice, :func:`add_block_force`):
+    ``NODE_F`` block 0, into nodes.node_f; ``FIRST_COPY`` block 1, into its copy at offset 0 of
+    asm_force; ``COPY`` any other block, into its copy at a runtime offset (:func:`integrate.asm_blocks`)."""
+    NODE_F = 0
+    FIRST_COPY = 1
+    COPY = 2
+
+
 @ti.func
-def add_block_force(nodes: ti.template(), asm: ti.template(), base, n, f, copy: ti.template()):
-    """Add f to node n's force: into node_f (``copy`` False: block 0), the block's copy at
-    asm_force[base + n] (True; :func:`integrate.asm_blocks`) or asm_force[n] (2: block 1)."""
-    if ti.static(copy == 2):
+def add_block_force(n, base, f, nodes: ti.template(), asm: ti.template(), target: ti.template()):
+    """Add f to node n's force in the block's :class:`Target`: node_f, asm_force[n] (the first
+    copy) or asm_force[base + n]."""
+    if ti.static(target == Target.FIRST_COPY):
         asm.asm_force[n] = asm.asm_force[n] + f
-    elif ti.static(copy):
+    elif ti.static(target == Target.COPY):
         asm.asm_force[base + n] = asm.asm_force[base + n] + f
     else:
         nodes.node_f[n] = nodes.node_f[n] + f
 
 
 @ti.func
-def couple_cost(c, growth, nodes: ti.template(), tris: ti.template(), con: ti.template(), step: ti.template(),
+def couple_cost(c, growth, nodes: ti.template(), tris: ti.template(), contact: ti.template(), step: ti.template(),
                 fracture: ti.template()):
     """The estimated cost of couple c per step (engine.groups.COST_*): a bonded neighbour pair;
     apart by more than the rounding margin (:func:`contact.couple_certificate`: skipped until
@@ -55,8 +63,8 @@ def couple_cost(c, growth, nodes: ti.template(), tris: ti.template(), con: ti.te
     cost = COST_BONDED
     nb_pair, on = neighbour_flag(c, tris, step, fracture)
     if not nb_pair or on != 0:
-        na = tris.tri_nodes[con.couple_a[c]]
-        nb = tris.tri_nodes[con.couple_b[c]]
+        na = tris.tri_nodes[contact.couple_a[c]]
+        nb = tris.tri_nodes[contact.couple_b[c]]
         cert, hit = couple_certificate(nodes.node_x[na[0]], nodes.node_x[na[1]], nodes.node_x[na[2]],
                                        nodes.node_x[nb[0]], nodes.node_x[nb[1]], nodes.node_x[nb[2]])
         if hit:
@@ -92,12 +100,12 @@ def block_fixed_cost(b, nblk, T, J, joints: ti.template(), fracture: ti.template
 
 
 @ti.func
-def rebalance_couples(nblk, C, nodes: ti.template(), tris: ti.template(), con: ti.template(),
+def rebalance_couples(nblk, C, nodes: ti.template(), tris: ti.template(), contact: ti.template(),
                       joints: ti.template(), step: ti.template(), fracture: ti.template()):
     """Split the C couples into nblk contiguous ranges whose blocks' estimated costs (triangles and
     joints, :func:`block_fixed_cost`; couples, :func:`couple_cost`) come out about equal:
     step_int[SPLIT + b] is block b's first couple (SPLIT + nblk and the unused slots hold C).
-    Serial, two passes (~25 ns per couple), every REBALANCE_STEPS steps and after each
+    Serial, two passes over the couples, every REBALANCE_STEPS steps and after each
     detection.  A function of the state only: the same sums for any thread count, and a restart
     from a checkpoint bit-identical."""
     T = tris.tri_nodes.shape[0]
@@ -110,7 +118,7 @@ def rebalance_couples(nblk, C, nodes: ti.template(), tris: ti.template(), con: t
         for j in range(J):
             total += joint_cost(j, joints)
     for c in range(C):
-        total += couple_cost(c, growth, nodes, tris, con, step, fracture)
+        total += couple_cost(c, growth, nodes, tris, contact, step, fracture)
     acc = block_fixed_cost(0, nblk, T, J, joints, fracture)      # blocks before b, couples before c
     b = 1
     step.step_int[SPLIT] = 0
@@ -119,7 +127,7 @@ def rebalance_couples(nblk, C, nodes: ti.template(), tris: ti.template(), con: t
             step.step_int[SPLIT + b] = c
             acc += block_fixed_cost(b, nblk, T, J, joints, fracture)
             b += 1
-        acc += couple_cost(c, growth, nodes, tris, con, step, fracture)
+        acc += couple_cost(c, growth, nodes, tris, contact, step, fracture)
     while b <= MAX_FORCE_BLOCKS:
         step.step_int[SPLIT + b] = C
         b += 1
@@ -158,13 +166,12 @@ def _grow(n, lo, hi):
 
 
 @ti.func
-def block_node_ranges(nblk, T, J, C, nodes: ti.template(), tris: ti.template(), con: ti.template(),
-                      joints: ti.template(), step: ti.template(), contact: ti.template(), fracture: ti.template(),
-                      loads: ti.template()):
+def block_node_ranges(nblk, T, J, C, nodes: ti.template(), tris: ti.template(), contact: ti.template(),
+                      joints: ti.template(), step: ti.template(), feat: ti.template()):
     """step_int[RANGE + 2b], [RANGE + 2b + 1] = [lo, hi): the nodes block b's items can write
     (its triangles, joints and couples; for block 0 the loads' nodes too), over which the gather
     adds its copy (:func:`integrate.integrate_span`).  Serial, one pass over the items, with the
-    couple ranges and after a restore.  Without the ranges 8 blocks ran the 100k pile at 0.6× (one worker)."""
+    couple ranges and after a restore."""
     for b in range(nblk):
         lo = 2147483647
         hi = 0
@@ -172,20 +179,20 @@ def block_node_ranges(nblk, T, J, C, nodes: ti.template(), tris: ti.template(), 
             n = tris.tri_nodes[e]
             for r in ti.static(range(3)):
                 lo, hi = _grow(n[r], lo, hi)
-        if ti.static(fracture):
+        if ti.static(feat.fracture):
             for j in range(b * J // nblk, (b + 1) * J // nblk):
                 nd = joints.joint_nodes[j]
                 for r in ti.static(range(4)):
                     lo, hi = _grow(nd[r], lo, hi)
-        if ti.static(contact):
+        if ti.static(feat.contact):
             lo_c, hi_c = couple_range(b, nblk, C, step)
             for c in range(lo_c, hi_c):
-                na = tris.tri_nodes[con.couple_a[c]]
-                nb = tris.tri_nodes[con.couple_b[c]]
+                na = tris.tri_nodes[contact.couple_a[c]]
+                nb = tris.tri_nodes[contact.couple_b[c]]
                 for r in ti.static(range(3)):
                     lo, hi = _grow(na[r], lo, hi)
                     lo, hi = _grow(nb[r], lo, hi)
-        if ti.static(loads):
+        if ti.static(feat.loads):
             if b == 0:
                 for k in range(nodes.load_nodes.shape[0]):
                     ld = nodes.load_nodes[k]
@@ -197,77 +204,71 @@ def block_node_ranges(nblk, T, J, C, nodes: ti.template(), tris: ti.template(), 
 
 
 @ti.func
-def rebalance_blocks(nblk, T, J, C, nodes: ti.template(), tris: ti.template(), con: ti.template(),
-                     joints: ti.template(), step: ti.template(), asm: ti.template(), contact: ti.template(),
-                     fracture: ti.template(), loads: ti.template()):
+def rebalance_blocks(nblk, T, J, C, nodes: ti.template(), tris: ti.template(), contact: ti.template(),
+                     joints: ti.template(), step: ti.template(), feat: ti.template()):
     """The blocks' couple ranges (with contact, :func:`rebalance_couples`) and their node ranges
     (:func:`block_node_ranges`), anew."""
-    if ti.static(contact):
-        rebalance_couples(nblk, C, nodes, tris, con, joints, step, fracture)
-    block_node_ranges(nblk, T, J, C, nodes, tris, con, joints, step, contact, fracture, loads)
+    if ti.static(feat.contact):
+        rebalance_couples(nblk, C, nodes, tris, contact, joints, step, feat.fracture)
+    block_node_ranges(nblk, T, J, C, nodes, tris, contact, joints, step, feat)
 
 
 @ti.func
 def block_forces(b, nblk, T, J, C, dacc, p, nodes: ti.template(), tris: ti.template(), mats: ti.template(),
-                 con: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
-                 contact: ti.template(), friction: ti.template(), fracture: ti.template(), many: ti.template()):
+                 contact: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
+                 feat: ti.template()):
     """Block b's share of :func:`taichi_fdem.engine.step.phase_blocks`: the triangles and joints of
     its range by count and the couples of its range by cost (:func:`couple_range`), added into
     its copy of the nodal forces; its contact work to asm_force for a step of parity p
     (:func:`integrate.block_work_slot`).  ``dacc``: step_real[DACC] at the start of the step.
-    Compiled for block 0 (node_f), block 1 (the first copy, offset 0) and, with more than two
-    blocks (``many``), the others (a runtime offset): a runtime offset for block 1 ran the 100k
-    pile at 0.73× and the 10k plate impact at 0.87× on two workers."""
+    Compiled for block 0 (:attr:`Target.NODE_F`), block 1 (:attr:`Target.FIRST_COPY`: a constant
+    offset) and, with more than two blocks (``feat.many_blocks``), the others (:attr:`Target.COPY`)."""
     if b == 0:
-        _block_items(b, nblk, T, J, C, dacc, p, nodes, tris, mats, con, joints, step, asm, contact, friction,
-                     fracture, False)
-    elif ti.static(not many):
-        _block_items(b, nblk, T, J, C, dacc, p, nodes, tris, mats, con, joints, step, asm, contact, friction,
-                     fracture, 2)
+        block_items(b, nblk, T, J, C, dacc, p, nodes, tris, mats, contact, joints, step, asm, feat, Target.NODE_F)
+    elif ti.static(not feat.many_blocks):
+        block_items(b, nblk, T, J, C, dacc, p, nodes, tris, mats, contact, joints, step, asm, feat, Target.FIRST_COPY)
     elif b == 1:
-        _block_items(b, nblk, T, J, C, dacc, p, nodes, tris, mats, con, joints, step, asm, contact, friction,
-                     fracture, 2)
+        block_items(b, nblk, T, J, C, dacc, p, nodes, tris, mats, contact, joints, step, asm, feat, Target.FIRST_COPY)
     else:
-        _block_items(b, nblk, T, J, C, dacc, p, nodes, tris, mats, con, joints, step, asm, contact, friction,
-                     fracture, True)
+        block_items(b, nblk, T, J, C, dacc, p, nodes, tris, mats, contact, joints, step, asm, feat, Target.COPY)
 
 
 @ti.func
-def _block_items(b, nblk, T, J, C, dacc, p, nodes: ti.template(), tris: ti.template(), mats: ti.template(),
-                 con: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
-                 contact: ti.template(), friction: ti.template(), fracture: ti.template(), copy: ti.template()):
-    """:func:`block_forces` for block b, adding into node_f (``copy`` False, block 0) or into
-    its copy (``copy`` True) at the nodes of its range (:func:`block_node_ranges`)."""
+def block_items(b, nblk, T, J, C, dacc, p, nodes: ti.template(), tris: ti.template(), mats: ti.template(),
+                contact: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
+                feat: ti.template(), target: ti.template()):
+    """:func:`block_forces` for block b, adding into its :class:`Target` at the nodes of its range
+    (:func:`block_node_ranges`)."""
     N = nodes.node_x.shape[0]
     base = (b - 1) * N
     for e in range(b * T // nblk, (b + 1) * T // nblk):
         f0, f1, f2 = tri_forces(e, nodes, tris, mats, step)
         n = tris.tri_nodes[e]
-        add_block_force(nodes, asm, base, n[0], f0, copy)
-        add_block_force(nodes, asm, base, n[1], f1, copy)
-        add_block_force(nodes, asm, base, n[2], f2, copy)
-    if ti.static(fracture):
+        add_block_force(n[0], base, f0, nodes, asm, target)
+        add_block_force(n[1], base, f1, nodes, asm, target)
+        add_block_force(n[2], base, f2, nodes, asm, target)
+    if ti.static(feat.fracture):
         for j in range(b * J // nblk, (b + 1) * J // nblk):
             if joints.joint_state[j] == 0:
-                eval_joint(j, joints, tris, mats, nodes, step, False)
+                eval_joint(j, nodes, tris, mats, joints, step, False)
                 gj = joints.joint_g[j]
                 nd = joints.joint_nodes[j]
                 g0 = vec2(gj[0], gj[1])
                 g1 = vec2(gj[2], gj[3])
-                add_block_force(nodes, asm, base, nd[0], -g0, copy)
-                add_block_force(nodes, asm, base, nd[1], -g1, copy)
-                add_block_force(nodes, asm, base, nd[2], g1, copy)
-                add_block_force(nodes, asm, base, nd[3], g0, copy)
-    if ti.static(contact):
+                add_block_force(nd[0], base, -g0, nodes, asm, target)
+                add_block_force(nd[1], base, -g1, nodes, asm, target)
+                add_block_force(nd[2], base, g1, nodes, asm, target)
+                add_block_force(nd[3], base, g0, nodes, asm, target)
+    if ti.static(feat.contact):
         bwork = vec2(0.0, 0.0)
         lo_c, hi_c = couple_range(b, nblk, C, step)
         for c in range(lo_c, hi_c):
-            gA, gB, hit, work = couple_forces(c, dacc, nodes, tris, mats, con, step, friction, fracture)
+            gA, gB, hit, work = couple_forces(c, dacc, nodes, tris, mats, contact, step, feat.friction, feat.fracture)
             bwork += work
             if hit:
-                na = tris.tri_nodes[con.couple_a[c]]
-                nb = tris.tri_nodes[con.couple_b[c]]
+                na = tris.tri_nodes[contact.couple_a[c]]
+                nb = tris.tri_nodes[contact.couple_b[c]]
                 for r in ti.static(range(3)):
-                    add_block_force(nodes, asm, base, na[r], vec2(gA[r, 0], gA[r, 1]), copy)
-                    add_block_force(nodes, asm, base, nb[r], vec2(gB[r, 0], gB[r, 1]), copy)
+                    add_block_force(na[r], base, vec2(gA[r, 0], gA[r, 1]), nodes, asm, target)
+                    add_block_force(nb[r], base, vec2(gB[r, 0], gB[r, 1]), nodes, asm, target)
         asm.asm_force[block_work_slot(N, nblk, b, p)] = bwork

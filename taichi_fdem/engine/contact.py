@@ -135,8 +135,7 @@ def edge_integrals(a, b, ci, cj, t0, t1, t2, inv2Ac):
 def release_slip(hist: ti.template(), k, kt):
     """Reset the elastic slip of a contactor edge that left the target.  The energy its
     friction spring held, ½ k_t s², leaves the model with it; it is returned, to be booked as
-    friction work so that the energy account stays closed (it was dropped unbooked before:
-    1.3 J of a 425 J fragmenting-slab impact, measured)."""
+    friction work so that the energy account stays closed."""
     s = hist[k]
     w = 0.0
     if s != 0.0:
@@ -153,6 +152,49 @@ def rel_velocity(s, a, b, W, ui, uj):
     Nq = (1.0 - s) * a + s * b                    # β_k(P): shape function of vertex k+2
     vT = Nq[1] * vec2(W[0, 0], W[0, 1]) + Nq[2] * vec2(W[1, 0], W[1, 1]) + Nq[0] * vec2(W[2, 0], W[2, 1])
     return vT - ((1.0 - s) * ui + s * uj)
+
+
+@ti.func
+def edge_friction(i, a, b, W, ui, uj, te, L, sbar, Phi0, p, kt, mu, dt, hist: ti.template(), hslot, wf):
+    """The friction force of contactor edge i (direction te, length L [m], potential integral
+    Phi0) on its nodes i and i + 1 [N/m], and the friction work wf [J/m] plus what this slip
+    dissipates: dimensionally clean elastic–plastic Coulomb friction (§5.1).  The relative
+    velocity is taken at the representative point P(s̄) and the force acts there (split 1 − s̄,
+    s̄ on the edge's nodes, and through the barycentrics a, b on the target), so that its power
+    is exactly F_t v_rel·t̂.  ``hist[hslot + i]``: the edge's elastic slip [m], updated."""
+    vrel = rel_velocity(sbar, a, b, W, ui, uj)
+    that = te / L
+    s_old = hist[hslot + i]
+    slip = s_old + vrel.dot(that) * dt
+    Ft = kt * slip
+    Fcap = mu * p * Phi0 * L
+    if ti.abs(Ft) > Fcap:
+        Fs = ti.math.sign(Ft) * Fcap
+        # dissipated: the plastic slip times the mean of the spring forces at the start and the
+        # end of the increment (the central-difference work of the friction force less the
+        # change of its spring's energy)
+        wf += 0.5 * (kt * s_old + Fs) * (slip - Fs / kt)
+        Ft = Fs
+        slip = Fs / kt
+    hist[hslot + i] = slip
+    wi = 1.0 - sbar
+    return (Ft * wi) * that, (Ft * (1.0 - wi)) * that, wf
+
+
+@ti.func
+def edge_damping(a, b, W, ui, uj, n, L, smin, smax, cn, dt, wc):
+    """The normal viscous traction c_n ḋ on the clipped span [smin, smax] of a contactor edge
+    (outward normal n, length L [m]), acting at (and its rate taken at) the span's mid-point
+    (§5.2): the forces on the edge's two nodes [N/m], and the contact-damping work wc [J/m] plus
+    this step's."""
+    vrel = rel_velocity(0.5 * (smin + smax), a, b, W, ui, uj)
+    nhat = n / L
+    rate = -vrel.dot(nhat)                # penetration rate ḋ [m/s]
+    span = (smax - smin) * L
+    Fd = cn * rate * span
+    wd = 1.0 - 0.5 * (smin + smax)
+    wc += cn * rate * rate * span * dt
+    return -(Fd * wd) * nhat, -(Fd * (1.0 - wd)) * nhat, wc
 
 
 @ti.func
@@ -210,43 +252,13 @@ def contact_pass(C, U, T, W, inv2Ac, inv2At, p, kt, mu, cn, dt, hist: ti.templat
                 uj = vec2(U[j, 0], U[j, 1])
                 L = te.norm()
                 if ti.static(friction):
-                    # dimensionally clean elastic–plastic Coulomb friction (§5.1).  The relative
-                    # velocity is taken at the representative point P(s̄) and the friction force
-                    # acts there too (split 1 − s̄, s̄ on i, j, and through the barycentrics of
-                    # c_i, c_j on the target), so that its power is exactly F_t v_rel·t̂ (split like
-                    # the normal force, at its centroid, while sampled at s̄, a fragmenting slab
-                    # with μ = 0.5 lost 4.6 % of its energy, measured)
-                    vrel = rel_velocity(sbar, a, b, W, ui, uj)
-                    that = te / L
-                    s_old = hist[hslot + i]
-                    slip = s_old + vrel.dot(that) * dt
-                    Ft = kt * slip
-                    Fcap = mu * p * Phi0 * L
-                    if ti.abs(Ft) > Fcap:
-                        Fs = ti.math.sign(Ft) * Fcap
-                        # dissipated: the plastic slip times the mean of the spring forces at the
-                        # start and the end of the increment (the central-difference work of the
-                        # friction force less the change of its spring's energy; the end force
-                        # alone over-booked it while the normal force changes)
-                        wf += 0.5 * (kt * s_old + Fs) * (slip - Fs / kt)
-                        Ft = Fs
-                        slip = Fs / kt
-                    hist[hslot + i] = slip
-                    wi = 1.0 - sbar
-                    gi += (Ft * wi) * that
-                    gj += (Ft * (1.0 - wi)) * that
+                    fi, fj, wf = edge_friction(i, a, b, W, ui, uj, te, L, sbar, Phi0, p, kt, mu, dt, hist, hslot, wf)
+                    gi += fi
+                    gj += fj
                 if cdamping != 0:
-                    # normal viscous traction c_n ḋ on the clipped span (§5.2), acting at (and its
-                    # rate taken at) the span's mid-point
-                    vrel = rel_velocity(0.5 * (smin + smax), a, b, W, ui, uj)
-                    nhat = n / L
-                    rate = -vrel.dot(nhat)                # penetration rate ḋ [m/s]
-                    span = (smax - smin) * L
-                    Fd = cn * rate * span
-                    wd = 1.0 - 0.5 * (smin + smax)
-                    gi += -(Fd * wd) * nhat
-                    gj += -(Fd * (1.0 - wd)) * nhat
-                    wc += cn * rate * rate * span * dt
+                    di, dj, wc = edge_damping(a, b, W, ui, uj, n, L, smin, smax, cn, dt, wc)
+                    gi += di
+                    gj += dj
             gC[i, 0] += gi[0]
             gC[i, 1] += gi[1]
             gC[j, 0] += gj[0]
@@ -341,9 +353,9 @@ def couple_certificate(a0, a1, a2, b0, b1, b2):
 
 
 @ti.func
-def certified_apart(c, dacc, con: ti.template()):
-    """Is couple c certified apart at this step (``con.couple_skip``, :func:`couple_forces`)?"""
-    return dacc < con.couple_skip[c]
+def certified_apart(c, dacc, contact: ti.template()):
+    """Is couple c certified apart at this step (``contact.couple_skip``, :func:`couple_forces`)?"""
+    return dacc < contact.couple_skip[c]
 
 
 @ti.func
@@ -379,7 +391,7 @@ def edge_pair_bonded(A, B, tris: ti.template()):
     undamaged (:func:`taichi_fdem.engine.joints.pair_carried`) it adds the contact's compression
     stiffness 3p(1/h_A + 1/h_B) to its own (:func:`taichi_fdem.engine.joints.carried_share`): a
     thin overlap strip along the edge gives the same force and energy as the contact kernel
-    (within 0.3 %, measured), and at the first damage the joint hands the energy that stiffness
+    (tests/test_joined_pairs.py), and at the first damage the joint hands the energy that stiffness
     holds over to contact, which takes the pair from the next step on.  False for corner
     neighbours (one original node in common), whose rule is the fans'
     (:func:`taichi_fdem.engine.joints.fan_links`): bonded while a chain of undamaged joints
@@ -411,30 +423,113 @@ def neighbour_flag(c, tris: ti.template(), step: ti.template(), fracture: ti.tem
 
 
 @ti.func
-def couple_forces(c, dacc, nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
+def couple_velocities(na, nb, use_v, nodes: ti.template()):
+    """(VA, VB): the node velocities [m/s] of triangles A (nodes na) and B (nb) as rows of 3×2
+    matrices, read only when ``use_v`` (friction or contact damping), else zero."""
+    VA = ti.Matrix.zero(float, 3, 2)
+    VB = ti.Matrix.zero(float, 3, 2)
+    if use_v != 0:
+        for r in ti.static(range(3)):
+            va = nodes.node_v[na[r]]
+            vb = nodes.node_v[nb[r]]
+            VA[r, 0], VA[r, 1] = va[0], va[1]
+            VB[r, 0], VB[r, 1] = vb[0], vb[1]
+    return VA, VB
+
+
+@ti.func
+def touching_forces(c, A, B, na, nb, a0, a1, a2, b0, b1, b2, nodes: ti.template(), tris: ti.template(),
+                    mats: ti.template(), contact: ti.template(), step: ti.template(), friction: ti.template()):
+    """(gA, gB, work) of touching couple c, triangles A, B (nodes na, nb at a0..a2, b0..b2): the two
+    passes of §2.3.2, contactor B on target A, then contactor A on target B (a runtime loop: one
+    copy of the pass code, which keeps compile time down)."""
+    gA = ti.Matrix.zero(float, 3, 2)
+    gB = ti.Matrix.zero(float, 3, 2)
+    work = vec2(0.0, 0.0)
+    prop = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]]      # (p, k_t, μ_f, c_n)
+    cdamping = step.step_switches[None] & SWITCH_CDAMPING
+    dt = step.step_dt[None]
+    XA = mat32_rows(a0, a1, a2)
+    XB = mat32_rows(b0, b1, b2)
+    use_v = cdamping
+    if ti.static(friction):
+        use_v = 1
+    VA, VB = couple_velocities(na, nb, use_v, nodes)
+    inv2A = 1.0 / (a1 - a0).cross(a2 - a0)
+    inv2B = 1.0 / (b1 - b0).cross(b2 - b0)
+    for ps in range(2):
+        C, U, T, W, iC, iT = XB, VB, XA, VA, inv2B, inv2A
+        if ps == 1:
+            C, U, T, W, iC, iT = XA, VA, XB, VB, inv2A, inv2B
+        gC, gT, w = contact_pass(C, U, T, W, iC, iT, prop[0], prop[1], prop[2], prop[3], dt,
+                                 contact.couple_hist, c * 6 + 3 * ps, friction, cdamping)
+        work += w
+        if ps == 0:
+            gB += gC
+            gA += gT
+        else:
+            gA += gC
+            gB += gT
+    return gA, gB, work
+
+
+@ti.func
+def mark_held(c, on, tris: ti.template(), contact: ti.template()):
+    """A touching neighbour pair's NB_HELD bit in its tri_nb_on word ``on``: whether it holds
+    slip, so that the steps it spends apart need not read its history (written only when it
+    changes)."""
+    held = 0
+    for s in ti.static(range(6)):
+        if contact.couple_hist[c * 6 + s] != 0.0:
+            held = NB_HELD
+    if (on & NB_HELD) != held:
+        tris.tri_nb_on[c] = (on & ~NB_HELD) | held
+
+
+@ti.func
+def release_couple_slip(c, A, B, nb_pair, on, work, tris: ti.template(), mats: ti.template(),
+                        contact: ti.template()):
+    """A couple found apart drops its slip and books the energy its springs held into work[0]
+    (:func:`release_slip`, as a pass whose contactor is out); returns the work.  Written only
+    where non-zero (most couples are apart); a neighbour pair holds slip only with its NB_HELD
+    bit, so its history is read only then."""
+    if not nb_pair or (on & NB_HELD) != 0:
+        held = False
+        for s in ti.static(range(6)):
+            if contact.couple_hist[c * 6 + s] != 0.0:
+                held = True
+        if held:
+            kt = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]][1]
+            for s in range(6):          # a runtime loop: one copy of the code
+                work[0] += release_slip(contact.couple_hist, c * 6 + s, kt)
+        if nb_pair:
+            tris.tri_nb_on[c] = on & ~NB_HELD
+    return work
+
+
+@ti.func
+def couple_forces(c, dacc, nodes: ti.template(), tris: ti.template(), mats: ti.template(), contact: ti.template(),
                   step: ti.template(), friction: ti.template(), fracture: ti.template()):
     """Contact forces of couple c (both passes, §2.3.2 COUPLE): (gA, gB, hit, work); gA, gB are
     3×2 matrices whose row r is the force [N/m] on node r of triangle A, B.  ``hit`` is False,
     and the forces zero, for a neighbour pair still bonded by intact joints
     (:func:`edge_pair_bonded`, :func:`taichi_fdem.engine.joints.fan_links`; kept up to date in
     ``tris.tri_nb_on``; fracture only), for pairs whose boxes do not overlap (the common cheap
-    case), for pairs that lie apart (:func:`separation_certificate`: most couples whose boxes
-    overlap, in a pile or a fragmenting mesh), and for couples certified apart (below).
-    ``work``: the work dissipated over the step by friction and contact damping [J/m], which the
-    caller books in step_real[WORK_FRICTION], step_real[WORK_CDAMPING].
+    case), for pairs that lie apart (:func:`separation_certificate`), and for couples certified
+    apart (below).  ``work``: the work dissipated over the step by friction and contact damping
+    [J/m], which the caller books in step_real[WORK_FRICTION], step_real[WORK_CDAMPING].
 
-    Certificates of separation (docs/theory/contact.md §4.1's bound, per couple): ``dacc`` is step_real[DACC]
-    at the start of the step, which grows by at least the largest relative displacement of any
-    two nodes.  A couple found apart with a gap g (between the boxes along x or y, or along a
-    separating edge normal, :func:`separation_certificate`) stays apart while dacc grows by less
-    than g: its ``con.couple_skip[c]`` is set to dacc + g (less a rounding margin), and until dacc
-    reaches it the couple is skipped for the cost of one read (in a resting pile, most of its
-    apart couples).  Skipping changes no bit: such a couple gives no force, and it released its
-    slip (and cleared its NB_HELD bit) when it was found apart.  Detection resets the
-    certificates with dacc, and the host at every launch of steps (positions may have been set
-    in between)."""
-    A = con.couple_a[c]
-    B = con.couple_b[c]
+    Certificates of separation (docs/theory/contact.md §4.1's bound, per couple): ``dacc`` is
+    step_real[DACC] at the start of the step, which grows by at least the largest relative
+    displacement of any two nodes.  A couple found apart with a gap g (between the boxes along x
+    or y, or along a separating edge normal, :func:`separation_certificate`) stays apart while
+    dacc grows by less than g: its ``contact.couple_skip[c]`` is set to dacc + g (less a rounding
+    margin), and until dacc reaches it the couple is skipped for the cost of one read.  Skipping
+    changes no bit: such a couple gives no force, and it released its slip (and cleared its
+    NB_HELD bit) when it was found apart.  Detection resets the certificates with dacc, and the
+    host at every launch of steps (positions may have been set in between)."""
+    A = contact.couple_a[c]
+    B = contact.couple_b[c]
     na = tris.tri_nodes[A]
     nb = tris.tri_nodes[B]
     a0, a1, a2 = nodes.node_x[na[0]], nodes.node_x[na[1]], nodes.node_x[na[2]]
@@ -446,78 +541,25 @@ def couple_forces(c, dacc, nodes: ti.template(), tris: ti.template(), mats: ti.t
     bonded = nb_pair and on == 0
     skip = bonded
     if not skip:
-        skip = certified_apart(c, dacc, con)
+        skip = certified_apart(c, dacc, contact)
     hit = False
     if not skip:
         cert, hit = couple_certificate(a0, a1, a2, b0, b1, b2)
         if cert > 0.0:
             # apart: certified while dacc grows by less than the gap less its margin (written
-            # only then: neighbours apart by less, which a fragmenting mesh has many of, are
-            # tested every step and write nothing)
-            con.couple_skip[c] = dacc + cert
+            # only then: neighbours apart by less are tested every step and write nothing)
+            contact.couple_skip[c] = dacc + cert
     if hit:
-        prop = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]]      # (p, k_t, μ_f, c_n)
-        cdamping = step.step_switches[None] & SWITCH_CDAMPING
-        dt = step.step_dt[None]
-        XA = mat32_rows(a0, a1, a2)
-        XB = mat32_rows(b0, b1, b2)
-        VA = ti.Matrix.zero(float, 3, 2)
-        VB = ti.Matrix.zero(float, 3, 2)
-        use_v = cdamping
-        if ti.static(friction):
-            use_v = 1
-        if use_v != 0:
-            for r in ti.static(range(3)):
-                va = nodes.node_v[na[r]]
-                vb = nodes.node_v[nb[r]]
-                VA[r, 0], VA[r, 1] = va[0], va[1]
-                VB[r, 0], VB[r, 1] = vb[0], vb[1]
-        # pass 0: contactor B, target A; pass 1: contactor A, target B (a runtime loop: one
-        # copy of the pass code, which keeps compile time down)
-        inv2A = 1.0 / (a1 - a0).cross(a2 - a0)
-        inv2B = 1.0 / (b1 - b0).cross(b2 - b0)
-        for ps in range(2):
-            C, U, T, W, iC, iT = XB, VB, XA, VA, inv2B, inv2A
-            if ps == 1:
-                C, U, T, W, iC, iT = XA, VA, XB, VB, inv2A, inv2B
-            gC, gT, w = contact_pass(C, U, T, W, iC, iT, prop[0], prop[1], prop[2], prop[3], dt,
-                                     con.couple_hist, c * 6 + 3 * ps, friction, cdamping)
-            work += w
-            if ps == 0:
-                gB += gC
-                gA += gT
-            else:
-                gA += gC
-                gB += gT
+        gA, gB, work = touching_forces(c, A, B, na, nb, a0, a1, a2, b0, b1, b2, nodes, tris, mats, contact, step,
+                                       friction)
         if ti.static(friction and fracture):
             if nb_pair:
-                # a neighbour pair's NB_HELD bit: whether it holds slip, so that the steps it
-                # spends apart need not read its history (written only when it changes)
-                held = 0
-                for s in ti.static(range(6)):
-                    if con.couple_hist[c * 6 + s] != 0.0:
-                        held = NB_HELD
-                if (on & NB_HELD) != held:
-                    tris.tri_nb_on[c] = (on & ~NB_HELD) | held
+                mark_held(c, on, tris, contact)
     elif ti.static(friction):
-        # a bonded pair never slipped (bonds only end); a separated one drops its slip and books
-        # the energy its springs held (:func:`release_slip`, as a pass whose contactor is out).
-        # Written only where non-zero: most couples are apart, and clearing their six values
-        # every step wrote ~4 MB per step on the 10k-triangle plate
-        # (a neighbour pair holds slip only with its NB_HELD bit: its history is not read
-        # otherwise, ~5 % of the contact phase of a fragmenting plate; a certified couple
-        # released it when it was found apart)
-        if not skip and (not nb_pair or (on & NB_HELD) != 0):
-            held = False
-            for s in ti.static(range(6)):
-                if con.couple_hist[c * 6 + s] != 0.0:
-                    held = True
-            if held:
-                kt = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]][1]
-                for s in range(6):          # a runtime loop: one copy of the code
-                    work[0] += release_slip(con.couple_hist, c * 6 + s, kt)
-            if nb_pair:
-                tris.tri_nb_on[c] = on & ~NB_HELD
+        # a bonded pair never slipped (bonds only end); a certified couple released its slip
+        # when it was found apart
+        if not skip:
+            work = release_couple_slip(c, A, B, nb_pair, on, work, tris, mats, contact)
     return gA, gB, hit, work
 
 
@@ -531,15 +573,15 @@ def book_contact_work(work, step: ti.template()):
 
 
 @ti.func
-def eval_couple(c, dacc, nodes: ti.template(), tris: ti.template(), mats: ti.template(), con: ti.template(),
+def eval_couple(c, dacc, nodes: ti.template(), tris: ti.template(), mats: ti.template(), contact: ti.template(),
                 step: ti.template(), friction: ti.template(), fracture: ti.template()):
     """Add the contact forces of couple c (:func:`couple_forces`) to nodes.node_f (nothing to add
     for the many couples whose boxes do not overlap)."""
-    gA, gB, hit, work = couple_forces(c, dacc, nodes, tris, mats, con, step, friction, fracture)
+    gA, gB, hit, work = couple_forces(c, dacc, nodes, tris, mats, contact, step, friction, fracture)
     book_contact_work(work, step)
     if hit:
-        na = tris.tri_nodes[con.couple_a[c]]
-        nb = tris.tri_nodes[con.couple_b[c]]
+        na = tris.tri_nodes[contact.couple_a[c]]
+        nb = tris.tri_nodes[contact.couple_b[c]]
         for r in ti.static(range(3)):
             ti.atomic_add(nodes.node_f[na[r]], vec2(gA[r, 0], gA[r, 1]))
             ti.atomic_add(nodes.node_f[nb[r]], vec2(gB[r, 0], gB[r, 1]))

@@ -37,16 +37,16 @@ def hash_cell(ix, iy, H):
 
 
 @ti.func
-def prepare_circle(k, det: ti.template(), tris: ti.template(), nodes: ti.template(), step: ti.template()):
+def prepare_circle(k, detect: ti.template(), tris: ti.template(), nodes: ti.template(), step: ti.template()):
     """Bounding circle, box and vertices of contact triangle k, det_bound[k] = (c_x, c_y, r, x_min,
     y_min, x_max, y_max, x0, y0, x1, y1, x2, y2); the largest radius into step_real[RMAX]."""
-    n = tris.tri_nodes[det.contact_tri[k]]
+    n = tris.tri_nodes[detect.contact_tri[k]]
     x0, x1, x2 = nodes.node_x[n[0]], nodes.node_x[n[1]], nodes.node_x[n[2]]
     c = (x0 + x1 + x2) / 3.0
     r = ti.sqrt(ti.max((x0 - c).norm_sqr(), ti.max((x1 - c).norm_sqr(), (x2 - c).norm_sqr())))
     lo = ti.min(x0, ti.min(x1, x2))
     hi = ti.max(x0, ti.max(x1, x2))
-    det.det_bound[k] = ti.Vector([c[0], c[1], r, lo[0], lo[1], hi[0], hi[1], x0[0], x0[1], x1[0], x1[1], x2[0],
+    detect.det_bound[k] = ti.Vector([c[0], c[1], r, lo[0], lo[1], hi[0], hi[1], x0[0], x0[1], x1[0], x1[1], x2[0],
                                   x2[1]], dt=float)
     ti.atomic_max(step.step_real[RMAX], r)
 
@@ -58,14 +58,14 @@ def cell_size(step: ti.template()):
 
 
 @ti.func
-def bin_circle(k, det: ti.template(), step: ti.template()):
+def bin_circle(k, detect: ti.template(), step: ti.template()):
     """Hashed cell of contact triangle k and its slot in the cell (counting sort, pass 1)."""
-    H = det.det_bucket.shape[0]
-    ck = det.det_bound[k]
+    H = detect.det_bucket.shape[0]
+    ck = detect.det_bound[k]
     ix, iy = cell_of(vec2(ck[0], ck[1]), cell_size(step))
     h = hash_cell(ix, iy, H)
-    det.det_sort[k][0] = h
-    det.det_sort[k][1] = ti.atomic_add(det.det_bucket[h][1], 1)
+    detect.det_sort[k][0] = h
+    detect.det_sort[k][1] = ti.atomic_add(detect.det_bucket[h][1], 1)
 
 
 @ti.func
@@ -90,7 +90,7 @@ def beyond_edges(p, q, margin):
 
 
 @ti.func
-def is_excluded(ta, tb, tris: ti.template(), det: ti.template()):
+def is_excluded(ta, tb, tris: ti.template(), detect: ti.template()):
     """Couples only between triangles that may touch (§2.3.3).
 
     body_flags[b] bit 0: self-contact allowed; bit 1: every node of the body is fixed.  A
@@ -104,9 +104,9 @@ def is_excluded(ta, tb, tris: ti.template(), det: ti.template()):
     excluded = False
     if tris.tri_intact[ta] < 0 or tris.tri_intact[tb] < 0:      # removed by an excavation
         excluded = True
-    elif ba == bb and (det.body_flags[ba] & 1) == 0:
+    elif ba == bb and (detect.body_flags[ba] & 1) == 0:
         excluded = True
-    elif (det.body_flags[ba] & 2) != 0 and (det.body_flags[bb] & 2) != 0:
+    elif (detect.body_flags[ba] & 2) != 0 and (detect.body_flags[bb] & 2) != 0:
         excluded = True
     elif share_a_node(tris.tri_nodes[ta], tris.tri_nodes[tb]):
         excluded = True
@@ -129,29 +129,29 @@ def share_a_node(na, nb):
 
 
 @ti.func
-def cand_slot(k, i, det: ti.template()):
+def cand_slot(k, i, detect: ti.template()):
     """det_cnew slot of the i-th partner (i < DET_CAND) that the count scan of contact triangle k
     kept: after the K + 1 counts."""
-    return det.contact_tri.shape[0] + 1 + DET_CAND * k + i
+    return detect.contact_tri.shape[0] + 1 + DET_CAND * k + i
 
 
 @ti.func
-def write_couple(k, c, ta, tb, det: ti.template(), con: ti.template(), friction: ti.template()):
+def write_couple(k, c, ta, tb, detect: ti.template(), contact: ti.template(), friction: ti.template()):
     """Couple c = (ta, tb), found by contact triangle k; with friction, the slip history it had
     at the previous detection (none if it is new)."""
-    con.couple_a[c] = ta
-    con.couple_b[c] = tb
+    contact.couple_a[c] = ta
+    contact.couple_b[c] = tb
     if ti.static(friction):
         for q in ti.static(range(6)):
-            con.couple_hist[6 * c + q] = 0.0
-        for co in range(det.det_old_start[k], det.det_old_start[k + 1]):
-            if det.det_old_b[co] == tb:
+            contact.couple_hist[6 * c + q] = 0.0
+        for co in range(detect.det_old_start[k], detect.det_old_start[k + 1]):
+            if detect.det_old_b[co] == tb:
                 for q in ti.static(range(6)):
-                    con.couple_hist[6 * c + q] = det.det_old_hist[6 * co + q]
+                    contact.couple_hist[6 * c + q] = detect.det_old_hist[6 * co + q]
 
 
 @ti.func
-def scan_partners(k, count_only: ti.template(), det: ti.template(), con: ti.template(), tris: ti.template(),
+def scan_partners(k, count_only: ti.template(), detect: ti.template(), contact: ti.template(), tris: ti.template(),
                   step: ti.template(), out_start, friction: ti.template()):
     """Find the couples (k, k2), k2 > k, of contact triangle k.
 
@@ -159,13 +159,13 @@ def scan_partners(k, count_only: ti.template(), det: ti.template(), con: ti.temp
     (in scan order, which the fill copies instead of scanning again: :func:`fill_partners`);
     otherwise writes them from out_start on (:func:`write_couple`).
     """
-    H = det.det_bucket.shape[0]
+    H = detect.det_bucket.shape[0]
     d = cell_size(step)
     b = step.step_buffer[None]
-    cc = det.det_bound[k]
+    cc = detect.det_bound[k]
     ck = vec2(cc[0], cc[1])
     rk = cc[2]
-    ta = det.contact_tri[k]
+    ta = detect.contact_tri[k]
     ix, iy = cell_of(ck, d)
     found = 0
     # runtime loops over the 9 cells (not unrolled): one copy of the scan in the compiled
@@ -177,11 +177,11 @@ def scan_partners(k, count_only: ti.template(), det: ti.template(), con: ti.temp
             if hash_cell(ix + (s2 % 3) - 1, iy + (s2 // 3) - 1, H) == h:
                 dup = True
         if not dup:
-            bk = det.det_bucket[h]
+            bk = detect.det_bucket[h]
             for m in range(bk[0], bk[0] + bk[1]):
-                k2 = det.det_sort[m][2]
+                k2 = detect.det_sort[m][2]
                 if k2 > k:
-                    c2 = det.det_bound[k2]
+                    c2 = detect.det_bound[k2]
                     dc = vec2(c2[0], c2[1]) - ck
                     reach = rk + c2[2] + b
                     # circles within reach, boxes less than b apart, and no edge line of either
@@ -200,91 +200,91 @@ def scan_partners(k, count_only: ti.template(), det: ti.template(), con: ti.temp
                         if beyond_edges(p, q, b):
                             near = False
                     if near:
-                        tb = det.contact_tri[k2]
-                        if not is_excluded(ta, tb, tris, det):
+                        tb = detect.contact_tri[k2]
+                        if not is_excluded(ta, tb, tris, detect):
                             if ti.static(count_only):
                                 if found < DET_CAND:
-                                    det.det_cnew[cand_slot(k, found, det)] = k2
+                                    detect.det_cnew[cand_slot(k, found, detect)] = k2
                             else:
-                                write_couple(k, out_start + found, ta, tb, det, con, friction)
+                                write_couple(k, out_start + found, ta, tb, detect, contact, friction)
                             found += 1
     return found
 
 
 @ti.func
-def fill_partners(k, det: ti.template(), con: ti.template(), tris: ti.template(), step: ti.template(),
+def fill_partners(k, detect: ti.template(), contact: ti.template(), tris: ti.template(), step: ti.template(),
                   friction: ti.template()):
     """Write the couples of contact triangle k from det_cnew[k] on: from the partners its count
     scan kept (:func:`cand_slot`), or, when it found more than DET_CAND, by scanning again (the same
     couples in the same order either way)."""
-    lo = det.det_cnew[k]
-    n = det.det_cnew[k + 1] - lo
+    lo = detect.det_cnew[k]
+    n = detect.det_cnew[k + 1] - lo
     if n > DET_CAND:
-        scan_partners(k, False, det, con, tris, step, lo, friction)
+        scan_partners(k, False, detect, contact, tris, step, lo, friction)
     else:
-        ta = det.contact_tri[k]
+        ta = detect.contact_tri[k]
         for i in range(n):
-            write_couple(k, lo + i, ta, det.contact_tri[det.det_cnew[cand_slot(k, i, det)]], det, con, friction)
+            write_couple(k, lo + i, ta, detect.contact_tri[detect.det_cnew[cand_slot(k, i, detect)]], detect, contact, friction)
 
 
 # ---------------------------------------------------------------------------------------------
 # the broad phase as two phases of a step (engine.step, engine.team.team_worker)
 # ---------------------------------------------------------------------------------------------
 @ti.func
-def bucket_starts(det: ti.template()):
+def bucket_starts(detect: ti.template()):
     """Each hashed bucket's first slot in det_sort: the exclusive prefix of its count (serial)."""
     s = 0
-    for h in range(det.det_bucket.shape[0]):
-        det.det_bucket[h][0] = s
-        s += det.det_bucket[h][1]
+    for h in range(detect.det_bucket.shape[0]):
+        detect.det_bucket[h][0] = s
+        s += detect.det_bucket[h][1]
 
 
 @ti.func
-def sort_bucket(h, det: ti.template()):
+def sort_bucket(h, detect: ti.template()):
     """Bucket h's triangles in increasing k (insertion sort: a bucket holds a few): the order of a
     serial binning, whatever order a parallel one took its slots in, so that the couple list
     (and every sum over it) is the same for any thread count."""
-    lo = det.det_bucket[h][0]
-    for a in range(lo + 1, lo + det.det_bucket[h][1]):
-        key = det.det_sort[a][2]
+    lo = detect.det_bucket[h][0]
+    for a in range(lo + 1, lo + detect.det_bucket[h][1]):
+        key = detect.det_sort[a][2]
         b = a - 1
         while b >= lo:
-            if det.det_sort[b][2] > key:
-                det.det_sort[b + 1][2] = det.det_sort[b][2]
+            if detect.det_sort[b][2] > key:
+                detect.det_sort[b + 1][2] = detect.det_sort[b][2]
                 b -= 1
             else:
                 break
-        det.det_sort[b + 1][2] = key
+        detect.det_sort[b + 1][2] = key
 
 
 @ti.func
-def count_prefix(det: ti.template(), step: ti.template()):
+def count_prefix(detect: ti.template(), step: ti.template()):
     """The couple counts det_cnew[k] to their exclusive prefix, after the neighbour pairs; the
     total to det_cnew[K] and step_int[FOUND] (serial)."""
-    K = det.contact_tri.shape[0]
+    K = detect.contact_tri.shape[0]
     s = step.step_int[NB_PAIRS]
     for k in range(K):
-        n = det.det_cnew[k]
-        det.det_cnew[k] = s
+        n = detect.det_cnew[k]
+        detect.det_cnew[k] = s
         s += n
-    det.det_cnew[K] = s
+    detect.det_cnew[K] = s
     step.step_int[FOUND] = s
 
 
 @ti.func
-def keep_old_start(k, det: ti.template()):
+def keep_old_start(k, detect: ti.template()):
     """Contact triangle k's first couple at the previous detection (for friction's history), and
     its first couple now."""
-    det.det_old_start[k] = det.couple_start[k]
-    det.couple_start[k] = det.det_cnew[k]
+    detect.det_old_start[k] = detect.couple_start[k]
+    detect.couple_start[k] = detect.det_cnew[k]
 
 
 @ti.func
-def keep_old_couple(c, det: ti.template(), con: ti.template()):
+def keep_old_couple(c, detect: ti.template(), contact: ti.template()):
     """Couple c's partner and slip history, kept for the fill to carry over (§4.1, §9.4)."""
-    det.det_old_b[c] = con.couple_b[c]
+    detect.det_old_b[c] = contact.couple_b[c]
     for q in ti.static(range(6)):
-        det.det_old_hist[6 * c + q] = con.couple_hist[6 * c + q]
+        detect.det_old_hist[6 * c + q] = contact.couple_hist[6 * c + q]
 
 
 @ti.func
@@ -297,50 +297,50 @@ def detected(step: ti.template()):
 
 
 @ti.func
-def phase_detect_count(nodes: ti.template(), tris: ti.template(), det: ti.template(), con: ti.template(),
+def phase_detect_count(nodes: ti.template(), tris: ti.template(), contact: ti.template(), detect: ti.template(),
                        step: ti.template()):
-    """Bounding circles, counting sort and couple count; det.det_cnew = exclusive prefix of counts."""
-    K = det.contact_tri.shape[0]
-    H = det.det_bucket.shape[0]
+    """Bounding circles, counting sort and couple count; detect.det_cnew = exclusive prefix of counts."""
+    K = detect.contact_tri.shape[0]
+    H = detect.det_bucket.shape[0]
     ti.loop_config(serialize=True)   # a serial task: one thread, no parallel-loop launch
     for _ in range(1):
         step.step_real[RMAX] = 0.0
     for k in range(K):
-        prepare_circle(k, det, tris, nodes, step)
+        prepare_circle(k, detect, tris, nodes, step)
     for h in range(H):
-        det.det_bucket[h] = ti.Vector([0, 0])
+        detect.det_bucket[h] = ti.Vector([0, 0])
     for k in range(K):
-        bin_circle(k, det, step)
+        bin_circle(k, detect, step)
     ti.loop_config(serialize=True)   # a serial task: one thread, no parallel-loop launch
     for _ in range(1):
-        bucket_starts(det)
+        bucket_starts(detect)
     for k in range(K):
-        bn = det.det_sort[k]
-        det.det_sort[det.det_bucket[bn[0]][0] + bn[1]][2] = k
+        bn = detect.det_sort[k]
+        detect.det_sort[detect.det_bucket[bn[0]][0] + bn[1]][2] = k
     for h in range(H):
-        sort_bucket(h, det)
+        sort_bucket(h, detect)
     for k in range(K):
-        det.det_cnew[k] = scan_partners(k, True, det, con, tris, step, 0, False)
+        detect.det_cnew[k] = scan_partners(k, True, detect, contact, tris, step, 0, False)
     ti.loop_config(serialize=True)   # a serial task: one thread, no parallel-loop launch
     for _ in range(1):
-        count_prefix(det, step)
+        count_prefix(detect, step)
 
 
 @ti.func
-def phase_detect_fill(tris: ti.template(), det: ti.template(), con: ti.template(), step: ti.template(),
+def phase_detect_fill(tris: ti.template(), contact: ti.template(), detect: ti.template(), step: ti.template(),
                       friction: ti.template()):
     """Write the couples counted by :func:`phase_detect_count` (capacity already checked)."""
-    K = det.contact_tri.shape[0]
+    K = detect.contact_tri.shape[0]
     if ti.static(friction):
         # keep the previous couples and their slip history to carry it over (§4.1, §9.4)
         for k in range(K + 1):
-            keep_old_start(k, det)
+            keep_old_start(k, detect)
         for c in range(step.step_int[COUPLES]):
-            keep_old_couple(c, det, con)
+            keep_old_couple(c, detect, contact)
     for k in range(K):
-        fill_partners(k, det, con, tris, step, friction)
-    for c in range(det.det_cnew[K]):
-        con.couple_skip[c] = 0.0          # no certificate of separation (dacc restarts at 0)
+        fill_partners(k, detect, contact, tris, step, friction)
+    for c in range(detect.det_cnew[K]):
+        contact.couple_skip[c] = 0.0          # no certificate of separation (dacc restarts at 0)
     ti.loop_config(serialize=True)   # a serial task: one thread, no parallel-loop launch
     for _ in range(1):
         detected(step)

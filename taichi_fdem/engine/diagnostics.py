@@ -79,7 +79,7 @@ def pass_potential(c0, c1, c2, t0, t1, t2):
 
 
 @ti.kernel
-def energy_terms(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: ContactGroup,
+def energy_terms(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, contact: ContactGroup,
                  step: StepGroup, couple_count: ti.i32, out: ti.types.ndarray(), friction: ti.template(),
                  fracture: ti.template()):
     """out = [kinetic, strain, contact (penalty + friction spring), gravity, damping dissipated], J/m.
@@ -107,8 +107,8 @@ def energy_terms(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: Con
             out[4] += tris.tri_diss[e]
     ti.loop_config(serialize=True)
     for c in range(couple_count):
-        A = con.couple_a[c]
-        B = con.couple_b[c]
+        A = contact.couple_a[c]
+        B = contact.couple_b[c]
         na = tris.tri_nodes[A]
         nb = tris.tri_nodes[B]
         a0, a1, a2 = nodes.node_x[na[0]], nodes.node_x[na[1]], nodes.node_x[na[2]]
@@ -122,7 +122,7 @@ def energy_terms(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, con: Con
             out[2] += prop[0] * (pass_potential(b0, b1, b2, a0, a1, a2) + pass_potential(a0, a1, a2, b0, b1, b2))
         if ti.static(friction):
             for q in ti.static(range(6)):
-                out[2] += 0.5 * prop[1] * con.couple_hist[6 * c + q] ** 2
+                out[2] += 0.5 * prop[1] * contact.couple_hist[6 * c + q] ** 2
 
 
 @ti.func

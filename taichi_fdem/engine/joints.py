@@ -320,10 +320,8 @@ def handed_over(j, joints: ti.template(), step: ti.template()):
     """Has joint j handed its pair over to contact: broken, or damaged beyond step_real[HANDOVER]
     (the ``handover_damage`` of ``Scene.build``) at one of its points?  Until then the joint
     carries the pair's compression (:func:`pair_carried`).  (The corner pairs around its ends
-    are freed at its first damage, :func:`switch_on_neighbours`: kept bonded until the handover,
-    they built overlaps whose contact energy appeared when they switched on, 1.4e-3 of the
-    impact energy of the full fragment_plate demo at a handover at D = 0.05, measured, against
-    1e-6 when freed at the first damage.)"""
+    are freed at its first damage, :func:`switch_on_neighbours`, so that no overlap builds
+    between them while the joint still carries its pair.)"""
     return damaged_beyond(j, step.step_real[HANDOVER], joints)
 
 
@@ -343,8 +341,8 @@ def carried_share(j, L, joints: ti.template()):
     [m] when its two triangles overlap by a thin strip, and the pair's contact friction μ.  The
     potential φ = 3β of each triangle gives a traction 3 p o / h on each side, so
     k_x = 3 p (1/h_A + 1/h_B) = 3 p L (1/(2A_A) + 1/(2A_B)) with the rest areas; k_x / L and μ
-    are per-joint constants, joint_prop[j][6] and [7] (taichi_fdem.sim.model); measured against the
-    contact kernel: within 0.3 % in force and energy (tests/test_joined_pairs.py).  The carried
+    are per-joint constants, joint_prop[j][6] and [7] (taichi_fdem.sim.model); the contact kernel
+    gives the same force and energy to the mesh's discretisation (tests/test_joined_pairs.py).  The carried
     joint also adds μ|σ_x| to its shear strength, as contact friction did on the pair's faces."""
     prop = joints.joint_prop[j]
     return prop[6] * L, prop[7]
@@ -373,148 +371,199 @@ def carried_energy(kx, o0, om, o1, L):
 
 
 @ti.func
-def eval_joint(j, joints: ti.template(), tris: ti.template(), mats: ti.template(), nodes: ti.template(),
-               step: ti.template(), scatter: ti.template()):
-    """Forces of intact joint j (added to nodes.node_f when ``scatter``; always kept in
-    joints.joint_g, which the parallel strategy gathers); damage, shear strength and breakage
-    updated.
+def joint_law(o, s, fs, dmax, zmax, ft, dp, dn, sp, ds):
+    """The cohesive law at one integration point (§7.4–7.8), a pure function.
 
-    A joint of a removed triangle (tri_intact < 0, an excavation) is skipped.
+    o, s: the opening and slip the law sees [m]; fs: the point's shear strength [Pa]; dmax, zmax:
+    its largest damage so far and z(dmax); ft: the tensile strength [Pa]; dp, dn: the opening at
+    peak and the mode I softening span [m]; sp, ds: the slip at peak and the mode II softening
+    span for fs [m].  Returns (σ, τ, D, dmax', zmax'): the normal stress [Pa] (tension
+    positive; compression the linear penalty 2 f_t o / dp), the shear stress [Pa] (the sign of
+    s), the damage D in [0, 1] (1: the point failed) and the updated damage history (unloading
+    from a damaged state runs linearly towards the origin, §7.8)."""
+    abss = ti.abs(s)
+    D = 0.0
+    if o > dp and abss > sp:
+        D = ti.sqrt(((o - dp) / dn) ** 2 + ((abss - sp) / ds) ** 2)
+    elif o > dp:
+        D = (o - dp) / dn
+    elif abss > sp:
+        D = (abss - sp) / ds
+    if D >= 1.0:
+        D = 1.0
+    z = 1.0                                   # z(0) = 1: no exp / pow while undamaged
+    dmax_new = dmax
+    zmax_new = zmax
+    if D >= dmax:
+        dmax_new = D
+        if D > 0.0:
+            z = softening_z(D)
+        zmax_new = z
+    else:
+        z = zmax * (dp + D * dn) / (dp + dmax * dn)
+    sigma = 0.0
+    if o < 0.0:
+        sigma = 2.0 * ft * o / dp             # compression: linear penalty p_f o / L
+    elif o <= dp:
+        sigma = parabola(o / dp) * z * ft
+    else:
+        sigma = z * ft
+    tau = z * fs
+    if abss <= sp:
+        tau = parabola(abss / sp) * z * fs
+    if s < 0.0:
+        tau = -tau
+    return sigma, tau, D, dmax_new, zmax_new
 
-    The nodal forces g0 (on the pair j0/j3) and g1 (on j1/j2) are kept in joints.joint_g[j] so that
-    :func:`add_joint_work` can book their work over the step with the new velocities.
+
+@ti.func
+def joint_tractions(j, L, eh, nh, d0, d1, kx, mux, joints: ti.template()):
+    """The tractions σ n̂ + τ ê [Pa] at joint j's three points (ends and mid-point, rows of a
+    3×2 matrix) from the law (:func:`joint_law`) at the relative displacements d0, ½(d0 + d1),
+    d1 of a joint of length L [m] and frame (ê, n̂); each point's damage history and its
+    Mohr–Coulomb shear strength (lagged one step, §7.7) are updated in ``joints``.  kx [Pa/m],
+    mux: the carried contact share (:func:`carried_share`, 0 unless carried), acting on the faces'
+    overlap.  Returns (tractions, failed points, mean opening, mean slip) (the means as the law
+    sees them, for the failure mode).
 
     When joint_prop has the PRESTRESS_COL offsets (a prestressed body, §7.11; a compile-time
     branch on the vector's width), the law, its damage and the failure mode see the faces'
-    opening and slip plus the offsets (o⁰, s⁰) of each point; the carried contact share sees the
-    faces' overlap alone.
-    """
+    opening and slip plus the offsets (o⁰, s⁰) of each point; the carried share sees the faces'
+    overlap alone."""
+    dm = 0.5 * (d0 + d1)
+    prop = joints.joint_prop[j]                   # (f_t, c, tan φ, G_I, G_II, p_f) of this joint
+    ft, coh, tanphi, gI, gII, pf = prop[0], prop[1], prop[2], prop[3], prop[4], prop[5]
+    dp = 2.0 * L * ft / pf                        # opening at peak (§7.4)
+    dn = 3.0 * gI / ft                            # mode I softening span (Y-Geo)
+    failed = 0
+    dmax = joints.joint_dmax[j]
+    zmax = joints.joint_zmax[j]                   # z(dmax), kept: no exp / pow while unloading
+    fsv = joints.joint_fs[j]
+    trac = ti.Matrix.zero(float, 3, 2)            # row p: traction σ n̂ + τ ê at point p [Pa]
+    om = dm.dot(nh)
+    sm = dm.dot(eh)
+    if ti.static(prop.n > PRESTRESS_COL):         # a prestressed joint (compiled only then, §7.11)
+        om += prop[PRESTRESS_COL + 2]
+        sm += prop[PRESTRESS_COL + 3]
+    dlist = [d0, dm, d1]
+    for p in ti.static(range(3)):
+        d = dlist[p]
+        og = d.dot(nh)                            # the faces' opening; the law sees o = og + o⁰
+        o = og
+        s = d.dot(eh)
+        if ti.static(prop.n > PRESTRESS_COL):
+            o += prop[PRESTRESS_COL + 2 * p]
+            s += prop[PRESTRESS_COL + 2 * p + 1]
+        fs = fsv[p]
+        sp = 2.0 * L * fs / pf                    # slip at peak
+        ds = 3.0 * gII / fs                       # mode II softening span
+        sigma, tau, D, dmax_p, zmax_p = joint_law(o, s, fs, dmax[p], zmax[p], ft, dp, dn, sp, ds)
+        if D >= 1.0:
+            failed += 1
+        dmax[p] = dmax_p
+        zmax[p] = zmax_p
+        fsv[p] = ti.select(sigma > 0.0, coh, coh - sigma * tanphi)     # Mohr–Coulomb, lagged
+        if og < 0.0:
+            # the carried contact share (0 unless carried): its normal stress, and its
+            # friction μ|σ_x| added to the shear strength, as contact friction gave before.
+            # It acts on the faces' overlap og, as contact does once it takes the pair over
+            sx = kx * og
+            fsv[p] -= mux * sx
+            sigma += sx
+        t = sigma * nh + tau * eh
+        trac[p, 0] = t[0]
+        trac[p, 1] = t[1]
+    joints.joint_dmax[j] = dmax
+    joints.joint_zmax[j] = zmax
+    joints.joint_fs[j] = fsv
+    return trac, failed, om, sm
+
+
+@ti.func
+def break_joint(j, L, om, sm, centre, joints: ti.template(), step: ti.template()):
+    """Joint j breaks for good (§7.8): its failure mode from the mean opening om and slip sm [m]
+    (mode I when om passed the mode I span, mode II when sm passed the mode II span at the
+    mid-point's shear strength, both, or mixed), the time and its centre [m] in joint_break, the
+    count in step_int[BROKEN], and no more forces.  No re-detection is needed (§7.10): the pair
+    is a neighbour pair, in the couple list for the whole run and evaluated since the joint's
+    first damage."""
+    prop = joints.joint_prop[j]
+    ft, gI, gII, pf = prop[0], prop[3], prop[4], prop[5]
+    dp = 2.0 * L * ft / pf
+    dn = 3.0 * gI / ft
+    fs_m = joints.joint_fs[j][1]
+    mode = MODE_MIXED
+    gI_done = om >= dp + dn
+    sp_m = 2.0 * L * fs_m / pf
+    gII_done = ti.abs(sm) >= sp_m + 3.0 * gII / fs_m
+    if gI_done and gII_done:
+        mode = MODE_I_II
+    elif gI_done:
+        mode = MODE_I
+    elif gII_done:
+        mode = MODE_II
+    joints.joint_state[j] = mode                   # non-zero: broken, and how
+    # (the fluid pressure, slot 3, is recorded by the fluid's phase of this step: −1 until then)
+    joints.joint_break[j] = ti.Vector([step.step_real[TIME], centre[0], centre[1], -1.0], dt=float)
+    ti.atomic_add(step.step_int[BROKEN], 1)
+    joints.joint_g[j] = ti.Vector([0.0, 0.0, 0.0, 0.0], dt=float)
+
+
+@ti.func
+def joint_nodal_forces(j, nd, L, trac, nodes: ti.template(), joints: ti.template(), step: ti.template(),
+                       scatter: ti.template()):
+    """The nodal forces of joint j (nodes nd, length L [m]) from its point tractions ``trac``
+    (:func:`joint_tractions`), by Simpson's rule with linear shape functions: g0 on the pair
+    (j0, j3), g1 on (j1, j2), kept in joint_g (and added to node_f when ``scatter``); the half of
+    their work over the step with the old velocities added to joint_work (the other half:
+    :func:`add_joint_work`)."""
+    # g_k = ∫ N_k t ds ≈ (L/6)(N_k(0) t0 + 4 N_k(½) tm + N_k(1) t1): end points L/6 and the
+    # mid-point weight 4L/6 split ½–½ (L/3 on each pair; total L)
+    t0 = vec2(trac[0, 0], trac[0, 1])
+    tm = vec2(trac[1, 0], trac[1, 1])
+    t1 = vec2(trac[2, 0], trac[2, 1])
+    g0 = (L / 6.0) * (t0 + 2.0 * tm)          # on the pair (j0, j3)
+    g1 = (L / 6.0) * (2.0 * tm + t1)          # on the pair (j1, j2)
+    if ti.static(scatter):
+        ti.atomic_add(nodes.node_f[nd[0]], -g0)
+        ti.atomic_add(nodes.node_f[nd[1]], -g1)
+        ti.atomic_add(nodes.node_f[nd[2]], g1)
+        ti.atomic_add(nodes.node_f[nd[3]], g0)
+    joints.joint_g[j] = ti.Vector([g0[0], g0[1], g1[0], g1[1]], dt=float)
+    # work over the step, central estimate g·(x_{n+1} − x_{n−1})/2: the half with the old
+    # velocities here, the half with the new ones in add_joint_work
+    dv0 = nodes.node_v[nd[0]] - nodes.node_v[nd[3]]
+    dv1 = nodes.node_v[nd[1]] - nodes.node_v[nd[2]]
+    # (a plain read and write, not +=, which Taichi makes atomic in a parallel loop:
+    # joint j is evaluated by one thread)
+    joints.joint_work[j] = joints.joint_work[j] + 0.5 * (g0.dot(dv0) + g1.dot(dv1)) * step.step_dt[None]
+
+
+@ti.func
+def eval_joint(j, nodes: ti.template(), tris: ti.template(), mats: ti.template(), joints: ti.template(),
+               step: ti.template(), scatter: ti.template()):
+    """Forces of intact joint j (added to nodes.node_f when ``scatter``; always kept in
+    joints.joint_g, which the parallel strategy gathers, and from which :func:`add_joint_work`
+    books their work over the step); damage, shear strength and breakage updated.  A joint of a
+    removed triangle (tri_intact < 0, an excavation) is skipped.  An undamaged joint of a bonded
+    pair carries the contact's compression stiffness too (:func:`pair_carried`)."""
     jt0 = joints.joint_tris[j]
     if joints.joint_state[j] == 0 and tris.tri_intact[jt0[0]] >= 0 and tris.tri_intact[jt0[1]] >= 0:
         nd = joints.joint_nodes[j]
         L, eh, nh, d0, d1, centre = joint_frame(nd, nodes)      # nh points into A
-        dm = 0.5 * (d0 + d1)
-        # undamaged joint of a bonded pair: it carries the contact's compression stiffness too
         kx = 0.0
         mux = 0.0
         if pair_carried(tris.tri_intact[jt0[0]], jt0[2], tris.tri_intact[jt0[1]], jt0[3]):
             kx, mux = carried_share(j, L, joints)
-        prop = joints.joint_prop[j]                   # (f_t, c, tan φ, G_I, G_II, p_f) of this joint
-        ft, coh, tanphi, gI, gII, pf = prop[0], prop[1], prop[2], prop[3], prop[4], prop[5]
-        dp = 2.0 * L * ft / pf                        # opening at peak (§7.4)
-        dn = 3.0 * gI / ft                            # mode I softening span (Y-Geo)
-        failed = 0
-        dmax = joints.joint_dmax[j]
-        zmax = joints.joint_zmax[j]                   # z(dmax), kept: no exp / pow while unloading
-        fsv = joints.joint_fs[j]
-        trac = ti.Matrix.zero(float, 3, 2)            # row p: traction σ n̂ + τ ê at point p [Pa]
-        om = dm.dot(nh)
-        sm = dm.dot(eh)
-        if ti.static(prop.n > PRESTRESS_COL):         # a prestressed joint (compiled only then, §7.11)
-            om += prop[PRESTRESS_COL + 2]
-            sm += prop[PRESTRESS_COL + 3]
-        dlist = [d0, dm, d1]
-        for p in ti.static(range(3)):
-            d = dlist[p]
-            og = d.dot(nh)                            # the faces' opening; the law sees o = og + o⁰
-            o = og
-            s = d.dot(eh)
-            if ti.static(prop.n > PRESTRESS_COL):
-                o += prop[PRESTRESS_COL + 2 * p]
-                s += prop[PRESTRESS_COL + 2 * p + 1]
-            fs = fsv[p]
-            sp = 2.0 * L * fs / pf                    # slip at peak
-            ds = 3.0 * gII / fs                       # mode II softening span
-            abss = ti.abs(s)
-            D = 0.0
-            if o > dp and abss > sp:
-                D = ti.sqrt(((o - dp) / dn) ** 2 + ((abss - sp) / ds) ** 2)
-            elif o > dp:
-                D = (o - dp) / dn
-            elif abss > sp:
-                D = (abss - sp) / ds
-            if D >= 1.0:
-                failed += 1
-                D = 1.0
-            z = 1.0                                   # z(0) = 1: no exp / pow while undamaged
-            if D >= dmax[p]:
-                dmax[p] = D
-                if D > 0.0:
-                    z = softening_z(D)
-                zmax[p] = z
-            else:                                     # unloading from a damaged state (§7.8)
-                z = zmax[p] * (dp + D * dn) / (dp + dmax[p] * dn)
-            sigma = 0.0
-            if o < 0.0:
-                sigma = 2.0 * ft * o / dp             # compression: linear penalty p_f o / L
-            elif o <= dp:
-                sigma = parabola(o / dp) * z * ft
-            else:
-                sigma = z * ft
-            tau = z * fs
-            if abss <= sp:
-                tau = parabola(abss / sp) * z * fs
-            if s < 0.0:
-                tau = -tau
-            fsv[p] = ti.select(sigma > 0.0, coh, coh - sigma * tanphi)     # Mohr–Coulomb, lagged
-            if og < 0.0:
-                # the carried contact share (0 unless carried): its normal stress, and its
-                # friction μ|σ_x| added to the shear strength, as contact friction gave before.
-                # It acts on the faces' overlap og, as contact does once it takes the pair over
-                sx = kx * og
-                fsv[p] -= mux * sx
-                sigma += sx
-            t = sigma * nh + tau * eh
-            trac[p, 0] = t[0]
-            trac[p, 1] = t[1]
-        joints.joint_dmax[j] = dmax
-        joints.joint_zmax[j] = zmax
-        joints.joint_fs[j] = fsv
+        trac, failed, om, sm = joint_tractions(j, L, eh, nh, d0, d1, kx, mux, joints)
         if failed >= 2:
-            # broken for good: record when, where and how (§7.8).  No re-detection is needed
-            # (§7.10): the pair is a neighbour pair, in the couple list for the whole run and
-            # evaluated since the joint's first damage (forcing a detection at every break made
-            # ~340 of the 351 detections of benchmarks/fracture.py, measured)
-            mode = MODE_MIXED
-            gI_done = om >= dp + dn
-            sp_m = 2.0 * L * fsv[1] / pf
-            gII_done = ti.abs(sm) >= sp_m + 3.0 * gII / fsv[1]
-            if gI_done and gII_done:
-                mode = MODE_I_II
-            elif gI_done:
-                mode = MODE_I
-            elif gII_done:
-                mode = MODE_II
-            joints.joint_state[j] = mode                   # non-zero: broken, and how
-            # (the fluid pressure, slot 3, is recorded by the fluid's phase of this step: −1 until then)
-            joints.joint_break[j] = ti.Vector([step.step_real[TIME], centre[0], centre[1], -1.0], dt=float)
-            ti.atomic_add(step.step_int[BROKEN], 1)
-            joints.joint_g[j] = ti.Vector([0.0, 0.0, 0.0, 0.0], dt=float)
+            break_joint(j, L, om, sm, centre, joints, step)
         else:
-            # Simpson with linear shape functions: g_k = ∫ N_k t ds ≈ (L/6)(N_k(0) t0 + 4 N_k(½) tm + N_k(1) t1),
-            # i.e. end points L/6 and the mid-point weight 4L/6 split ½–½ (L/3 on each pair; total L)
-            t0 = vec2(trac[0, 0], trac[0, 1])
-            tm = vec2(trac[1, 0], trac[1, 1])
-            t1 = vec2(trac[2, 0], trac[2, 1])
-            g0 = (L / 6.0) * (t0 + 2.0 * tm)          # on the pair (j0, j3)
-            g1 = (L / 6.0) * (2.0 * tm + t1)          # on the pair (j1, j2)
-            if ti.static(scatter):
-                ti.atomic_add(nodes.node_f[nd[0]], -g0)
-                ti.atomic_add(nodes.node_f[nd[1]], -g1)
-                ti.atomic_add(nodes.node_f[nd[2]], g1)
-                ti.atomic_add(nodes.node_f[nd[3]], g0)
-            joints.joint_g[j] = ti.Vector([g0[0], g0[1], g1[0], g1[1]], dt=float)
-            # work over the step, central estimate g·(x_{n+1} − x_{n−1})/2: the half with the old
-            # velocities here, the half with the new ones in add_joint_work
-            dv0 = nodes.node_v[nd[0]] - nodes.node_v[nd[3]]
-            dv1 = nodes.node_v[nd[1]] - nodes.node_v[nd[2]]
-            # (a plain read and write, not +=, which Taichi makes atomic in a parallel loop:
-            # joint j is evaluated by one thread)
-            joints.joint_work[j] = joints.joint_work[j] + 0.5 * (g0.dot(dv0) + g1.dot(dv1)) * step.step_dt[None]
+            joint_nodal_forces(j, nd, L, trac, nodes, joints, step, scatter)
 
 
 @ti.func
-def add_joint_work(j, joints: ti.template(), tris: ti.template(), mats: ti.template(), nodes: ti.template(),
+def add_joint_work(j, nodes: ti.template(), tris: ti.template(), mats: ti.template(), joints: ti.template(),
                    step: ti.template()):
     """Second half of the work done on joint j over the step (see :func:`eval_joint`) [J/m].
 

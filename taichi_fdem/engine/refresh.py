@@ -23,7 +23,7 @@ def joint_cut(j, joints: ti.template(), tris: ti.template()):
 
 
 @ti.kernel
-def refresh_neighbours(tris: TriGroup, con: ContactGroup, joints: JointGroup, step: StepGroup):
+def refresh_neighbours(tris: TriGroup, contact: ContactGroup, joints: JointGroup, step: StepGroup):
     """tris.tri_nb_on from the joints and the tri_intact bits: each fan's link mask (its missing
     links, and the links whose joint is cut, :func:`joint_cut`), then 1 for a neighbour pair no
     longer bonded (:func:`taichi_fdem.engine.contact.edge_pair_bonded`,
@@ -43,8 +43,8 @@ def refresh_neighbours(tris: TriGroup, con: ContactGroup, joints: JointGroup, st
                     v, bit = fan_code_bit(code)
                     ti.atomic_or(tris.tri_nb_on[fan_mask_slot(v, step)], bit)
     for p in range(step.step_int[NB_PAIRS]):
-        A = con.couple_a[p]
-        B = con.couple_b[p]
+        A = contact.couple_a[p]
+        B = contact.couple_b[p]
         shared, _, _ = shared_vertices(tris.tri_origin[A], tris.tri_origin[B])
         if shared != 1:                      # corner pairs: below, from their fan
             on = 0
@@ -57,11 +57,11 @@ def refresh_neighbours(tris: TriGroup, con: ContactGroup, joints: JointGroup, st
             tris.tri_nb_on[tris.tri_fans[k0 + FAN_ENTRY * i]] = 0
         switch_on_corners(v, tris.tri_nb_on[fan_mask_slot(v, step)], tris)
     # the NB_HELD bit of the pairs that hold friction slip (engine.contact.couple_forces)
-    if con.couple_hist.shape[0] >= 6 * step.step_int[NB_PAIRS]:
+    if contact.couple_hist.shape[0] >= 6 * step.step_int[NB_PAIRS]:
         for p in range(step.step_int[NB_PAIRS]):
             if tris.tri_nb_on[p] != 0:
                 for s in ti.static(range(6)):
-                    if con.couple_hist[6 * p + s] != 0.0:
+                    if contact.couple_hist[6 * p + s] != 0.0:
                         tris.tri_nb_on[p] |= NB_HELD
 
 

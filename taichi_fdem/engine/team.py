@@ -72,78 +72,124 @@ def unit_of(kind, k, w, nwork, n):
 
 
 @ti.func
-def step_start(detect_in, step: ti.template(), contact: ti.template()):
+def step_start(detect_in, step: ti.template(), feat: ti.template()):
     """The first stage of a step: PRE when contact detection is due inside the launch or the
     couples are to be split anew, FORCE otherwise."""
     kind = FORCE
     if step.step_int[REBALANCE] <= 0:
         kind = PRE
-    if ti.static(contact):
+    if ti.static(feat.contact):
         if detect_in != 0 and step.step_real[DACC] >= step.step_buffer[None]:
             kind = PRE
     return kind
 
 
 @ti.func
-def run_unit(kind, u, nblk, nch, detect_in, nodes: ti.template(), tris: ti.template(), mats: ti.template(),
-             con: ti.template(), det: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
-             feat: ti.template()):
-    """Unit u of a stage (module docstring).  PRE: contact detection when due (the serial broad
-    phase of :func:`taichi_fdem.engine.step.detect_serial`: the same couples in the same order;
-    a buffer too small sets code bit 0 and writes nothing), then the couple split when due.
-    FORCE: block u's forces, and the loads after block 0's.  INTEG: chunk u's gather and
-    integration, its maxima and work terms to its partials.  JWORK: the work of block u's
-    joints and the end of their intact bonds."""
-    N = nodes.node_x.shape[0]
-    T, J, C = item_counts(tris, joints, step, feat.contact, feat.fracture)
-    if kind == PRE:
-        fits = True
-        if ti.static(feat.contact):
-            if detect_in != 0 and step.step_real[DACC] >= step.step_buffer[None]:
-                phase_detect_count(nodes, tris, det, con, step)
-                if step.step_int[FOUND] <= con.couple_a.shape[0]:
-                    phase_detect_fill(tris, det, con, step, feat.friction)
-                    C = step.step_int[COUPLES]
-                else:
-                    fits = False
-                    asm.asm_sync[SYNC_CODE] |= 1
-        if fits and step.step_int[REBALANCE] <= 0:
-            rebalance_blocks(nblk, T, J, C, nodes, tris, con, joints, step, asm, feat.contact, feat.fracture,
-                             feat.loads)
-            step.step_int[REBALANCE] = REBALANCE_STEPS
-    elif kind == FORCE:
-        block_forces(u, nblk, T, J, C, step.step_real[DACC], 0, nodes, tris, mats, con, joints, step, asm,
-                     feat.contact, feat.friction, feat.fracture, feat.many_blocks)
-        if ti.static(feat.loads):
-            if u == 0:
-                for q in range(nodes.load_nodes.shape[0]):
-                    apply_load(q, step.step_real[TIME], step.step_dt[None], nodes, step)
-    elif kind == INTEG:
-        alpha = 0.0
-        if ti.static(feat.local_damping):
-            alpha = step.step_real[QS_ALPHA]
-        lo, hi = chunk_nodes(u, nch, N)
-        vmax2, bad, work, local = integrate_span(lo, hi, nodes, joints, asm, step, step.step_dt[None],
-                                                 step.step_gravity[None], step.step_switches[None] & SWITCH_BC,
-                                                 step.step_switches[None] & SWITCH_BC_WORK, alpha, 2,
-                                                 feat.local_damping)
-        asm.asm_part[3 * u] = vmax2
-        asm.asm_part[3 * u + 1] = work
-        asm.asm_part[3 * u + 2] = local
-        asm.asm_sync[SYNC_CLAIM + ti.max(nblk, nch) + u] = bad
-    else:
-        for j in range(u * J // nblk, (u + 1) * J // nblk):
-            add_joint_work(j, joints, tris, mats, nodes, step)
+def run_pre(nblk, T, J, C, detect_in, G: ti.template(), feat: ti.template()):
+    """Stage PRE: contact detection when due (the serial broad phase of
+    :func:`taichi_fdem.engine.step.detect_serial`: the same couples in the same order; a buffer
+    too small sets code bit 0 and writes nothing), then the couple split when due."""
+    fits = True
+    couples = C
+    if ti.static(feat.contact):
+        if detect_in != 0 and G.step.step_real[DACC] >= G.step.step_buffer[None]:
+            phase_detect_count(G.nodes, G.tris, G.contact, G.detect, G.step)
+            if G.step.step_int[FOUND] <= G.contact.couple_a.shape[0]:
+                phase_detect_fill(G.tris, G.contact, G.detect, G.step, feat.friction)
+                couples = G.step.step_int[COUPLES]
+            else:
+                fits = False
+                G.asm.asm_sync[SYNC_CODE] |= 1
+    if fits and G.step.step_int[REBALANCE] <= 0:
+        rebalance_blocks(nblk, T, J, couples, G.nodes, G.tris, G.contact, G.joints, G.step, feat)
+        G.step.step_int[REBALANCE] = REBALANCE_STEPS
 
 
 @ti.func
-def end_step(nsteps, detect_in, step: ti.template(), asm: ti.template(), contact: ti.template()):
+def run_integ(u, nblk, nch, nodes: ti.template(), joints: ti.template(), step: ti.template(), asm: ti.template(),
+              feat: ti.template()):
+    """Stage INTEG, unit u: node chunk u's gather and integration, its maxima and work terms to
+    its partials (asm_part) and its non-finite flag to its slot of asm_sync."""
+    alpha = 0.0
+    if ti.static(feat.local_damping):
+        alpha = step.step_real[QS_ALPHA]
+    lo, hi = chunk_nodes(u, nch, nodes.node_x.shape[0])
+    vmax2, bad, work, local = integrate_span(lo, hi, nodes, joints, asm, step, step.step_dt[None],
+                                             step.step_gravity[None], step.step_switches[None] & SWITCH_BC,
+                                             step.step_switches[None] & SWITCH_BC_WORK, alpha, 2,
+                                             feat.local_damping)
+    asm.asm_part[3 * u] = vmax2
+    asm.asm_part[3 * u + 1] = work
+    asm.asm_part[3 * u + 2] = local
+    asm.asm_sync[SYNC_CLAIM + ti.max(nblk, nch) + u] = bad
+
+
+@ti.func
+def run_unit(kind, u, nblk, nch, detect_in, G: ti.template(), feat: ti.template()):
+    """Unit u of a stage (module docstring) on the groups ``G``.  PRE: :func:`run_pre`.  FORCE:
+    block u's forces, and the loads after block 0's.  INTEG: :func:`run_integ`.  JWORK: the
+    work of block u's joints and the end of their intact bonds."""
+    T, J, C = item_counts(G.tris, G.joints, G.step, feat)
+    if kind == PRE:
+        run_pre(nblk, T, J, C, detect_in, G, feat)
+    elif kind == FORCE:
+        block_forces(u, nblk, T, J, C, G.step.step_real[DACC], 0, G.nodes, G.tris, G.mats, G.contact, G.joints,
+                     G.step, G.asm, feat)
+        if ti.static(feat.loads):
+            if u == 0:
+                for q in range(G.nodes.load_nodes.shape[0]):
+                    apply_load(q, G.step.step_real[TIME], G.step.step_dt[None], G.nodes, G.step)
+    elif kind == INTEG:
+        run_integ(u, nblk, nch, G.nodes, G.joints, G.step, G.asm, feat)
+    else:
+        for j in range(u * J // nblk, (u + 1) * J // nblk):
+            add_joint_work(j, G.nodes, G.tris, G.mats, G.joints, G.step)
+
+
+@ti.func
+def end_step(nsteps, detect_in, step: ti.template(), asm: ti.template(), feat: ti.template()):
     """The stage after a completed step: END when the launch's steps are done or its code is
     set, else the next step's first stage."""
     kind = END
     if asm.asm_sync[SYNC_CODE] == 0 and asm.asm_sync[SYNC_STEPS] - asm.asm_sync[SYNC_START] < nsteps:
-        kind = step_start(detect_in, step, contact)
+        kind = step_start(detect_in, step, feat)
     return kind
+
+
+@ti.func
+def end_integ(nblk, nch, detect_in, nodes: ti.template(), step: ti.template(), asm: ti.template(),
+              feat: ti.template()):
+    """What ends stage INTEG: the step's counters from the chunks' partials in chunk order (the
+    same for any team), the blocks' contact work and the loads' work booked, time and D_acc
+    advanced, and the code set (bit 0 detection due, bit 1 unstable)."""
+    N = nodes.node_x.shape[0]
+    dt = step.step_dt[None]
+    bc_work = step.step_switches[None] & SWITCH_BC_WORK
+    vm2 = 0.0
+    bad = step.step_int[NONFINITE]
+    for c in range(nch):
+        vm2 = ti.max(vm2, asm.asm_part[3 * c])
+        bad = ti.max(bad, asm.asm_sync[SYNC_CLAIM + ti.max(nblk, nch) + c])
+        if bc_work != 0:
+            step.step_real[WORK_BOUNDARY] += asm.asm_part[3 * c + 1]
+        if ti.static(feat.local_damping):
+            step.step_real[WORK_LOCAL] += asm.asm_part[3 * c + 2]
+    vmax = ti.sqrt(vm2)
+    book_block_work(N, nblk, asm, step, 0)
+    if ti.static(feat.loads):
+        for k in range(nodes.load_nodes.shape[0]):
+            book_load(k, dt, nodes, step)
+    step.step_real[VMAX] = vmax
+    step.step_int[NONFINITE] = bad
+    step.step_real[DACC] += 2.0 * dt * vmax
+    step.step_real[TIME] += dt
+    step.step_int[REBALANCE] -= 1
+    asm.asm_sync[SYNC_STEPS] += 1
+    if ti.static(feat.contact):
+        if detect_in == 0 and step.step_real[DACC] >= step.step_buffer[None]:
+            asm.asm_sync[SYNC_CODE] |= 1
+    if bad != 0 or step.step_int[INVERTED] != 0 or vmax > step.step_vlimit[None]:
+        asm.asm_sync[SYNC_CODE] |= 2
 
 
 @ti.func
@@ -161,40 +207,12 @@ def end_stage(kind, nblk, nch, nsteps, flags, nodes: ti.template(), step: ti.tem
     elif kind == FORCE:
         nxt = INTEG
     elif kind == INTEG:
-        # the step's counters from the chunks' partials, in chunk order (the same for any team)
-        N = nodes.node_x.shape[0]
-        dt = step.step_dt[None]
-        bc_work = step.step_switches[None] & SWITCH_BC_WORK
-        vm2 = 0.0
-        bad = step.step_int[NONFINITE]
-        for c in range(nch):
-            vm2 = ti.max(vm2, asm.asm_part[3 * c])
-            bad = ti.max(bad, asm.asm_sync[SYNC_CLAIM + ti.max(nblk, nch) + c])
-            if bc_work != 0:
-                step.step_real[WORK_BOUNDARY] += asm.asm_part[3 * c + 1]
-            if ti.static(feat.local_damping):
-                step.step_real[WORK_LOCAL] += asm.asm_part[3 * c + 2]
-        vmax = ti.sqrt(vm2)
-        book_block_work(N, nblk, asm, step, 0)
-        if ti.static(feat.loads):
-            for k in range(nodes.load_nodes.shape[0]):
-                book_load(k, dt, nodes, step)
-        step.step_real[VMAX] = vmax
-        step.step_int[NONFINITE] = bad
-        step.step_real[DACC] += 2.0 * dt * vmax
-        step.step_real[TIME] += dt
-        step.step_int[REBALANCE] -= 1
-        asm.asm_sync[SYNC_STEPS] += 1
-        if ti.static(feat.contact):
-            if detect_in == 0 and step.step_real[DACC] >= step.step_buffer[None]:
-                asm.asm_sync[SYNC_CODE] |= 1
-        if bad != 0 or step.step_int[INVERTED] != 0 or vmax > step.step_vlimit[None]:
-            asm.asm_sync[SYNC_CODE] |= 2
+        end_integ(nblk, nch, detect_in, nodes, step, asm, feat)
         nxt = JWORK
         if ti.static(not feat.fracture):
-            nxt = end_step(nsteps, detect_in, step, asm, feat.contact)
+            nxt = end_step(nsteps, detect_in, step, asm, feat)
     else:
-        nxt = end_step(nsteps, detect_in, step, asm, feat.contact)
+        nxt = end_step(nsteps, detect_in, step, asm, feat)
     if flags & 4:
         ti.atomic_max(asm.asm_sync[SYNC_ABORT], 1)
     asm.asm_sync[SYNC_DONE] = 0
@@ -202,46 +220,45 @@ def end_stage(kind, nblk, nch, nsteps, flags, nodes: ti.template(), step: ti.tem
 
 
 @ti.func
-def team_worker(w, nwork, nsteps, flags, spin_max, nodes: ti.template(), tris: ti.template(),
-                mats: ti.template(), con: ti.template(), det: ti.template(), joints: ti.template(),
-                step: ti.template(), asm: ti.template(), feat: ti.template()):
+def team_worker(w, nwork, nsteps, flags, spin_max, G: ti.template(), feat: ti.template()):
     """Worker w of a team of ``nwork``: claim and run units of the current stage (first its own
     share, :func:`unit_of`), the last one of a stage also ending it (:func:`end_stage`); when
     nothing is left to claim, wait at most ``spin_max`` tries for the stage to end, else raise
     the abort flag.  Leaves at END or when the abort flag is up (after an abort the others
     finish the stage they are in: a launch always stops at a stage boundary).  ``flags``: as
-    :func:`taichi_fdem.engine.step.run_steps_blocks`."""
+    :func:`taichi_fdem.engine.step.run_steps_blocks`; ``G``: the groups
+    (:class:`~taichi_fdem.engine.bundle.Groups`)."""
     detect_in = flags & 1
-    N = nodes.node_x.shape[0]
-    nblk = asm_blocks(N, asm)
+    N = G.nodes.node_x.shape[0]
+    nblk = asm_blocks(N, G.asm)
     nch = chunk_count(N)
     while True:
-        stage = sync_get(asm, SYNC_STAGE)
+        stage = sync_get(G.asm, SYNC_STAGE)
         kind = stage % KINDS
-        if kind == END or sync_get(asm, SYNC_ABORT) != 0:
+        if kind == END or sync_get(G.asm, SYNC_ABORT) != 0:
             break
         n = stage_units(kind, nblk, nch)
         ticket = stage + 1
         for k in range(n):
             u = unit_of(kind, k, w, nwork, n)
-            if ti.atomic_max(asm.asm_sync[SYNC_CLAIM + u], ticket) < ticket:
-                run_unit(kind, u, nblk, nch, detect_in, nodes, tris, mats, con, det, joints, step, asm, feat)
-                if ti.atomic_add(asm.asm_sync[SYNC_DONE], 1) == n - 1:
-                    end_stage(kind, nblk, nch, nsteps, flags, nodes, step, asm, feat)
+            if ti.atomic_max(G.asm.asm_sync[SYNC_CLAIM + u], ticket) < ticket:
+                run_unit(kind, u, nblk, nch, detect_in, G, feat)
+                if ti.atomic_add(G.asm.asm_sync[SYNC_DONE], 1) == n - 1:
+                    end_stage(kind, nblk, nch, nsteps, flags, G.nodes, G.step, G.asm, feat)
         tries = 0
-        while sync_get(asm, SYNC_STAGE) == stage:
+        while sync_get(G.asm, SYNC_STAGE) == stage:
             tries += 1
             if tries >= spin_max:
-                ti.atomic_max(asm.asm_sync[SYNC_ABORT], 1)
+                ti.atomic_max(G.asm.asm_sync[SYNC_ABORT], 1)
                 break
 
 
 @ti.func
-def team_begin(resume, detect_in, step: ti.template(), asm: ti.template(), contact: ti.template()):
+def team_begin(resume, detect_in, step: ti.template(), asm: ti.template(), feat: ti.template()):
     """Before the workers start (a serial task): a fresh launch starts a step; a resumed one
     (after an abort) lowers the flag and carries on from the stage the team left."""
     if resume == 0:
-        asm.asm_sync[SYNC_STAGE] = step_start(detect_in, step, contact)
+        asm.asm_sync[SYNC_STAGE] = step_start(detect_in, step, feat)
     asm.asm_sync[SYNC_ABORT] = 0
     asm.asm_sync[SYNC_START] = asm.asm_sync[SYNC_STEPS]
 

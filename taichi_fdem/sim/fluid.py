@@ -113,34 +113,25 @@ def _csr(n: int, owner: np.ndarray, entry: np.ndarray, base: int):
     return starts, entry[order]
 
 
-def install_fluid(md, scene, net: FluidNetwork, curves) -> None:
-    """The fluid arrays of the model (``md.fluid`` False: one-row placeholders): sources
-    selected on the fluid nodes' initial positions, the index lists, the parameters and the
-    initial contents (``initial_pressure`` in the edges that conduct at the start: the crack
-    edges, at the aperture of the rest mesh, clamped)."""
-    spec = getattr(scene, "_fluid", None)
-    injections = list(getattr(scene, "_injections", []))
-    md.fluid = spec is not None
-    real, rti = backend.real_np(), backend.real_ti()
-    if not md.fluid:
-        md.fluid_edge = ti.Vector.ndarray(8, ti.i32, shape=1)
-        md.fluid_edge.fill(0)
-        md.fluid_index = ti.ndarray(ti.i32, shape=HEADER)
-        md.fluid_index.fill(0)
-        md.fluid_real0 = np.zeros(F_HEAD)
-        md.fluid_content0 = np.zeros(1)
-        md.fluid_node_rest = np.zeros((0, 2))
-        md.fluid_copies = np.zeros((0, 2), np.int32)
-        md.fluid_edge_count = md.fluid_node_count = 0
-        md.fluid_sources = []
-        return
-    if not net.edge_count:
-        raise ValueError("Scene.set_fluid: the scene has no fracture network: no body has cracks (add_body(cracks=)) "
-                         "or joints (add_body(fracture=))")
-    E, F = net.edge_count, net.node_count
-    e = net.edges
-    X = md.node_rest
-    # the sources
+def _no_fluid(md) -> None:
+    """One-row placeholders of the fluid arrays (a scene without a fluid)."""
+    md.fluid_edge = ti.Vector.ndarray(8, ti.i32, shape=1)
+    md.fluid_edge.fill(0)
+    md.fluid_index = ti.ndarray(ti.i32, shape=HEADER)
+    md.fluid_index.fill(0)
+    md.fluid_real0 = np.zeros(F_HEAD)
+    md.fluid_content0 = np.zeros(1)
+    md.fluid_node_rest = np.zeros((0, 2))
+    md.fluid_copies = np.zeros((0, 2), np.int32)
+    md.fluid_edge_count = md.fluid_node_count = 0
+    md.fluid_sources = []
+
+
+def _fluid_sources(net: FluidNetwork, injections, curves):
+    """(rows, nodes_of) of the scene's injections: per source (kind, curve, value) and the
+    network nodes it feeds, selected on their initial positions (a selection of no node is an
+    error; one of no crack node warns, as nothing enters until a joint there conducts)."""
+    F, e = net.node_count, net.edges
     rows, nodes_of = [], []
     for k, inj in enumerate(injections):
         sel = np.asarray(inj.where(net.node_rest[:, 0].copy(), net.node_rest[:, 1].copy()), dtype=bool)
@@ -155,14 +146,20 @@ def install_fluid(md, scene, net: FluidNetwork, curves) -> None:
         if not wet[sel].any():
             warnings.warn(f"Scene.inject #{k}: none of its {int(sel.sum())} network node(s) is on a crack edge: "
                           "nothing enters until a joint at one of them conducts (start from a crack, "
-                          "add_body(cracks=))", RuntimeWarning, stacklevel=5)
+                          "add_body(cracks=))", RuntimeWarning, stacklevel=6)
         c = curves.add(inj.curve)
         rows.append((SRC_RATE if inj.rate is not None else SRC_PRESSURE, c,
                      float(inj.rate if inj.rate is not None else inj.pressure)))
         nodes_of.append(np.nonzero(sel)[0])
-    slices = curves.slices
+    return rows, nodes_of
+
+
+def _fluid_index(net: FluidNetwork, rows, nodes_of, slices) -> np.ndarray:
+    """The fluid's index lists in one i32 array (engine.fluid): the header, each fluid node's
+    edges, the solid nodes that receive pressure forces with their entries, and the sources'
+    table with their nodes."""
+    E, F, e = net.edge_count, net.node_count, net.edges
     S = len(rows)
-    # the index lists
     ne_owner = np.concatenate([e[:, 4], e[:, 5]]).astype(np.int64)
     ne_entry = np.concatenate([np.arange(E), -1 - np.arange(E)]).astype(np.int64)
     solid = e[:, :4].reshape(-1).astype(np.int64)
@@ -190,28 +187,56 @@ def install_fluid(md, scene, net: FluidNetwork, curves) -> None:
     index = np.concatenate([header, ne_start, ne_list, recv, g_start, g_list, src_table]
                            + [n.astype(np.int64) for n in nodes_of])
     assert index.max() < 2**31
+    return index
+
+
+def _fluid_contents(md, net: FluidNetwork, spec, r) -> np.ndarray:
+    """The initial fluid content of every fluid node: ``initial_pressure`` in the edges that
+    conduct at the start (the crack edges, at the aperture of the rest mesh, clamped to the
+    apertures' bounds r[F_AMIN], r[F_AMAX])."""
+    X, e = md.node_rest, net.edges
+    d = 0.5 * (X[e[:, 1]] + X[e[:, 2]] - X[e[:, 0]] - X[e[:, 3]])
+    L = np.linalg.norm(d, axis=1)
+    n = np.stack([d[:, 1], -d[:, 0]], axis=1) / np.maximum(L, 1e-300)[:, None]
+    w = 0.5 * (((X[e[:, 3]] - X[e[:, 0]]) * n).sum(axis=1) + ((X[e[:, 2]] - X[e[:, 1]]) * n).sum(axis=1))
+    w = np.clip(w, spec.aperture_min, r[F_AMAX]) * net.crack
+    V = np.zeros(net.node_count)
+    np.add.at(V, e[:, 4], 0.5 * L * w)
+    np.add.at(V, e[:, 5], 0.5 * L * w)
+    return V * (1.0 + spec.initial_pressure / spec.fluid.bulk_modulus)
+
+
+def install_fluid(md, scene, net: FluidNetwork, curves) -> None:
+    """The fluid arrays of the model (``md.fluid`` False: one-row placeholders): sources
+    selected on the fluid nodes' initial positions, the index lists, the parameters and the
+    initial contents (:func:`_fluid_contents`)."""
+    spec = getattr(scene, "_fluid", None)
+    injections = list(getattr(scene, "_injections", []))
+    md.fluid = spec is not None
+    if not md.fluid:
+        _no_fluid(md)
+        return
+    if not net.edge_count:
+        raise ValueError("Scene.set_fluid: the scene has no fracture network: no body has cracks (add_body(cracks=)) "
+                         "or joints (add_body(fracture=))")
+    E, F = net.edge_count, net.node_count
+    e = net.edges
+    rows, nodes_of = _fluid_sources(net, injections, curves)
+    index = _fluid_index(net, rows, nodes_of, curves.slices)
     md.fluid_edge = ti.Vector.ndarray(8, ti.i32, shape=E)
     md.fluid_edge.from_numpy(e.astype(np.int32))
     md.fluid_index = ti.ndarray(ti.i32, shape=len(index))
     md.fluid_index.from_numpy(index.astype(np.int32))
     # parameters and initial contents
     fluid, K = spec.fluid, spec.fluid.bulk_modulus
-    r = np.zeros(F_HEAD + SRC_STRIDE * S)
+    r = np.zeros(F_HEAD + SRC_STRIDE * len(rows))
     r[F_K], r[F_MU], r[F_AMIN] = K, fluid.viscosity, spec.aperture_min
     r[F_AMAX] = NO_APERTURE_MAX if spec.aperture_max is None else spec.aperture_max
     r[F_DAMAGED] = 1.0 if spec.conduct == "damaged" else 0.0
     for s, (_, _, value) in enumerate(rows):
         r[F_HEAD + SRC_STRIDE * s] = value
     md.fluid_real0 = r
-    d = 0.5 * (X[e[:, 1]] + X[e[:, 2]] - X[e[:, 0]] - X[e[:, 3]])
-    L = np.linalg.norm(d, axis=1)
-    n = np.stack([d[:, 1], -d[:, 0]], axis=1) / np.maximum(L, 1e-300)[:, None]
-    w = 0.5 * (((X[e[:, 3]] - X[e[:, 0]]) * n).sum(axis=1) + ((X[e[:, 2]] - X[e[:, 1]]) * n).sum(axis=1))
-    w = np.clip(w, spec.aperture_min, r[F_AMAX]) * net.crack
-    V = np.zeros(F)
-    np.add.at(V, e[:, 4], 0.5 * L * w)
-    np.add.at(V, e[:, 5], 0.5 * L * w)
-    md.fluid_content0 = V * (1.0 + spec.initial_pressure / K)
+    md.fluid_content0 = _fluid_contents(md, net, spec, r)
     md.fluid_edge_count, md.fluid_node_count = E, F
     md.fluid_sources = [{"kind": "rate" if k == SRC_RATE else "pressure", "nodes": nodes_of[s], "value": val}
                         for s, (k, _, val) in enumerate(rows)]

@@ -6,14 +6,11 @@ kernels of :mod:`taichi_fdem.engine.step` with the array groups as argpacks (tim
 :mod:`taichi_fdem.sim.timestep`; guards: :mod:`taichi_fdem.sim.guards`; energies:
 :mod:`taichi_fdem.sim.energies`; results: :mod:`taichi_fdem.sim.results`).
 
-Execution strategy (:mod:`taichi_fdem.engine.step`): the serial one runs thousands of steps per
-launch on one core; the parallel one sums the forces without atomics and, on the CPU, runs
-thousands of steps per launch in a team of worker threads (:mod:`taichi_fdem.engine.team`,
-``sim.solver.team_steps``) whose waits are bounded, sized to the usable cores, and replaced
-by one worker while another busy process shares the cores (:mod:`taichi_fdem.sim.team`).  A scene with a fluid
-(``scene.set_fluid``) runs no team launch: its parallel strategy runs one step per launch
-(:func:`taichi_fdem.engine.step.step_parallel_fluid`), so "auto" runs it serial on the CPU.
-Otherwise "auto" picks parallel on the CPU from 2 threads and usable cores and
+Stepping is the solver's job (:mod:`taichi_fdem.sim.solver`): ``sim.solver`` is the active
+:class:`~taichi_fdem.sim.solver.SerialSolver` or :class:`~taichi_fdem.sim.solver.ParallelSolver`,
+and :meth:`Simulation.step` calls its ``advance``.  A scene with a fluid (``scene.set_fluid``)
+runs no team launch: its parallel solver runs one step per launch, so "auto" runs it serial
+on the CPU.  Otherwise "auto" picks parallel on the CPU from 2 threads and usable cores and
 :data:`AUTO_PARALLEL_ITEMS` items (triangles + joints + couples), and on GPUs.
 """
 from __future__ import annotations
@@ -25,28 +22,24 @@ import numpy as np
 
 from . import excavation, guards
 from .. import backend
-from ..engine import refresh, step as kernels
+from ..engine import refresh
 from ..engine.tiutil import launch_cached
 from .guards import SimulationError
-from ..engine.groups import COUPLES, DACC, DETECTIONS, FORCE_BLOCKS, FOUND, MAX_FORCE_BLOCKS, REBALANCE
-from .model import build_model, counter, set_counter
+from ..engine.groups import COUPLES, DACC
+from .model import build_model, counter
 from .state import allocate_scratch, allocate_state, grow_couples, pack_groups, size_assembly, size_couple_scratch
 from .outputs import RunOutputs
 from .recorders import Checks, CrackEvents, History, Recorder
 from .cracks import Cracks
 from .fluid import FluidResults
 from .results import Loads, SimulationResults
-from .solver import Solver
+from .solver import SERIAL_MAX_STEPS, SERIAL_TRI_STEPS, TEAM_TRI_STEPS, ParallelSolver, SerialSolver, Solver
 from .settings import ModelValues
-from .team import TeamScheduler
 from .timestep import CONTACT_LIMIT_FACTOR  # noqa: F401  (re-exported)
 
 __all__ = ["Simulation", "SimulationError", "SERIAL_MAX_STEPS", "SERIAL_TRI_STEPS", "TEAM_TRI_STEPS",
            "AUTO_PARALLEL_ITEMS", "DETECT_SERIAL_TRIS"]
 
-SERIAL_MAX_STEPS = 2000          # at most this many steps per serial launch
-SERIAL_TRI_STEPS = 2_000_000     # ~50 ms of work per serial launch: responsive progress and Ctrl-C
-TEAM_TRI_STEPS = 10_000_000      # the same for a team launch (sim.solver.steps_per_launch)
 AUTO_PARALLEL_ITEMS = 600        # triangles + joints + couples from which "auto" runs parallel on >= 2 CPU threads
 DETECT_SERIAL_TRIS = 15_000      # up to this many contact triangles, detection runs as one serial launch
 
@@ -122,11 +115,6 @@ class Simulation(SimulationResults, ModelValues):
     the model or the state on the simulation raises (it would change nothing).
     """
 
-    #: parallel strategy on the CPU: run many steps per launch in a team of
-    #: at most min(:attr:`force_blocks`, threads, usable cores) workers
-    #: (:func:`taichi_fdem.engine.step.run_steps_blocks`); False: one launch per step.  The same
-    #: bits either way.
-    _team_steps = True
     @staticmethod
     def _checkpoint_io():
         """The checkpoint module (``save(sim, path)``, ``load(path)``), which sits above the
@@ -142,7 +130,7 @@ class Simulation(SimulationResults, ModelValues):
             raise ValueError(f"Scene.build: strategy must be 'auto', 'serial' or 'parallel', got {strategy!r}")
         self.scene = scene
         self.thickness = scene.thickness
-        for name, view in (("solver", Solver), ("cracks", Cracks), ("fluid", FluidResults), ("loads", Loads)):
+        for name, view in (("cracks", Cracks), ("fluid", FluidResults), ("loads", Loads)):
             object.__setattr__(self, name, view(self))      # (sim.fluid is not sim.model.fluid, a flag)
         self.model = build_model(scene, dt=dt, safety=safety, force_dt=force_dt, buffer=buffer, speed_limit=speed_limit,
                                  quasi_static=quasi_static, joined_pairs=joined_pairs, handover_damage=handover_damage)
@@ -151,13 +139,15 @@ class Simulation(SimulationResults, ModelValues):
         auto = strategy == "auto"
         if auto:
             strategy = "serial" if backend.arch() == "cpu" else "parallel"
-        self._set_strategy(strategy)
-        self._assembly = "blocks" if backend.arch() == "cpu" else "slots"
-        self._force_blocks = FORCE_BLOCKS
+        self._solvers = {"serial": SerialSolver(), "parallel": ParallelSolver(
+            assembly="blocks" if backend.arch() == "cpu" else "slots")}
+        for solver in self._solvers.values():
+            solver._attach(self)
+        self._use_solver(strategy)
+        par = self._solvers["parallel"]
         self._scratch = allocate_scratch(self.model, self.state, parallel=strategy == "parallel",
-                                        blocks=self._assembly == "blocks", force_blocks=self._force_blocks)
+                                        blocks=par.assembly == "blocks", force_blocks=par.force_blocks)
         self.step_count = 0
-        self._teams = TeamScheduler()
         self._launches: dict[str, int] = {}
         self._stats = {"wall_steps": 0.0, "wall_detect": 0.0}
         self._repack()
@@ -167,37 +157,28 @@ class Simulation(SimulationResults, ModelValues):
             if check_overlap:
                 guards.warn_overlaps(self)
         elif strategy == "parallel":
-            self._build_node_slots()             # no contact: the node lists never change
+            self.solver.prepare(refresh=False)    # no contact: the node lists never change
         if auto and self._strategy == "serial" and self._parallel_pays():
-            self._set_strategy("parallel")
+            self._use_solver("parallel")
 
-    # ---- execution settings (sim.solver) ----------------------------------------------------------
-    def _set_strategy(self, value: str) -> None:
-        if value not in ("serial", "parallel"):
-            raise ValueError(f"strategy must be 'serial' or 'parallel', got {value!r}")
-        self._strategy = value
+    # ---- the solver (sim.solver) ------------------------------------------------------------------
+    @property
+    def solver(self) -> Solver:
+        """The active solver (:mod:`taichi_fdem.sim.solver`): its strategy, settings, launch and
+        detection counters, and per-phase profile."""
+        return self._solvers[self._strategy]
+
+    def _use_solver(self, strategy: str) -> None:
+        """Make the solver of ``strategy`` the active one."""
+        if strategy not in ("serial", "parallel"):
+            raise ValueError(f"strategy must be 'serial' or 'parallel', got {strategy!r}")
+        self._strategy = strategy
         self._sync_assembly()
 
-    def _set_assembly(self, value: str) -> None:
-        if value not in ("blocks", "slots"):
-            raise ValueError(f"assembly must be 'blocks' or 'slots', got {value!r}")
-        self._assembly = value
-        self._sync_assembly()
-
-    def _set_force_blocks(self, value: int) -> None:
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= MAX_FORCE_BLOCKS:
-            raise ValueError(f"force_blocks must be an integer from 1 to {MAX_FORCE_BLOCKS}, got {value!r}")
-        if int(value) != self._force_blocks and "state" in self.__dict__:
-            set_counter(self.state.step_int, REBALANCE, 0)     # the couple ranges follow the blocks
-        self._force_blocks = int(value)
-        self._sync_assembly()
-
-    def _set_team_workers(self, value) -> None:
-        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1):
-            raise ValueError(f"team_workers must be None or an integer >= 1, got {value!r}")
-        self._team_workers = None if value is None else int(value)
-
-    _team_workers = None
+    @property
+    def _teams(self):
+        """The parallel solver's team executor (:class:`~taichi_fdem.sim.team.TeamScheduler`)."""
+        return self._solvers["parallel"].teams
 
     def _parallel_pays(self) -> bool:
         """Whether the parallel strategy beats the serial one on this CPU (module docstring): at
@@ -218,15 +199,6 @@ class Simulation(SimulationResults, ModelValues):
         """Rebuild the argpacks (after an array of the state was reallocated)."""
         self._packs = pack_groups(self.model, self.state, self._scratch)
         self._launch_cache = {}
-        p = self._packs
-        # the groups each step kernel takes, in order
-        self._groups = {"serial": (p["nodes"], p["tris"], p["mats"], p["contact"], p["detect"], p["joints"], p["step"]),
-                        "parallel": (p["nodes"], p["tris"], p["mats"], p["contact"], p["joints"], p["step"], p["asm"]),
-                        "team": (p["team"],)}
-        if self.model.fluid:
-            self._groups["serial"] = (p["serial_fluid"],)
-            self._groups["parallel"] = self._groups["parallel"] + (p["fluid"],)
-
 
     def _sync_assembly(self) -> None:
         """Make the scratch's assembly arrays follow strategy, assembly and force_blocks (once
@@ -234,20 +206,27 @@ class Simulation(SimulationResults, ModelValues):
         sw = self.__dict__.get("_scratch")
         if sw is None:
             return                               # during __init__, before the scratch exists
-        want = (sw.parallel or self._strategy == "parallel", self._assembly == "blocks", self._force_blocks)
+        par = self._solvers["parallel"]
+        want = (sw.parallel or self._strategy == "parallel", par.assembly == "blocks", par.force_blocks)
         if (sw.parallel, sw.blocks, sw.force_blocks) == want:
             return
         sw.parallel, sw.blocks, sw.force_blocks = want
         size_assembly(self.model, self.state, sw)
         self._repack()
         if self._strategy == "parallel":
-            self._build_node_slots(refresh=True)
+            self.solver.prepare(refresh=True)
 
     def _after_restore(self) -> None:
         """Re-derive scratch sizes, argpacks and node lists after the state was replaced
         (checkpoint load, restore_last_good)."""
-        self._scratch.blocks = self.__dict__.get("_assembly", "blocks") == "blocks"
-        self._scratch.force_blocks = self.__dict__.get("_force_blocks", FORCE_BLOCKS)
+        par = self._solvers["parallel"]
+        for name in ("assembly", "force_blocks", "team_workers", "team_steps"):
+            if "_" + name in self.__dict__:      # a checkpoint that kept the settings on the simulation
+                object.__setattr__(par, "_" + name, self.__dict__.pop("_" + name))
+        for solver in self._solvers.values():
+            solver._attach(self)
+        self._scratch.blocks = par.assembly == "blocks"
+        self._scratch.force_blocks = par.force_blocks
         size_couple_scratch(self.model, self.state, self._scratch)
         if np.any(self.state.tri_intact.to_numpy() < 0):
             self._apply_removal()                 # the rebuilt model lacks the excavations
@@ -256,7 +235,7 @@ class Simulation(SimulationResults, ModelValues):
         if self.model.fracture:
             self._launch("refresh_joint_z", refresh.refresh_joint_z, self._packs["joints"])
         if self._strategy == "parallel":
-            self._build_node_slots(refresh=True)
+            self.solver.prepare(refresh=True)
 
     def _refresh_neighbours(self) -> None:
         """Which neighbour pairs are no longer bonded (``tri_nb_on``), from the joints and the
@@ -291,18 +270,7 @@ class Simulation(SimulationResults, ModelValues):
         size_couple_scratch(self.model, self.state, self._scratch)
         self._repack()
         if self._strategy == "parallel":
-            self._build_node_slots()             # the slot arrays were reallocated
-
-    def _build_node_slots(self, refresh: bool = False) -> None:
-        """The slot assembly's node lists; with ``refresh`` (a restore, a new scratch), the block
-        assembly's node ranges and chunk masks (engine.step.refresh_blocks)."""
-        p = self._packs
-        if not self._scratch.blocks:
-            self._launch("build_node_slots", kernels.build_node_slots, p["tris"], p["contact"], p["joints"], p["step"],
-                         p["asm"], self.model.contact, self.model.fracture)
-        elif refresh:
-            self._launch("refresh_blocks", kernels.refresh_blocks, p["nodes"], p["tris"], p["contact"], p["joints"],
-                         p["step"], p["asm"], *self._switches())
+            self.solver.prepare(refresh=False)   # the slot arrays were reallocated
 
     _alloc_couples = _grow_couples
 
@@ -320,43 +288,13 @@ class Simulation(SimulationResults, ModelValues):
     def _couple_count(self) -> int:
         return counter(self.state.step_int, COUPLES) if self.state.couple_max else 0
 
-    def _switches(self):
-        # contact, friction, fracture, loads, the local damping and more than two force blocks
-        # (engine.blocks.block_forces) are compile-time switches (absent features are not
-        # compiled); damping, contact damping, prescribed velocities and initial stress are
-        # runtime switches in the step group (a branch each), which keeps compiled variants few
-        md, many = self.model, self._strategy == "parallel" and self._assembly == "blocks" and self._force_blocks > 2
-        return (kernels.Features(bool(md.contact), bool(md.friction), bool(md.fracture), bool(md.loads),
-                                 bool(md.local_damping), many, bool(md.fluid)),)
-
-    def _steps_per_launch(self) -> int:
-        budget = TEAM_TRI_STEPS if self._strategy == "parallel" and self._team_launches() else SERIAL_TRI_STEPS
-        return max(1, min(SERIAL_MAX_STEPS, budget // max(1, self.model.tri_count)))
-
     # ------------------------------------------------------------------------------------------
     # contact detection (parallel strategy, and at build)
     # ------------------------------------------------------------------------------------------
     def _detect(self) -> None:
+        """Contact detection now, by the active solver (:meth:`Solver.detect`)."""
         t0 = _time.perf_counter()
-        p = self._packs
-        if self._detect_serially():                          # one serial launch (small scenes)
-            args = (p["nodes"], p["tris"], p["detect"], p["contact"], p["step"], self.model.friction)
-            found = self._launch_cached("detect_serial", kernels.detect_serial, *args)
-            if found > self.state.couple_max:
-                self._grow_couples(int(found * 1.5) + 64)
-                p = self._packs
-                self._launch_cached("detect_serial", kernels.detect_serial, p["nodes"], p["tris"], p["detect"],
-                                    p["contact"], p["step"], self.model.friction)
-        else:
-            found = self._launch("detect_count", kernels.detect_count, p["nodes"], p["tris"], p["detect"],
-                                 p["contact"], p["step"])
-            if found > self.state.couple_max:
-                self._grow_couples(int(found * 1.5) + 64)
-                p = self._packs
-            self._launch("detect_fill", kernels.detect_fill, p["tris"], p["detect"], p["contact"], p["step"],
-                         self.model.friction)
-        if self._strategy == "parallel":
-            self._build_node_slots()
+        self.solver.detect()
         self._stats["wall_detect"] += _time.perf_counter() - t0
 
     # ------------------------------------------------------------------------------------------
@@ -370,10 +308,7 @@ class Simulation(SimulationResults, ModelValues):
         backend.check_generation(self._generation)
         t0 = _time.perf_counter()
         self._forget_apart()
-        if self._strategy == "serial":
-            self._step_serial(n)
-        else:
-            self._step_parallel(n)
+        self.solver.advance(n)
         self._stats["wall_steps"] += _time.perf_counter() - t0
 
     def _forget_apart(self) -> None:
@@ -391,64 +326,14 @@ class Simulation(SimulationResults, ModelValues):
         own on the host, or inside a team launch."""
         return self.model.ctri_count <= DETECT_SERIAL_TRIS
 
-    def _team_launches(self) -> bool:
-        """Whether the parallel strategy runs team launches (block assembly on the CPU, team_steps;
-        never with a fluid, whose scenes run one parallel step per launch)."""
-        return bool(self._scratch.blocks and backend.arch() == "cpu" and self._team_steps and not self.model.fluid)
-
     def _team(self) -> int:
-        """Workers of the next team launch (:class:`~taichi_fdem.sim.team.TeamScheduler`), 0 for one
-        launch per step."""
-        return self._teams.workers(self) if self._team_launches() else 0
+        """Workers of the next team launch, 0 for one launch per step."""
+        par = self._solvers["parallel"]
+        return par.teams.workers(self) if par.team_launches() else 0
 
     def _team_size(self) -> int:
-        """The most workers a team launch may have: the blocks, Taichi's threads, the cores this
-        process may use (:func:`backend.usable_cores`: affinity set, CPU quota) and
-        :attr:`team_workers`."""
-        return max(1, min(self._force_blocks, backend.cpu_threads(), backend.usable_cores(),
-                          self._team_workers or MAX_FORCE_BLOCKS))
-
-    def _step_parallel(self, n: int) -> None:
-        switches = self._switches()
-        due = self._detect_due()
-        if self._team_launches():
-            self._teams.run(self, n, due, switches)
-            return
-        for _ in range(n):
-            if due:
-                self._detect()
-            if self.model.fluid:
-                code = self._launch_cached("step_parallel_fluid", kernels.step_parallel_fluid, *self._groups["parallel"],
-                                           *switches, self._scratch.blocks)
-            else:
-                code = self._launch_cached("step_parallel", kernels.step_parallel, *self._groups["parallel"], *switches,
-                                           self._scratch.blocks)
-            self.step_count += 1
-            due = self.model.contact and bool(code & 1)
-            if code & 2:
-                guards.raise_unstable(self)
-
-    def _step_serial(self, n: int) -> None:
-        switches = self._switches()
-        per_launch = self._steps_per_launch()
-        while n > 0:
-            chunk = min(n, per_launch)
-            if self.model.fluid:
-                done = self._launch_cached("run_steps_serial_fluid", kernels.run_steps_serial_fluid, chunk,
-                                           *self._groups["serial"], *switches)
-            else:
-                done = self._launch_cached("run_steps_serial", kernels.run_steps_serial, chunk, *self._groups["serial"],
-                                           *switches)
-            unstable = done >= kernels.UNSTABLE_BIT
-            done &= kernels.UNSTABLE_BIT - 1
-            self.step_count += done
-            n -= done
-            if unstable:
-                guards.raise_unstable(self)
-            if done < chunk:
-                found = counter(self.state.step_int, FOUND)
-                if found > self.state.couple_max:          # the kernel stopped for a bigger buffer
-                    self._grow_couples(int(found * 1.5) + 64)
+        """The most workers a team launch may have (:meth:`ParallelSolver.team_size`)."""
+        return self._solvers["parallel"].team_size()
 
     def forces(self, contact_only: bool = False) -> np.ndarray:
         """Total nodal forces [N] at the current state (elastic + contact), without stepping.
@@ -530,7 +415,7 @@ class Simulation(SimulationResults, ModelValues):
                     every_cb = max(1, int(round(float(callback_dt) / self.dt)))
                 else:
                     every_cb = framed[0] if framed else max(1, int(round(duration / 100 / self.dt)))
-            per_launch = self._steps_per_launch()
+            per_launch = self.solver.steps_per_launch()
             done = 0
             guard = guards.RunGuard(self, checks.energy, checks.energy_tol, checks.max_penetration, checks.every)
             while done < total:
@@ -571,7 +456,7 @@ class Simulation(SimulationResults, ModelValues):
                 "crack_edges": sum(getattr(b, "crack_count", 0) for b in self.bodies),
                 "precision": backend.precision(), "device": backend.arch(),
                 "threads": {"taichi": backend.cpu_threads(), "usable_cores": backend.usable_cores(),
-                            "team": self._team_size() if self._team_launches() else 0},
+                            "team": self._team_size() if self._solvers["parallel"].team_launches() else 0},
                 "team": dict(self._teams.stats)}
 
     def save(self, path) -> None:

@@ -24,14 +24,14 @@ from . import guards
 
 TEAM_WAIT_MIN = 0.02             # a team's wait is bounded by this [s], or by TEAM_WAIT_STEPS of its steps
 TEAM_WAIT_STEPS = 8.0            # (mean step times of the last launch), whichever is longer
-TEAM_SPINS_PER_S = 5e7           # tries of a team's wait per second (an i32 atomic each, ~10-20 ns)
+TEAM_SPINS_PER_S = 5e7           # tries of a team's wait per second (an i32 atomic read each)
 TEAM_CPU_SHARE = 0.85            # a team launch whose workers got less CPU time than this share of their
                                  # wall time was descheduled: one worker runs on
 TEAM_IDLE_SHARE = 0.75           # one worker returns to the team when the other usable cores were idle
                                  # this share of its wall time
 TEAM_JUDGE_S = 0.05              # a verdict needs launches that span this long [s] (added up)
 TEAM_TRIAL_S = 0.1               # a team's first launches, and its first after one worker ran, last about this
-                                 # long [s] until one is judged: a shared CPU is seen within ~0.1 s
+                                 # long [s] until one is judged
 TEAM_RETRY_FIRST = 1.0           # the least time one worker runs after a team launch was descheduled [s],
 TEAM_RETRY_MAX = 16.0            # twice as long after each return that failed, up to this [s]
 
@@ -85,13 +85,13 @@ class TeamScheduler:
         core: a legitimate wait is for a unit another worker runs, a small share of a step."""
         return int(min(2**31 - 1, TEAM_SPINS_PER_S * max(TEAM_WAIT_MIN, TEAM_WAIT_STEPS * self.step_s)))
 
-    def launch(self, sim, nsteps: int, nwork: int, flags: int, switches) -> int:
+    def launch(self, sim, nsteps: int, nwork: int, flags: int, feat) -> int:
         """One team launch of ``nsteps`` steps; a launch that stopped at a stage boundary because a
         wait ran past its bound is resumed by one worker (the same bits).  Returns the kernel's
         result with the steps of every part, and judges the launch (:meth:`judge`)."""
         idle0 = idle_seconds() if nwork == 1 and self.solo else None
         t0, c0 = _time.perf_counter(), _time.process_time()
-        args = (*sim._groups["team"], *switches)
+        args = (sim._packs["team"], feat)
         ret = sim._launch_cached("run_steps_blocks", kernels.run_steps_blocks, nsteps, nwork, flags,
                                  self.spin_bound(), *args)
         timed_out = bool(ret & kernels.TIMEOUT_BIT)
@@ -161,17 +161,18 @@ class TeamScheduler:
             return 1
         return max(1, min(most, int(TEAM_TRIAL_S / max(self.step_s, 1e-9))))
 
-    def run(self, sim, n: int, due: bool, switches) -> None:
+    def run(self, sim, n: int, due: bool, feat) -> None:
         """Advance ``sim`` by ``n`` steps in team launches of at most ``sim.solver.steps_per_launch()``
-        steps (:meth:`launch_steps`); small scenes detect inside the launch (the serial task of
-        ``Simulation._detect``), large ones return to the host for the parallel broad phase."""
+        steps (:meth:`launch_steps`) with the compile-time features ``feat``; small scenes detect
+        inside the launch (the serial broad phase), large ones return to the host for the parallel
+        broad phase."""
         per_launch = sim.solver.steps_per_launch()
         flags = int(sim._detect_serially())
         while n > 0:
             if due:
                 sim._detect()
             nwork = self.workers(sim)
-            ret = self.launch(sim, self.launch_steps(nwork, min(n, per_launch)), nwork, flags, switches)
+            ret = self.launch(sim, self.launch_steps(nwork, min(n, per_launch)), nwork, flags, feat)
             sim.step_count += ret & _STEPS
             n -= ret & _STEPS
             due = bool(sim.model.contact and ret & kernels.DUE_BIT)
