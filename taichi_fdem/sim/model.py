@@ -25,53 +25,14 @@ import numpy as np
 import taichi as ti
 
 from . import fluid as fluid_net, timestep
-from .arrays import MODEL_ARRAYS, MODEL_HOST_ARRAYS, STATE_ARRAYS
-from .. import backend
+from .arrays import (MODEL, MODEL_ARRAYS, MODEL_HOST_ARRAYS, SCRATCH_ARRAYS, STATE_ARRAYS, Counters, allocate,
+                     check_host, counter, host_write, set_counter)
+from .topology import fan_links, initial_intact, neighbour_pairs, prestress_offsets
 from ..engine.groups import SWITCH_BC, SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING, SWITCH_PRESTRESS
-from ..engine.joints import FAN_HEAD, HANDOVER_DAMAGE, fan_links, initial_intact, neighbour_pairs, prestress_offsets
+from ..engine.joints import FAN_HEAD, HANDOVER_DAMAGE
 from ..engine.loads import LOAD_ABSORB, LOAD_FORCE, LOAD_PRESSURE, LOAD_TRACTION, LOAD_VELOCITY
 
-
-def _ndarray(data: np.ndarray, dtype, vec: int | None = None, mat: tuple | None = None):
-    """A Taichi ndarray holding ``data`` (shape (n,), (n, vec) or (n, *mat))."""
-    data = np.ascontiguousarray(data)
-    if vec is not None:
-        arr = ti.Vector.ndarray(vec, dtype, shape=data.shape[:-1])
-    elif mat is not None:
-        arr = ti.Matrix.ndarray(mat[0], mat[1], dtype, shape=data.shape[:-2])
-    else:
-        arr = ti.ndarray(dtype, shape=data.shape)
-    arr.from_numpy(data)
-    return arr
-
-
-def _scalar(value, dtype):
-    """A 0-d Taichi ndarray holding ``value``."""
-    arr = ti.ndarray(dtype, shape=())
-    host_write(arr, None, value)
-    return arr
-
-
-def host_write(arr, key, value) -> None:
-    """``arr[key] = value`` from the host, after the kernels already launched have finished.
-
-    Taichi's element write from Python does not wait for the device: on Vulkan it lands before a
-    kernel still in flight (a ``fill`` or a step) runs, which then overwrites or adds to it.
-    Every host write of an ndarray element goes through here (reads and ``from_numpy`` are
-    ordered with the launches already)."""
-    ti.sync()
-    arr[key] = value
-
-
-def counter(arr, k: int):
-    """Counter k of State.step_real / step_int, as a Python number."""
-    v = arr[k]
-    return int(v) if arr.dtype in (ti.i32, ti.i64) else float(v)
-
-
-def set_counter(arr, k: int, value) -> None:
-    """Set counter k of State.step_real / step_int (:func:`host_write`)."""
-    host_write(arr, k, value)
+__all__ = ["Model", "State", "Scratch", "build_model", "counter", "set_counter", "host_write"]
 
 
 def _next_pow2(n: int) -> int:
@@ -79,17 +40,20 @@ def _next_pow2(n: int) -> int:
 
 
 class _Arrays:
-    """A bag of named arrays; the Taichi ones are declared in :attr:`ARRAYS`
-    (:mod:`taichi_fdem.sim.arrays`: shape, element type, unit)."""
+    """A bag of named arrays; its Taichi arrays are the ones declared for it in
+    :data:`taichi_fdem.engine.arrays.ARRAYS` (:attr:`ARRAYS`: name -> declaration)."""
 
-    #: name -> :class:`~taichi_fdem.sim.arrays.ArraySpec` of every Taichi array (None: undeclared)
-    ARRAYS: dict | None = None
+    ARRAYS: dict = {}
 
     def ndarrays(self) -> dict:
-        """The Taichi arrays, by name: the declared ones in declared order (then any other)."""
-        arrays = {k: v for k, v in vars(self).items() if isinstance(v, ti.Ndarray)}
-        order = list(self.ARRAYS or ()) + [k for k in arrays if k not in (self.ARRAYS or ())]
-        return {k: arrays[k] for k in order if k in arrays}
+        """The Taichi arrays, by name, in declared order: exactly the declared ones (TypeError
+        when the object holds an undeclared Taichi array or lacks a declared one)."""
+        held = {k for k, v in vars(self).items() if isinstance(v, ti.Ndarray)}
+        if held != set(self.ARRAYS):
+            raise TypeError(f"{type(self).__name__}: Taichi arrays not declared {sorted(held - set(self.ARRAYS))}, "
+                            f"declared but not allocated {sorted(set(self.ARRAYS) - held)} "
+                            "(taichi_fdem/engine/arrays.py)")
+        return {k: getattr(self, k) for k in self.ARRAYS}
 
 
 class Model(_Arrays):
@@ -100,8 +64,10 @@ class Model(_Arrays):
     ``fracture``, ``has_bc``, ``has_bc_work``, ``force_dt``.  Time steps [s]: ``dt``,
     ``dt_estimate``, ``dt_limit``, ``dt_elastic``, ``dt_contact``, ``dt_joint``; ``dashpot_rate``
     [1/s] (absorbing boundaries: stable while dashpot_rate · dt < 1).  ``buffer`` [m],
-    ``speed_limit`` [m/s].  Arrays: the Taichi ones in :data:`~taichi_fdem.sim.arrays.MODEL_ARRAYS`,
-    the NumPy copies in :data:`~taichi_fdem.sim.arrays.MODEL_HOST_ARRAYS` (name, shape, unit).
+    ``speed_limit`` [m/s].  ``sizes``: the values of the size symbols of
+    :data:`taichi_fdem.engine.arrays.SIZES` the arrays were allocated at.  Arrays: the Taichi ones
+    in :data:`~taichi_fdem.sim.arrays.MODEL_ARRAYS`, the NumPy ones in
+    :data:`~taichi_fdem.sim.arrays.MODEL_HOST_ARRAYS` (docs/reference/arrays.md).
     """
     ARRAYS = MODEL_ARRAYS
     HOST_ARRAYS = MODEL_HOST_ARRAYS
@@ -110,12 +76,20 @@ class Model(_Arrays):
 class State(_Arrays):
     """What a step changes (see the module docstring): the Taichi arrays declared in
     :data:`~taichi_fdem.sim.arrays.STATE_ARRAYS`, every one saved by checkpoints, and
-    ``couple_max``, the capacity of the couple buffer."""
+    ``couple_max``, the capacity of the couple buffer.  :attr:`counters` reads and writes the
+    counters of ``step_real`` / ``step_int`` by name."""
     ARRAYS = STATE_ARRAYS
+
+    @property
+    def counters(self) -> Counters:
+        """The counters by name (:class:`taichi_fdem.sim.arrays.Counters`): ``state.counters.couples``."""
+        return Counters(self)
 
 
 class Scratch(_Arrays):
-    """Contact-detection work arrays (rewritten at each detection; never saved)."""
+    """Work arrays of detection and of the parallel assembly (never saved): the Taichi arrays
+    declared in :data:`~taichi_fdem.sim.arrays.SCRATCH_ARRAYS`."""
+    ARRAYS = SCRATCH_ARRAYS
 
 
 def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_limit=None,
@@ -138,7 +112,6 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     md = Model()
     md.joined_pairs = joined_pairs
     md.handover_damage = float(handover_damage)
-    real, rti = backend.real_np(), backend.real_ti()
     bodies = list(scene.bodies)
     md.bodies = bodies
 
@@ -170,7 +143,7 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     rho = np.array([m.density for m in materials])[tri_mat]
     mass = np.zeros(len(X))
     np.add.at(mass, tris.ravel(), np.repeat(rho * area0 / 3.0, 3))
-    md.node_mass_np = mass
+    md.node_mass_np, md.tri_area0_np = mass, area0
     edge_len = np.stack([np.linalg.norm(x1 - x0, axis=1), np.linalg.norm(x2 - x1, axis=1),
                          np.linalg.norm(x0 - x2, axis=1)], axis=1)
     altitude = 2.0 * area0 / edge_len.max(axis=1)       # smallest altitude of each triangle
@@ -279,7 +252,7 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     # ---- loads, curves, initial stress, local damping (docs/theory/loads.md §12) --------------------------
     load_nodes, load_vals, md.dashpot_rate = _load_table(scene, bodies, X, mass, md.dt, curves, free, vbc_raw, vcurve)
     md.load_count = len(load_nodes)
-    fluid_net.install_fluid(md, scene, net, curves)      # (its curves join the table before it is made)
+    fluid_values = fluid_net.install_fluid(md, scene, net, curves)   # (its curves join the table first)
     md.loads = md.load_count > 0
     md.curves = curves.list
     md.curve_slices = curves.slices
@@ -288,48 +261,15 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     md.qs_alpha = float(quasi_static)
     md.local_damping = md.qs_alpha > 0.0
 
-    # ---- Taichi arrays of the model (dummies of size 1 for unused features) --------------------
-    v2 = lambda a: _ndarray(np.asarray(a, real), rti, vec=2)
-    sc = lambda a: _ndarray(np.asarray(a, real), rti)
-    i32 = lambda a: _ndarray(np.asarray(a, np.int32), ti.i32)
-    md.node_mass = sc(mass)
-    md.node_free = v2(free if md.has_bc else np.ones((1, 2)))
-    md.tri_nodes = _ndarray(tris, ti.i32, vec=3)
-    md.tri_rest_inv = _ndarray(rest_inv.astype(real), rti, mat=(2, 2))
-    md.tri_area0_np = area0
-    md.tri_mat = i32(tri_mat)
-    md.tri_body = i32(tri_body)
-    if md.damping:
-        E = np.array([m.young for m in materials])[tri_mat]
-        h = np.sqrt(4.0 * area0 / math.sqrt(3.0))       # edge of the equilateral of equal area
-        md.tri_visc = sc(2.0 * h * beta_t * np.sqrt(E * rho))
-    else:
-        md.tri_visc = sc(np.zeros(1))
-    md.mat_mu = sc([m.shear_modulus for m in materials])
-    md.mat_lam = sc([m.lambda_y(scene.plane) for m in materials])
-    md.mat_pair = _ndarray(pair.astype(real), rti, vec=4)
-    md.body_flags = i32(body_flags)
+    # ---- the bonds of the fracturing bodies (sim.topology) -------------------------------------
     md.ctri_count = len(ctri) if md.contact else 0
-    md.contact_tri = i32(ctri if md.contact else np.zeros(1, np.int32))
-    md.joint_nodes = _ndarray(joint_nodes, ti.i32, vec=4)
+    origin, md.tri_fracturing = _origin_nodes(bodies, tris, len(X))
     # (A, B, e_A, e_B): the joint's triangles and the index of its edge in each (constant: the
     # joint nodes and the triangles' nodes never change), read by engine.joints.pair_carried
     edges = np.zeros((len(joint_tris), 2), np.int32)
     if md.fracture:
         edges[:, 0] = _edge_index(tris[joint_tris[:, 0]], joint_nodes[:, 0], joint_nodes[:, 1])
         edges[:, 1] = _edge_index(tris[joint_tris[:, 1]], joint_nodes[:, 2], joint_nodes[:, 3])
-    md.joint_tris = _ndarray(np.concatenate([joint_tris, edges], axis=1), ti.i32, vec=4)
-    # original (unsplit) nodes of each triangle, numbered apart from every other body's
-    origin = tris.copy()
-    md.tri_fracturing = np.zeros(len(tris), bool)
-    base = len(X)
-    for b in bodies:
-        if b.origin_triangles is not None:
-            origin[b.triangles] = b.origin_triangles + base
-            base += int(b.origin_triangles.max()) + 1
-        if b.fracture:
-            md.tri_fracturing[b.triangles] = b.tri_bonded if b.tri_bonded is not None else True
-    md.tri_origin = _ndarray(origin, ti.i32, vec=3)
     # the per-joint constants of the share of contact a joint carries (docs/theory/joints.md §7.10,
     # engine.joints.carried_share): k_x / L = 3 p (1/(2A_A) + 1/(2A_B)) from the rest areas, and μ
     mA, mB = tri_mat[joint_tris[:, 0]], tri_mat[joint_tris[:, 1]]
@@ -345,20 +285,7 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     if md.joint_prestress:
         offsets, md.joint_fs0 = prestress_offsets(joint_prop, joint_len, sn_tau[0], sn_tau[1])
         cols.append(offsets)
-    md.joint_prop = _ndarray(np.concatenate(cols, axis=1).astype(real), rti, vec=sum(c.shape[1] for c in cols))
-    md.step_dt = _scalar(md.dt, rti)
-    md.step_gravity = ti.Vector.ndarray(2, rti, shape=())
-    host_write(md.step_gravity, None, [float(g) for g in scene.gravity])
-    md.step_buffer = _scalar(buffer, rti)
-    md.step_vlimit = _scalar(md.speed_limit, rti)
-    md.load_nodes = _ndarray(load_nodes if md.loads else np.zeros((1, 5), np.int32), ti.i32, vec=5)
-    md.load_vals = _ndarray((load_vals if md.loads else np.zeros((1, 4))).astype(real), rti, vec=4)
-    md.curve_points = _ndarray(curves.points().astype(real), rti, vec=2)
     md.prestress_np = prestress
-    md.tri_prestress = _ndarray((prestress if md.prestress else np.zeros((1, 3))).astype(real), rti, vec=3)
-    md.step_switches = _scalar(SWITCH_DAMPING * md.damping + SWITCH_CDAMPING * md.contact_damping
-                               + SWITCH_BC * md.has_bc + SWITCH_BC_WORK * md.has_bc_work
-                               + SWITCH_PRESTRESS * md.prestress, ti.i32)
     # the initial tri_intact bits.  A pair that would have no contact couple has no contact share
     # for its joint to carry: a body without self-contact, or whose every node is prescribed
     # (engine.detection.is_excluded)
@@ -376,8 +303,63 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     fans = fan_links(tris, origin, X, joint_nodes[: md.joint_count], md.joint_tris_np, md.nb_pairs_np, eligible) \
         if md.fracture and md.nb_count else np.zeros(FAN_HEAD + 1, np.int32)
     md.fan_count = int(fans[0])
-    md.tri_fans = i32(fans)
+
+    # ---- the Taichi arrays of the model (engine.arrays; one-row placeholders for unused features)
+    values = {
+        "node_mass": mass, "node_free": free if md.has_bc else np.ones((1, 2)),
+        "load_nodes": load_nodes if md.loads else np.zeros((1, 5)),
+        "load_vals": load_vals if md.loads else np.zeros((1, 4)), "curve_points": curves.points(),
+        "tri_nodes": tris, "tri_rest_inv": rest_inv, "tri_mat": tri_mat, "tri_body": tri_body,
+        "tri_visc": _tri_viscosity(materials, tri_mat, area0, beta_t, rho) if md.damping else np.zeros(1),
+        "tri_origin": origin, "tri_prestress": prestress if md.prestress else np.zeros((1, 3)), "tri_fans": fans,
+        "mat_mu": [m.shear_modulus for m in materials], "mat_lam": [m.lambda_y(scene.plane) for m in materials],
+        "mat_pair": pair, "contact_tri": ctri if md.contact else np.zeros(1), "body_flags": body_flags,
+        "joint_nodes": joint_nodes, "joint_tris": np.concatenate([joint_tris, edges], axis=1),
+        "joint_prop": np.concatenate(cols, axis=1),
+        "step_dt": md.dt, "step_gravity": [float(g) for g in scene.gravity], "step_buffer": buffer,
+        "step_vlimit": md.speed_limit,
+        "step_switches": SWITCH_DAMPING * md.damping + SWITCH_CDAMPING * md.contact_damping + SWITCH_BC * md.has_bc
+        + SWITCH_BC_WORK * md.has_bc_work + SWITCH_PRESTRESS * md.prestress,
+        **fluid_values}
+    md.sizes = _model_sizes(md, values, len(materials), len(groups))
+    allocate(md, MODEL, md.sizes, values)
+    check_host(md, md.sizes)
     return md
+
+
+def _model_sizes(md, values: dict, materials: int, groups: int) -> dict:
+    """The size symbols of engine.arrays.SIZES that the model fixes, and its feature switches."""
+    K = md.ctri_count if md.contact else 1
+    return {"N": md.node_count, "E": md.tri_count, "M": materials, "B": len(md.bodies), "G": groups,
+            "L": max(md.load_count, 1), "P": len(values["curve_points"]), "K": K,
+            "H": _next_pow2(2 * K) if md.contact else 1, "J": len(values["joint_nodes"]), "NB": md.nb_count,
+            "V": md.fan_count, "F": len(values["tri_fans"]), "Q": max(md.fluid_edge_count, 1),
+            "W": max(md.fluid_node_count, 1), "NC": len(md.fluid_copies), "I": len(values["fluid_index"]),
+            "R": len(md.fluid_real0), "bc": md.has_bc, "damping": md.damping, "prestress": md.prestress,
+            "joint_prestress": md.joint_prestress, "contact": md.contact, "friction": md.friction,
+            "fracture": md.fracture, "fluid": md.fluid}
+
+
+def _origin_nodes(bodies, tris, node_count):
+    """(origin (E, 3): the original (unsplit) nodes of each triangle, numbered apart from every
+    other body's; fracturing (E,): whether a triangle is bonded in a fracturing body)."""
+    origin = tris.copy()
+    fracturing = np.zeros(len(tris), bool)
+    base = node_count
+    for b in bodies:
+        if b.origin_triangles is not None:
+            origin[b.triangles] = b.origin_triangles + base
+            base += int(b.origin_triangles.max()) + 1
+        if b.fracture:
+            fracturing[b.triangles] = b.tri_bonded if b.tri_bonded is not None else True
+    return origin, fracturing
+
+
+def _tri_viscosity(materials, tri_mat, area0, beta_t, rho) -> np.ndarray:
+    """The viscous damping coefficient of each triangle [Pa·s·m] (docs/theory/contact.md §2.3)."""
+    E = np.array([m.young for m in materials])[tri_mat]
+    h = np.sqrt(4.0 * area0 / math.sqrt(3.0))       # edge of the equilateral of equal area
+    return 2.0 * h * beta_t * np.sqrt(E * rho)
 
 
 def _boundary_conditions(scene, bodies, X, curves):
