@@ -244,6 +244,8 @@ ARRAYS: tuple = (
     _a("tri_area0_np", "", HOST, "f64", ["E"], "m²", "rest area of each triangle"),
     _a("tri_fracturing", "", HOST, "bool", ["E"], "-", "whether a triangle is bonded in a fracturing body"),
     _a("tri_intact0_np", "", HOST, "i32", ["E"], "-", "initial tri_intact bits"),
+    _a("tri_prestress_np", "", HOST, "f64", ["E if prestress else 0", "3"], "Pa",
+       "initial stress (xx, yy, xy) of each triangle at its centroid"),
     _a("joint_tris_np", "", HOST, "i32", ["J if fracture else 0", "2"], "-", "the two triangles of each joint"),
     _a("joint_prop_np", "", HOST, "f64", ["J if fracture else 0", "6"], "Pa, Pa, -, J/m², J/m², Pa",
        "f_t, c, tan φ, G_I, G_II, p_f of each joint"),

@@ -46,9 +46,9 @@ import numpy as np
 import taichi as ti
 
 from .. import backend
-from ..engine.arrays import STATE
+from ..engine.arrays import STATE, declared
 from ..engine.groups import DAMAGED, EDGE_FREE, INT_COUNTERS, INTACT, REBALANCE
-from ..sim.arrays import STATE_ARRAYS, allocate
+from ..sim.arrays import allocate
 from ..sim.state import install_neighbour_pairs, nb_on_size, state_sizes
 
 __all__ = ["save", "load", "CheckpointError", "FORMAT", "FORMAT_VERSION"]
@@ -329,7 +329,7 @@ def load(path):
     st = sim.state
     for name, value in state_plain.items():
         setattr(st, name, value)
-    undeclared = sorted(set(meta["ndarrays"]) - set(STATE_ARRAYS))
+    undeclared = sorted(set(meta["ndarrays"]) - set(declared(STATE)))
     if undeclared:
         raise CheckpointError(f"Simulation.load: {path!r} holds state arrays this taichi_fdem does not declare: "
                               f"{', '.join(undeclared)}")

@@ -17,8 +17,9 @@ import numpy as np
 import taichi as ti
 
 from .. import backend
-from ..engine.arrays import (ARRAYS, DET_CAND, GROUP_ORDER, HOST, INT_COUNTERS, INT_SLOTS, MODEL, REAL_COUNTERS,
-                             REAL_SLOTS, SCRATCH, SIZES, STATE, SYNC_LINE, Array, declared, element)
+from ..engine import arrays as decl
+from ..engine.arrays import (DET_CAND, GROUP_ORDER, HOST, INT_COUNTERS, INT_SLOTS, MODEL, REAL_COUNTERS, REAL_SLOTS,
+                             SCRATCH, SIZES, STATE, SYNC_LINE, Array, declared, element)
 
 __all__ = ["ArraySpec", "MODEL_ARRAYS", "MODEL_HOST_ARRAYS", "STATE_ARRAYS", "SCRATCH_ARRAYS", "allocate",
            "check_host", "shape_of", "element_shape", "markdown", "Counters",
@@ -35,7 +36,6 @@ STATE_ARRAYS = declared(STATE)
 #: Taichi arrays of the Scratch (work arrays of detection and of the parallel assembly; never saved).
 SCRATCH_ARRAYS = declared(SCRATCH)
 
-_BY_NAME = {a.name: a for a in ARRAYS}
 _CONSTANTS = {"REAL_COUNTERS": REAL_COUNTERS, "INT_COUNTERS": INT_COUNTERS, "DET_CAND": DET_CAND,
               "SYNC_LINE": SYNC_LINE}
 
@@ -96,7 +96,7 @@ def allocate(obj, role: str, sizes: dict, values: dict | None = None, names=None
     """Set on ``obj`` a new Taichi ndarray for every declared array of ``role`` (or only ``names``),
     of the declared element type and shape at ``sizes``, holding ``values[name]`` (NumPy data of
     exactly that shape, or the value of a 0-d array), or zeros when no value is given.  A model
-    array must be given its value."""
+    array must be given its value.  The declarations are read at each call (engine.arrays.ARRAYS)."""
     values = values or {}
     table = declared(role)
     unknown = set(values) - set(table)
@@ -128,7 +128,7 @@ def allocate(obj, role: str, sizes: dict, values: dict | None = None, names=None
 
 def check_host(md, sizes: dict) -> None:
     """Raise when a declared host array of ``md`` is missing or not of its declared type and shape."""
-    for name, spec in MODEL_HOST_ARRAYS.items():
+    for name, spec in declared(HOST).items():
         arr = getattr(md, name, None)
         if not isinstance(arr, np.ndarray):
             raise ValueError(f"internal error: host array {name} is declared but not built")
@@ -204,7 +204,7 @@ def markdown() -> str:
            "the build kept by the model. `real` is the precision chosen by `fdem.init` (f64 or f32); `vecK` a",
            "K-vector per entry, `matK` a K×K matrix. Shapes are expressions over the sizes below.", ""]
     for group in GROUP_ORDER + ("",):
-        rows = [a for a in ARRAYS if a.group == group]
+        rows = [a for a in decl.ARRAYS if a.group == group]
         out += [f"## {'Host arrays of the model' if not group else 'Group `' + group + '`'}", "",
                 "| array | role | element | shape | unit | meaning |", "|---|---|---|---|---|---|"]
         for a in rows:

@@ -25,8 +25,8 @@ import numpy as np
 import taichi as ti
 
 from . import fluid as fluid_net, timestep
-from .arrays import (MODEL, MODEL_ARRAYS, MODEL_HOST_ARRAYS, SCRATCH_ARRAYS, STATE_ARRAYS, Counters, allocate,
-                     check_host, counter, host_write, set_counter)
+from .arrays import Counters, allocate, check_host, counter, host_write, set_counter
+from ..engine.arrays import MODEL, SCRATCH, STATE, declared
 from .topology import fan_links, initial_intact, neighbour_pairs, prestress_offsets
 from ..engine.groups import SWITCH_BC, SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING, SWITCH_PRESTRESS
 from ..engine.joints import FAN_HEAD, HANDOVER_DAMAGE
@@ -40,20 +40,21 @@ def _next_pow2(n: int) -> int:
 
 
 class _Arrays:
-    """A bag of named arrays; its Taichi arrays are the ones declared for it in
-    :data:`taichi_fdem.engine.arrays.ARRAYS` (:attr:`ARRAYS`: name -> declaration)."""
+    """A bag of named arrays; its Taichi arrays are the ones declared with its :attr:`ROLE` in
+    :data:`taichi_fdem.engine.arrays.ARRAYS`."""
 
-    ARRAYS: dict = {}
+    ROLE = ""
 
     def ndarrays(self) -> dict:
         """The Taichi arrays, by name, in declared order: exactly the declared ones (TypeError
         when the object holds an undeclared Taichi array or lacks a declared one)."""
+        names = declared(self.ROLE)
         held = {k for k, v in vars(self).items() if isinstance(v, ti.Ndarray)}
-        if held != set(self.ARRAYS):
-            raise TypeError(f"{type(self).__name__}: Taichi arrays not declared {sorted(held - set(self.ARRAYS))}, "
-                            f"declared but not allocated {sorted(set(self.ARRAYS) - held)} "
+        if held != set(names):
+            raise TypeError(f"{type(self).__name__}: Taichi arrays not declared {sorted(held - set(names))}, "
+                            f"declared but not allocated {sorted(set(names) - held)} "
                             "(taichi_fdem/engine/arrays.py)")
-        return {k: getattr(self, k) for k in self.ARRAYS}
+        return {k: getattr(self, k) for k in names}
 
 
 class Model(_Arrays):
@@ -69,8 +70,7 @@ class Model(_Arrays):
     in :data:`~taichi_fdem.sim.arrays.MODEL_ARRAYS`, the NumPy ones in
     :data:`~taichi_fdem.sim.arrays.MODEL_HOST_ARRAYS` (docs/reference/arrays.md).
     """
-    ARRAYS = MODEL_ARRAYS
-    HOST_ARRAYS = MODEL_HOST_ARRAYS
+    ROLE = MODEL
 
 
 class State(_Arrays):
@@ -78,7 +78,7 @@ class State(_Arrays):
     :data:`~taichi_fdem.sim.arrays.STATE_ARRAYS`, every one saved by checkpoints, and
     ``couple_max``, the capacity of the couple buffer.  :attr:`counters` reads and writes the
     counters of ``step_real`` / ``step_int`` by name."""
-    ARRAYS = STATE_ARRAYS
+    ROLE = STATE
 
     @property
     def counters(self) -> Counters:
@@ -89,7 +89,7 @@ class State(_Arrays):
 class Scratch(_Arrays):
     """Work arrays of detection and of the parallel assembly (never saved): the Taichi arrays
     declared in :data:`~taichi_fdem.sim.arrays.SCRATCH_ARRAYS`."""
-    ARRAYS = SCRATCH_ARRAYS
+    ROLE = SCRATCH
 
 
 def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_limit=None,
@@ -285,7 +285,7 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     if md.joint_prestress:
         offsets, md.joint_fs0 = prestress_offsets(joint_prop, joint_len, sn_tau[0], sn_tau[1])
         cols.append(offsets)
-    md.prestress_np = prestress
+    md.tri_prestress_np = prestress if md.prestress else np.zeros((0, 3))
     # the initial tri_intact bits.  A pair that would have no contact couple has no contact share
     # for its joint to carry: a body without self-contact, or whose every node is prescribed
     # (engine.detection.is_excluded)
