@@ -70,7 +70,7 @@ SIZES = {
     "J": "joints (1 without fracture)",
     "NB": "bonded neighbour pairs",
     "V": "fans: original nodes of the fracturing bodies (0 without neighbour pairs)",
-    "F": "length of the fan table (engine.joints.fan_links)",
+    "F": "length of the fan table (sim.topology.fan_links)",
     "C": "capacity of the couple buffer (State.couple_max)",
     "Q": "fracture-network edges (1 without a fluid)",
     "W": "fracture-network nodes (1 without a fluid)",
@@ -151,7 +151,7 @@ ARRAYS: tuple = (
        "initial 2nd Piola–Kirchhoff stress S⁰ = (xx, yy, xy) (docs/theory/loads.md §12.4)"),
     _a("tri_fans", "tris", MODEL, "i32", ["F"], "-",
        "the fans of the original nodes: header, fan starts, missing-link masks, corner pairs, joint links "
-       "(engine.joints.fan_links)"),
+       "(sim.topology.fan_links)"),
     _a("tri_nb_on", "tris", STATE, "i32", ["max(NB + V, 1)"], "-",
        "per neighbour pair: 0 bonded, else 1 | NB_HELD while it holds friction slip; then per fan: the mask of its "
        "missing and damaged links"),
