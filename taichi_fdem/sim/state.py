@@ -4,7 +4,9 @@
 :class:`~taichi_fdem.sim.model.Model` (positions, velocities, the joints' and triangles' evolving
 arrays, the couple buffer with the neighbour pairs first); :func:`allocate_scratch` the work
 arrays of detection and of the parallel assembly; :func:`pack_groups` the argpacks of
-:mod:`taichi_fdem.engine.groups` drawn from all three.
+:mod:`taichi_fdem.engine.groups` drawn from all three.  Element types and shapes are the
+declared ones (:mod:`taichi_fdem.engine.arrays`), evaluated at :func:`state_sizes` and
+:func:`scratch_sizes`.
 """
 from __future__ import annotations
 

@@ -1,6 +1,7 @@
 """The bonds of the fracturing bodies, computed once by the build (NumPy in, NumPy out).
 
-:func:`initial_intact` gives the initial ``tri_intact`` bits, :func:`neighbour_pairs` the bonded
+:func:`bonds` computes them all for the build; :func:`initial_intact` gives the initial
+``tri_intact`` bits, :func:`neighbour_pairs` the bonded
 neighbour pairs that open the couple list, :func:`fan_links` the fans of the original nodes for
 the corner-pair rule, and :func:`prestress_offsets` the initial offsets of the joints of a
 prestressed body (docs/theory/joints.md §7.10–7.11).  The kernels that read these tables are in
@@ -13,7 +14,8 @@ import numpy as np
 from ..engine.groups import EDGE_FREE, INTACT
 from ..engine.joints import FAN_BITS, FAN_ENTRY, FAN_HEAD, FAN_JOINT
 
-__all__ = ["initial_intact", "neighbour_pairs", "fan_links", "prestress_offsets"]
+__all__ = ["bonds", "origin_nodes", "edge_index", "initial_intact", "neighbour_pairs", "fan_links",
+           "prestress_offsets"]
 
 
 def initial_intact(tri_nodes, joint_nodes, joint_tris, carries, fracturing) -> np.ndarray:
@@ -199,3 +201,77 @@ def fan_links(tri_nodes, tri_origin, node_x, joint_nodes, joint_tris, pairs, eli
     starts = E0 + FAN_ENTRY * np.concatenate([[0], np.cumsum(np.bincount(v, minlength=V))])
     out = np.concatenate([[V, J], starts, missing, ent.ravel(), link.ravel()])
     return out.astype(np.int32)
+
+
+def bonds(md, X, tris, tri_mat, area0, pair, body_flags, tri_body, ctri, joints, sn_tau):
+    """(original nodes (E, 3), the joints' triangles and edges (J, 4), the joint_prop columns,
+    the fan table) of the fracturing bodies of the model ``md`` under construction
+    (:func:`taichi_fdem.sim.model.build_model`), from the rest positions, triangles, rest areas,
+    pair table (M, M, 4), body flags, contact triangles, the joints (nodes, triangles,
+    properties, rest lengths) and ``sn_tau``, the initial normal and shear tractions (σ⁰, τ⁰) of
+    the joints, each (J, 3) [Pa], or None.  Sets the model's bond host arrays (initial
+    tri_intact, neighbour pairs, initial shear strengths), ``joint_prestress``, ``nb_count`` and
+    ``fan_count``."""
+    joint_nodes, joint_tris, joint_prop, joint_len = joints
+    origin, md.tri_fracturing = origin_nodes(md.bodies, tris, len(X))
+    # (A, B, e_A, e_B): the joint's triangles and the index of its edge in each (constant: the
+    # joint nodes and the triangles' nodes never change), read by engine.joints.pair_carried
+    edges = np.zeros((len(joint_tris), 2), np.int32)
+    if md.fracture:
+        edges[:, 0] = edge_index(tris[joint_tris[:, 0]], joint_nodes[:, 0], joint_nodes[:, 1])
+        edges[:, 1] = edge_index(tris[joint_tris[:, 1]], joint_nodes[:, 2], joint_nodes[:, 3])
+    # the per-joint constants of the share of contact a joint carries (docs/theory/joints.md §7.10,
+    # engine.joints.carried_share): k_x / L = 3 p (1/(2A_A) + 1/(2A_B)) from the rest areas, and μ
+    mA, mB = tri_mat[joint_tris[:, 0]], tri_mat[joint_tris[:, 1]]
+    kx_per_len = 3.0 * pair[mA, mB, 0] * (0.5 / area0[joint_tris[:, 0]] + 0.5 / area0[joint_tris[:, 1]])
+    carried = np.stack([kx_per_len, pair[mA, mB, 2]], axis=1) if md.fracture else np.zeros((len(joint_prop), 2))
+    cols = [joint_prop, carried]
+    md.joint_fs0 = np.repeat(joint_prop[:, 1:2], 3, axis=1)       # initial shear strength c [Pa]
+    # prestressed joints start at the point of their law that carries σ⁰·n̂ (docs/theory/joints.md §7.11):
+    # 6 more columns, the offsets, and only then (engine.joints.eval_joint compiles them by width)
+    md.joint_prestress = sn_tau is not None and bool(np.any(sn_tau != 0.0))
+    if md.joint_prestress:
+        offsets, md.joint_fs0 = prestress_offsets(joint_prop, joint_len, sn_tau[0], sn_tau[1])
+        cols.append(offsets)
+    # the initial tri_intact bits.  A pair that would have no contact couple has no contact share
+    # for its joint to carry: a body without self-contact, or whose every node is prescribed
+    # (engine.detection.is_excluded)
+    tflags = body_flags[tri_body]
+    couples = ((tflags & 1) != 0) & ((tflags & 2) == 0) & md.contact
+    md.tri_intact0_np = initial_intact(tris, joint_nodes[: md.joint_count], md.joint_tris_np,
+                                       md.tri_fracturing & couples & (md.joined_pairs == "joint"), md.tri_fracturing)
+    # the neighbour pairs: bonded triangles of such bodies that share an original node
+    in_ctri = np.zeros(len(tris), bool)
+    in_ctri[ctri] = md.contact
+    eligible = md.tri_fracturing & couples & in_ctri
+    md.nb_pairs_np = neighbour_pairs(origin, eligible)
+    md.nb_count = len(md.nb_pairs_np)
+    # the fans of the original nodes: which corner pairs are still tied by intact joints
+    fans = fan_links(tris, origin, X, joint_nodes[: md.joint_count], md.joint_tris_np, md.nb_pairs_np, eligible) \
+        if md.fracture and md.nb_count else np.zeros(FAN_HEAD + 1, np.int32)
+    md.fan_count = int(fans[0])
+    return origin, np.concatenate([joint_tris, edges], axis=1), cols, fans
+
+
+def origin_nodes(bodies, tris, node_count):
+    """(origin (E, 3): the original (unsplit) nodes of each triangle, numbered apart from every
+    other body's; fracturing (E,): whether a triangle is bonded in a fracturing body)."""
+    origin = tris.copy()
+    fracturing = np.zeros(len(tris), bool)
+    base = node_count
+    for b in bodies:
+        if b.origin_triangles is not None:
+            origin[b.triangles] = b.origin_triangles + base
+            base += int(b.origin_triangles.max()) + 1
+        if b.fracture:
+            fracturing[b.triangles] = b.tri_bonded if b.tri_bonded is not None else True
+    return origin, fracturing
+
+
+def edge_index(tri_nodes, p, q) -> np.ndarray:
+    """For each row, the index e of the edge of the triangle tri_nodes (k, 3) whose ends are nodes p
+    and q (edge e runs from vertex e to vertex e + 1): the edge opposite the vertex that is neither."""
+    other = (tri_nodes != p[:, None]) & (tri_nodes != q[:, None])
+    if not np.all(other.sum(axis=1) == 1):
+        raise ValueError("internal error: a joint's nodes are not an edge of its triangle")
+    return ((np.argmax(other, axis=1) + 1) % 3).astype(np.int32)
