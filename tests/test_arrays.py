@@ -111,6 +111,17 @@ def test_the_couple_buffer_and_the_assembly_are_reallocated_as_declared():
     _check_sim(sim)
 
 
+def test_an_excavation_reallocates_as_declared():
+    sim = _plain()                                        # no prescribed velocity: one-row node_free
+    assert sim.model.node_free.shape == (1,)
+    sim.step(2)
+    assert sim.remove(where=lambda x, y: x ** 2 + y ** 2 < 0.02 ** 2) > 0
+    assert sim.model.sizes["bc"] and sim.model.node_free.shape == (sim.model.node_count,)
+    _check_sim(sim)
+    sim.step(2)
+    _check_sim(sim)
+
+
 def test_groups_are_the_declarations_of_each_group():
     for group, (_, names) in groups.GROUPS.items():
         assert names == tuple(a.name for a in decl.ARRAYS if a.group == group)

@@ -69,7 +69,7 @@ SIZES = {
     "H": "hashed cells of detection: the power of two ≥ 2 K, at least 16 (1 without contact)",
     "J": "joints (1 without fracture)",
     "NB": "bonded neighbour pairs",
-    "V": "fans: original nodes of the fracturing bodies (0 without neighbour pairs)",
+    "V": "fans: one per original node number (0 without neighbour pairs)",
     "F": "length of the fan table (sim.topology.fan_links)",
     "C": "capacity of the couple buffer (State.couple_max)",
     "Q": "fracture-network edges (1 without a fluid)",
