@@ -235,6 +235,7 @@ ARRAYS: tuple = (
     # ---- host arrays of the model (NumPy) ---------------------------------------------------
     _a("node_rest", "", HOST, "f64", ["N", "2"], "m", "rest (initial) node positions X"),
     _a("node_mass_np", "", HOST, "f64", ["N"], "kg/m", "node_mass on the host"),
+    _a("node_mass_full", "", HOST, "f64", ["N"], "kg/m", "lumped nodal mass of the whole mesh, before any excavation"),
     _a("node_velocity0", "", HOST, "f64", ["N", "2"], "m/s", "initial node velocities"),
     _a("node_vbc0", "", HOST, "f64", ["N", "2"], "m/s", "prescribed velocities at t = 0"),
     _a("bc_group_masks", "", HOST, "bool", ["G", "N"], "-", "nodes of each prescribed group"),

@@ -57,10 +57,7 @@ def apply_removal(sim) -> None:
     np.add.at(mass, tris[active].ravel(), np.repeat(rho[active] * md.tri_area0_np[active] / 3.0, 3))
     orphans = mass <= 0.0
     sim._orphans = orphans
-    full = getattr(md, "node_mass_full", None)
-    if full is None:
-        full = md.node_mass_full = md.node_mass_np.copy()
-    mass[orphans] = full[orphans]             # held still: any positive mass will do
+    mass[orphans] = md.node_mass_full[orphans]     # held still: any positive mass will do
     md.node_mass_np = mass
     md.node_mass.from_numpy(mass.astype(backend.real_np()))
     real = backend.real_np()

@@ -249,7 +249,7 @@ def _rest_shapes(md, X, tris, materials, tri_mat):
     rho = np.array([m.density for m in materials])[tri_mat]
     mass = np.zeros(len(X))
     np.add.at(mass, tris.ravel(), np.repeat(rho * area0 / 3.0, 3))
-    md.node_mass_np, md.tri_area0_np = mass, area0
+    md.node_mass_np, md.node_mass_full, md.tri_area0_np = mass, mass.copy(), area0
     edge_len = np.stack([np.linalg.norm(x1 - x0, axis=1), np.linalg.norm(x2 - x1, axis=1),
                          np.linalg.norm(x0 - x2, axis=1)], axis=1)
     altitude = 2.0 * area0 / edge_len.max(axis=1)       # smallest altitude of each triangle
