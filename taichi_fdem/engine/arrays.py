@@ -191,8 +191,9 @@ ARRAYS: tuple = (
     _a("joint_tris", "joints", MODEL, "i32 vec4", ["J"], "-",
        "the joint's triangles A, B and the index of its edge in each"),
     _a("joint_prop", "joints", MODEL, "real vec(14 if joint_prestress else 8)", ["J"], "Pa, J/m², Pa/m, -, m",
-       "f_t, c, tan φ, G_I, G_II, p_f (docs/theory/discontinuities.md §13.2–13.3), then k_x / L and μ of the contact share "
-       "it carries (§7.10); prestressed joints: the initial offsets (o⁰, s⁰) of the three points (§7.11)"),
+       "f_t, c, tan φ, G_I, G_II, p_f (docs/theory/discontinuities.md §13.2–13.3), then k_x / L and μ of the "
+       "contact share it carries (docs/theory/joints.md §7.10); prestressed joints: the initial offsets (o⁰, s⁰) of "
+       "the three points (§7.11)"),
     _a("joint_state", "joints", STATE, "i32", ["J"], "-", "0 intact, else the failure mode at breakage"),
     _a("joint_dmax", "joints", STATE, "real vec3", ["J"], "m", "largest opening and slip reached at each point"),
     _a("joint_zmax", "joints", STATE, "real vec3", ["J"], "-", "softening factor z at the largest opening"),
