@@ -15,7 +15,10 @@ meaning.  Everything that lists arrays is generated from it:
 Adding an array is one entry here and its values where the physics computes them (the value
 handed to the allocator in :func:`taichi_fdem.sim.model.build_model` for a model array; a state
 or scratch array starts at zero unless :func:`taichi_fdem.sim.state.allocate_state` gives it a
-value).
+value).  Every array of a group costs one argument leaf in each launch that takes the group:
+Taichi 1.7 allows 64 (:data:`taichi_fdem.engine.groups.LEAVES_SERIAL` and the other counts there,
+checked at import), so a group that is at the limit takes new data as columns of an existing
+vector array.
 
 Roles: ``model`` (computed once by the build, constant through a run), ``state`` (changed by
 the steps; saved by checkpoints), ``scratch`` (work arrays, never saved), ``host`` (NumPy
