@@ -27,6 +27,7 @@ extensions = [
     "gallery_page",
     "spec_labels",
     "perf_table",
+    "array_table",
 ]
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"

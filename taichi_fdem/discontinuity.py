@@ -176,7 +176,7 @@ def split_body(body, joint_sets: list, where: str) -> None:
     for k, js in enumerate(joint_sets, start=1):
         _apply_strength(prop, joints & (set_of_edge == k), js.strength, (body.index, k))
     # a crack is damage from the start: triangles at a crack node are never "bonded" (contact
-    # with their corner neighbours is evaluated from the first step, engine.joints.fan_links)
+    # with their corner neighbours is evaluated from the first step, sim.topology.fan_links)
     crack_nodes = np.zeros(src.point_count, bool)
     crack_nodes[u[crack]] = True
     crack_nodes[v[crack]] = True

@@ -109,7 +109,7 @@ def test_every_array_is_declared_and_every_declared_array_allocated(which):
                                        f"not allocated {sorted(set(declared) - held)}")
         assert list(obj.ndarrays()) == list(declared)
         for name, spec in declared.items():
-            axes = 0 if spec.shape == "()" else spec.shape.count(",") + (not spec.shape.endswith(",)"))
+            axes = len(spec.shape)
             assert len(getattr(obj, name).shape) == axes, (name, spec.shape, getattr(obj, name).shape)
             assert spec.unit and spec.doc
     host = {k for k, v in vars(sim.model).items() if isinstance(v, np.ndarray)}

@@ -394,7 +394,7 @@ def edge_pair_bonded(A, B, tris: ti.template()):
     (tests/test_joined_pairs.py), and at the first damage the joint hands the energy that stiffness
     holds over to contact, which takes the pair from the next step on.  False for corner
     neighbours (one original node in common), whose rule is the fans'
-    (:func:`taichi_fdem.engine.joints.fan_links`): bonded while a chain of undamaged joints
+    (:func:`taichi_fdem.sim.topology.fan_links`): bonded while a chain of undamaged joints
     around the shared node still ties them, so the overlap two corners can build meanwhile is
     bounded by the joints' elastic compression o ~ σL/p_f and the contact energy that appears at
     the handover is of order p·o³/h per pair (a corner overlap has area ~o² and depth ~o)."""
@@ -513,7 +513,7 @@ def couple_forces(c, dacc, nodes: ti.template(), tris: ti.template(), mats: ti.t
     """Contact forces of couple c (both passes, §2.3.2 COUPLE): (gA, gB, hit, work); gA, gB are
     3×2 matrices whose row r is the force [N/m] on node r of triangle A, B.  ``hit`` is False,
     and the forces zero, for a neighbour pair still bonded by intact joints
-    (:func:`edge_pair_bonded`, :func:`taichi_fdem.engine.joints.fan_links`; kept up to date in
+    (:func:`edge_pair_bonded`, :func:`taichi_fdem.sim.topology.fan_links`; kept up to date in
     ``tris.tri_nb_on``; fracture only), for pairs whose boxes do not overlap (the common cheap
     case), for pairs that lie apart (:func:`separation_certificate`), and for couples certified
     apart (below).  ``work``: the work dissipated over the step by friction and contact damping

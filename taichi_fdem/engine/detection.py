@@ -97,7 +97,7 @@ def is_excluded(ta, tb, tris: ti.template(), detect: ti.template()):
     triangle removed by an excavation (tri_intact < 0) has no couples.
     Neighbour pairs (bonded triangles of a fracturing body that share an original node) are not
     detected: they are the first couples of the list for the whole run
-    (:func:`taichi_fdem.engine.joints.neighbour_pairs`), evaluated once no longer bonded.
+    (:func:`taichi_fdem.sim.topology.neighbour_pairs`), evaluated once no longer bonded.
     """
     ba = tris.tri_body[ta]
     bb = tris.tri_body[tb]
@@ -112,7 +112,7 @@ def is_excluded(ta, tb, tris: ti.template(), detect: ti.template()):
         excluded = True
     elif tris.tri_intact[ta] >= INTACT and tris.tri_intact[tb] >= INTACT:
         # a neighbour pair (two bonded triangles that share an original node): one of the
-        # first couples for the whole run (engine.joints.neighbour_pairs)
+        # first couples for the whole run (sim.topology.neighbour_pairs)
         excluded = share_a_node(tris.tri_origin[ta], tris.tri_origin[tb])
     return excluded
 

@@ -9,9 +9,8 @@ Mohr–Coulomb with a one-step lag stored per point (§7.7), damage is irreversi
 D is stored per point and unloading is linear towards the origin, the Y-Geo option of §7.8),
 and the joint breaks for good when two of its three points have failed (§7.8).  A joint of a
 prestressed body starts at the opening and slip of its law that carry the initial traction
-σ⁰·n̂ (§7.11, :func:`prestress_offsets`).
+σ⁰·n̂ (§7.11, :func:`taichi_fdem.sim.topology.prestress_offsets`).
 """
-import numpy as np
 import taichi as ti
 
 from . import fmath
@@ -47,94 +46,9 @@ def parabola(r):
     return 2.0 * r - r * r
 
 
-def initial_intact(tri_nodes, joint_nodes, joint_tris, carries, fracturing) -> np.ndarray:
-    """tri_intact at the start (:data:`INTACT`; numpy arrays in, one i32 per triangle out).
-
-    A bonded triangle of a fracturing body (``fracturing``) is INTACT, with EDGE_FREE << e for
-    each edge e that has no joint, or whose pair has no contact couple (``carries`` False: a body
-    without self-contact, or with every node prescribed), so that its joint has no contact share
-    to carry.  While two triangles are intact, the joint between them carries the pair and
-    contact is not evaluated for it (:func:`pair_carried`).  0 for every other triangle.
-    """
-    has_joint = np.zeros((len(tri_nodes), 3), bool)
-    for side, (p, q) in enumerate(((0, 1), (2, 3))):
-        t = joint_tris[:, side]
-        v = tri_nodes[t]
-        lone = ~((v == joint_nodes[:, p:p + 1]) | (v == joint_nodes[:, q:q + 1]))     # the vertex off the joint
-        has_joint[t, (np.argmax(lone, axis=1) + 1) % 3] = True
-    has_joint &= np.asarray(carries, bool)[:, None]
-    bits = ((EDGE_FREE << np.arange(3))[None, :] * ~has_joint).sum(axis=1)
-    return np.where(fracturing, INTACT + bits, 0).astype(np.int32)
-
-
-#: columns of joint_prop that hold the initial offsets of a prestressed joint (:func:`prestress_offsets`)
+#: columns of joint_prop that hold the initial offsets of a prestressed joint
+#: (:func:`taichi_fdem.sim.topology.prestress_offsets`)
 PRESTRESS_COL = 8
-
-
-def prestress_offsets(joint_prop, length, sigma0, tau0):
-    """The initial offsets of prestressed joints (numpy in and out; docs/theory/joints.md §7.11).
-
-    A joint that starts carrying the normal and shear tractions ``sigma0``, ``tau0`` [Pa] ((J, 3):
-    at its end j0/j3, its mid-point and its end j1/j2; tension positive, τ along ê) starts at the
-    point of its own law where the law gives them: the opening o⁰ and slip s⁰ [m] at which the
-    undamaged law of §7.6–7.7 (the compression penalty, the pre-peak parabolas) returns
-    (σ⁰, τ⁰), with the shear strength the Mohr–Coulomb value at σ⁰.  ``joint_prop`` (J, 6): f_t,
-    c, tan φ, G_I, G_II, p_f; ``length`` (J,): rest length [m].  Returns (J, 6) offsets
-    (o⁰, s⁰) per point, point by point, and (J, 3) the initial shear strength [Pa].  Raises
-    ValueError when a point's traction reaches the joint's strength (σ⁰ ≥ f_t or ``|τ⁰|`` ≥ the
-    shear strength): such a joint would be damaged by the initial state alone.
-    """
-    prop = np.asarray(joint_prop, np.float64)
-    ft, c, tanphi, pf = prop[:, 0:1], prop[:, 1:2], prop[:, 2:3], prop[:, 5:6]
-    L = np.asarray(length, np.float64)[:, None]
-    sn, tau = np.asarray(sigma0, np.float64), np.asarray(tau0, np.float64)
-    fs = np.where(sn > 0.0, c, c - sn * tanphi)
-    bad = (sn >= ft) | (np.abs(tau) >= fs)
-    if bad.any():
-        j, p = np.argwhere(bad)[0]
-        raise ValueError(f"Scene.initial_stress: the initial traction of joint {j} (point {p}: σ = {sn[j, p]:.4g} Pa, "
-                         f"τ = {tau[j, p]:.4g} Pa) reaches its strength (f_t = {ft[j, 0]:.4g} Pa, shear "
-                         f"strength {fs[j, p]:.4g} Pa): it would break under the initial state alone "
-                         f"({int(bad.any(axis=1).sum())} joints do)")
-    dp = 2.0 * L * ft / pf                    # opening and slip at peak (§7.4)
-    sp = 2.0 * L * fs / pf
-    # compression: σ = 2 f_t o / δ_p; tension: σ = f_t (2r − r²), r = o / δ_p, so
-    # r = 1 − √(1 − x) = x / (1 + √(1 − x)), x = σ / f_t (the second form without cancellation)
-    xn = np.maximum(sn, 0.0) / ft
-    xs = np.abs(tau) / fs
-    o = np.where(sn < 0.0, 0.5 * sn / ft * dp, dp * xn / (1.0 + np.sqrt(1.0 - xn)))
-    s = np.sign(tau) * sp * xs / (1.0 + np.sqrt(1.0 - xs))
-    return np.stack([o, s], axis=2).reshape(len(prop), 6), fs
-
-
-def neighbour_pairs(tri_origin, eligible) -> np.ndarray:
-    """The neighbour pairs of a model (numpy in and out): the pairs (A < B) of ``eligible``
-    triangles (bonded triangles of a fracturing, self-contacting body) that share an original
-    node: edge neighbours (two shared nodes) and corner neighbours (one), as an (M, 2) array
-    sorted by (A, B).  They are the first M entries of the couple list for the whole run, never
-    detected, and contact is evaluated for one only once it is no longer bonded
-    (``tris.tri_nb_on``, :func:`switch_on_neighbours`), so that the many bonded pairs of an
-    unbroken mesh cost nothing per step."""
-    tri_origin = np.asarray(tri_origin)
-    T = len(tri_origin)
-    t = np.nonzero(np.asarray(eligible, bool))[0]
-    pairs = np.zeros((0, 2), np.int64)
-    if len(t) > 1:
-        node = tri_origin[t].ravel()
-        tri = np.repeat(t, 3)
-        order = np.lexsort((tri, node))
-        node, tri = node[order], tri[order]
-        found = []
-        for d in range(1, len(node)):          # d-th next incidence of the same original node
-            same = node[:-d] == node[d:]
-            if not same.any():
-                break
-            found.append(np.stack([tri[:-d][same], tri[d:][same]], axis=1))
-        if found:
-            cand = np.sort(np.concatenate(found), axis=1).astype(np.int64)
-            key = np.unique(cand[:, 0] * T + cand[:, 1])
-            pairs = np.stack([key // T, key % T], axis=1)
-    return pairs.astype(np.int32)
 
 
 #: links (joints) of one fan tracked one bit each in an i32 mask (the sign bit unused)
@@ -142,104 +56,6 @@ FAN_BITS = 31
 FAN_HEAD = 2           # tri_fans[0] = fans V, tri_fans[1] = joints J
 FAN_ENTRY = 5          # (pair, arc 1, arc 2, A, B) per corner pair of a fan
 FAN_JOINT = 3          # (fan code of end 0, of end 1, edge pair) per joint
-
-
-def fan_links(tri_nodes, tri_origin, node_x, joint_nodes, joint_tris, pairs, eligible) -> np.ndarray:
-    """The fans of the original nodes, for the corner-pair rule (numpy in, one i32 array out).
-
-    The **fan** of an original node v is the cycle of the eligible triangles around v, in the
-    order of the angle of their centroid about v (rest positions ``node_x``), and its **links**:
-    link i joins the triangles of ranks i and i + 1 (mod n).  A link is a joint between the two
-    (bit i of the fan's mask once the joint is damaged), an edge they still share (a body only
-    partly jointed: never cut), or missing (no common edge through v, a pre-existing crack, the
-    open side of a boundary node): missing links are set in the mask from the start.  A corner
-    pair (A, B) at v, of ranks r_A < r_B, is bonded while one of its two arcs, the links
-    r_A … r_B − 1 and the others, has no bit set: A and B are then still tied at v through a
-    chain of intact joints.  A fan of more than FAN_BITS triangles sets every bit (its corner
-    pairs are never bonded).
-
-    Layout (offsets into the one array): [0] = V fans (original nodes), [1] = J joints;
-    [FAN_HEAD, FAN_HEAD + V]: start of fan v's entries (V + 1 values); the next V values: fan
-    v's mask of missing links; then FAN_ENTRY values per corner pair, grouped by fan (pair
-    index p, arc 1, arc 2, A, B); from the end of the entries, FAN_JOINT values per joint
-    (v·32 + bit of its first and second end, −1 if not a link of an eligible fan, and the index
-    of its edge pair, −1 if none).
-    """
-    tri_nodes = np.asarray(tri_nodes)
-    tri_origin = np.asarray(tri_origin)
-    pairs = np.asarray(pairs, np.int64).reshape(-1, 2)
-    eligible = np.asarray(eligible, bool)
-    T = len(tri_origin)
-    J = len(joint_nodes)
-    V = int(tri_origin.max()) + 1 if T else 0
-    # incidences (v, t) of the eligible triangles, sorted by node and angle: rank in the fan
-    t = np.nonzero(eligible)[0]
-    inc_v = tri_origin[t].ravel().astype(np.int64)
-    inc_t = np.repeat(t, 3)
-    corner = node_x[tri_nodes[t]]                                     # (n, 3, 2)
-    rel = np.repeat(corner.mean(axis=1), 3, axis=0) - corner.reshape(-1, 2)
-    order = np.lexsort((np.arctan2(rel[:, 1], rel[:, 0]), inc_v))
-    inc_v, inc_t = inc_v[order], inc_t[order]
-    n_fan = np.bincount(inc_v, minlength=V)
-    first = np.concatenate([[0], np.cumsum(n_fan)])                  # where each fan's ranks start
-    rank = np.arange(len(inc_v)) - first[inc_v]
-    key = inc_v * max(T, 1) + inc_t
-    ko = np.argsort(key, kind="stable")
-    key_sorted, rank_sorted = key[ko], rank[ko]
-
-    def rank_of(v, tt):
-        """Rank of triangle tt in the fan of v (−1: not in it)."""
-        k = np.asarray(v, np.int64) * max(T, 1) + tt
-        if not len(key_sorted):
-            return -np.ones(len(k), np.int64)
-        i = np.minimum(np.searchsorted(key_sorted, k), len(key_sorted) - 1)
-        return np.where(key_sorted[i] == k, rank_sorted[i], -1)
-
-    small = n_fan <= FAN_BITS
-    full = (np.int64(1) << np.minimum(n_fan, FAN_BITS)) - 1
-    linked = np.zeros(V, np.int64)                    # links that are joints or shared edges
-    # shared edges (both ends the same nodes, not cut): consecutive triangles sharing 2 nodes
-    nxt = np.where(rank == n_fan[inc_v] - 1, first[inc_v], np.arange(len(inc_v)) + 1)   # next rank, wrapping
-    if len(inc_v):
-        a_nodes, b_nodes = tri_nodes[inc_t], tri_nodes[inc_t[nxt]]
-        same = (a_nodes[:, :, None] == b_nodes[:, None, :]).any(axis=2).sum(axis=1) >= 2
-        same &= (inc_t != inc_t[nxt]) & small[inc_v]
-        np.bitwise_or.at(linked, inc_v[same], np.int64(1) << rank[same])
-    link = -np.ones((J, 3), np.int64)
-    if J:
-        A = np.asarray(joint_tris)[:, 0]
-        B = np.asarray(joint_tris)[:, 1]
-        ok = eligible[A] & eligible[B]
-        for end in range(2):
-            r = np.argmax(tri_nodes[A] == np.asarray(joint_nodes)[:, end:end + 1], axis=1)
-            v = tri_origin[A, r].astype(np.int64)
-            ra, rb = rank_of(v, A), rank_of(v, B)
-            n = np.maximum(n_fan[v], 1)
-            bit = np.where((rb - ra) % n == 1, ra, np.where((ra - rb) % n == 1, rb, -1))
-            good = ok & (ra >= 0) & (rb >= 0) & (bit >= 0) & small[v]
-            link[:, end] = np.where(good, v * 32 + bit, -1)
-            np.bitwise_or.at(linked, v[good], np.int64(1) << bit[good])
-        if len(pairs):
-            lo, hi = np.minimum(A, B).astype(np.int64), np.maximum(A, B).astype(np.int64)
-            pk = pairs[:, 0] * max(T, 1) + pairs[:, 1]
-            i = np.minimum(np.searchsorted(pk, lo * max(T, 1) + hi), len(pk) - 1)
-            link[:, 2] = np.where(ok & (pk[i] == lo * max(T, 1) + hi), i, -1)
-    missing = np.where(small, full & ~linked, (np.int64(1) << FAN_BITS) - 1)
-    # corner pairs: exactly one original node in common
-    oa, ob = tri_origin[pairs[:, 0]], tri_origin[pairs[:, 1]]
-    eq = oa[:, :, None] == ob[:, None, :]
-    pc = np.nonzero(eq.sum(axis=(1, 2)) == 1)[0]
-    v = oa[pc, np.argmax(eq[pc].any(axis=2), axis=1)].astype(np.int64)
-    ra, rb = rank_of(v, pairs[pc, 0]), rank_of(v, pairs[pc, 1])
-    lo, hi = np.minimum(ra, rb), np.maximum(ra, rb)
-    arc1 = np.where(small[v], (np.int64(1) << hi) - (np.int64(1) << lo), full[v])
-    arc2 = np.where(small[v], full[v] ^ arc1, full[v])
-    o = np.argsort(v, kind="stable")
-    ent = np.stack([pc[o], arc1[o], arc2[o], pairs[pc[o], 0], pairs[pc[o], 1]], axis=1)
-    E0 = FAN_HEAD + 2 * V + 1
-    starts = E0 + FAN_ENTRY * np.concatenate([[0], np.cumsum(np.bincount(v, minlength=V))])
-    out = np.concatenate([[V, J], starts, missing, ent.ravel(), link.ravel()])
-    return out.astype(np.int32)
 
 
 @ti.func
@@ -263,7 +79,7 @@ def fan_code_bit(code):
 @ti.func
 def corner_bonded(m, arc1, arc2):
     """Is a corner pair with arcs arc1, arc2 of a fan whose mask is m still tied at its shared
-    node by a chain of intact joints (:func:`fan_links`)?"""
+    node by a chain of intact joints (:func:`taichi_fdem.sim.topology.fan_links`)?"""
     return (m & arc1) == 0 or (m & arc2) == 0
 
 
@@ -284,8 +100,8 @@ def switch_on_corners(v, m, tris: ti.template()):
 def switch_on_neighbours(j, a, b, edge_pair, tris: ti.template(), step: ti.template()):
     """Joint j, between triangles a and b, is damaged or broken: contact is evaluated from the
     next step on for the corner pairs that this cuts apart at the joint's two ends
-    (:func:`fan_links`), and, with ``edge_pair`` (the joint has handed over, :func:`handed_over`),
-    for the pair (a, b) itself, unless a triangle was removed.  The first time, the
+    (:func:`taichi_fdem.sim.topology.fan_links`), and, with ``edge_pair`` (the joint has handed
+    over, :func:`handed_over`), for the pair (a, b) itself, unless a triangle was removed.  The first time, the
     joint's bit goes into each end's fan mask with an atomic or, and the pairs are switched on
     from the mask that or returns, with the joint's bit; afterwards a read of the bit finds
     nothing to do.  Flags only ever go from 0 to 1 and the last joint of a step

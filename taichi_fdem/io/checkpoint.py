@@ -9,11 +9,12 @@ A restarted run continues exactly as the uninterrupted run would (bit for bit wi
 strategy).  The model (topology, rest shapes, masses, tables: what ``build()`` computes) is not
 stored but rebuilt from the scene; the file holds
 
-* the state — every Taichi ndarray of ``sim.state`` (:class:`taichi_fdem.sim.model.State`), by
-  name, with its kind (scalar / vector / matrix), element dtype and shape: nodes, couples and
-  their friction history, joint state, dissipation, counters, and any array a future feature
-  adds to the state (found generically, nothing is listed here), plus its plain attributes
-  (the couple capacity);
+* the state — exactly the arrays declared with the role ``state`` in
+  :data:`taichi_fdem.engine.arrays.ARRAYS` (:data:`taichi_fdem.sim.arrays.STATE_ARRAYS`: nodes,
+  couples and their friction history, joint state, dissipation, counters, the fluid), by name,
+  with its kind (scalar / vector / matrix), element dtype and shape, plus the state's plain
+  attributes (the couple capacity); an array declared for the state is saved without being
+  listed here;
 * every other attribute of the simulation (step count, strategy, launch counts, last good
   state, and anything a user hung on it), pickled, Taichi ndarrays inside tuples, lists and
   dicts included as NumPy data, and the build settings (time step, buffer, speed limit);
@@ -45,9 +46,10 @@ import numpy as np
 import taichi as ti
 
 from .. import backend
-from ..engine.groups import DAMAGED, EDGE_FREE, INT_COUNTERS, INTACT, NB_PAIRS, REBALANCE
-from ..sim.model import _ndarray, counter
-from ..sim.state import install_neighbour_pairs, nb_on_size
+from ..engine.arrays import STATE, declared
+from ..engine.groups import DAMAGED, EDGE_FREE, INT_COUNTERS, INTACT, REBALANCE
+from ..sim.arrays import allocate
+from ..sim.state import install_neighbour_pairs, nb_on_size, state_sizes
 
 __all__ = ["save", "load", "CheckpointError", "FORMAT", "FORMAT_VERSION"]
 
@@ -179,7 +181,7 @@ def save(sim, path) -> None:
     arrays: dict[str, np.ndarray] = {}
     nd_meta: dict[str, dict] = {}
     state_plain: dict = {}
-    for name, value in sim.state.ndarrays().items():        # the declared arrays (sim.arrays.STATE_ARRAYS)
+    for name, value in sim.state.ndarrays().items():        # exactly the declared state arrays
         nd_meta[name] = _ndarray_meta(value)
         arrays["nd." + name] = value.to_numpy()
     for name, value in vars(sim.state).items():
@@ -327,6 +329,10 @@ def load(path):
     st = sim.state
     for name, value in state_plain.items():
         setattr(st, name, value)
+    undeclared = sorted(set(meta["ndarrays"]) - set(declared(STATE)))
+    if undeclared:
+        raise CheckpointError(f"Simulation.load: {path!r} holds state arrays this taichi_fdem does not declare: "
+                              f"{', '.join(undeclared)}")
     for name, m in meta["ndarrays"].items():
         key = "nd." + name
         if key not in data:
@@ -357,11 +363,11 @@ def load(path):
         ints = np.zeros(INT_COUNTERS, np.int32)
         ints[: st.step_int.shape[0]] = st.step_int.to_numpy()
         ints[REBALANCE] = 0
-        st.step_int = _ndarray(ints, ti.i32)
+        allocate(st, STATE, state_sizes(sim.model, st), {"step_int": ints}, names=("step_int",))
     if st.tri_nb_on.shape[0] != nb_on_size(sim.model):
         # a checkpoint from before the fans' link masks: re-derived by the restore
-        st.tri_nb_on = _ndarray(np.zeros(nb_on_size(sim.model), np.int32), ti.i32)
-    if sim.model.nb_count and counter(st.step_int, NB_PAIRS) != sim.model.nb_count:
+        allocate(st, STATE, state_sizes(sim.model, st), names=("tri_nb_on",))
+    if sim.model.nb_count and st.counters.nb_pairs != sim.model.nb_count:
         # a checkpoint from before neighbour pairs: they become the first couples again and the
         # others are detected anew (the slip history of the saved couples is not carried over)
         install_neighbour_pairs(sim.model, st)

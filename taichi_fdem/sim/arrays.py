@@ -1,127 +1,227 @@
-"""The declared arrays of :class:`~taichi_fdem.sim.model.Model` and
-:class:`~taichi_fdem.sim.model.State`: name, shape, element type and unit of each.
+"""The declared arrays of :class:`~taichi_fdem.sim.model.Model`, :class:`~taichi_fdem.sim.model.State`
+and :class:`~taichi_fdem.sim.model.Scratch`, their allocation, and the named counters.
 
-Shapes use N nodes, E triangles, M materials, B bodies, K contact triangles, J joint slots,
-L load rows, P curve points, F fan entries, G fix_nodes groups, nb bonded neighbour pairs, C
-couple capacity (``State.couple_max``), Q fracture-network edges, W network nodes, I and R the
-lengths of the network's index list and of its parameters and sources (engine.fluid); an array a scene does not use has one placeholder row
-(``N|1``: N when the feature is present).  ``real`` is the precision chosen at :func:`taichi_fdem.init` (f64 or f32);
-``vecK`` a K-vector per row.  Units are SI; "-" marks counts, indices, flags and bit sets.
-Every Taichi array a Model or State holds is declared here and every declared one is allocated
-at build (tests/test_simulation_api.py); checkpoints and the last good state save exactly the
-State's declared arrays (:meth:`State.ndarrays <taichi_fdem.sim.model._Arrays.ndarrays>`).
+The declarations are :data:`taichi_fdem.engine.arrays.ARRAYS` (name, group, role, element type,
+shape, unit); this module reads them by role (:data:`MODEL_ARRAYS`, :data:`MODEL_HOST_ARRAYS`,
+:data:`STATE_ARRAYS`, :data:`SCRATCH_ARRAYS`), allocates them at the scene's sizes
+(:func:`allocate`), checks the host arrays against them (:func:`check_host`), renders their table
+for the documentation (:func:`markdown`) and gives the counters of ``step_real`` / ``step_int``
+names (:class:`Counters`).  Every Taichi array a Model, State or Scratch holds is declared and
+every declared one is allocated with its declared element type and shape
+(tests/test_arrays.py); checkpoints and the last good state save exactly the declared state
+arrays (:meth:`State.ndarrays <taichi_fdem.sim.model._Arrays.ndarrays>`).
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+import numpy as np
+import taichi as ti
 
-__all__ = ["ArraySpec", "MODEL_ARRAYS", "MODEL_HOST_ARRAYS", "STATE_ARRAYS"]
+from .. import backend
+from ..engine import arrays as decl
+from ..engine.arrays import (DET_CAND, GROUP_ORDER, HOST, INT_COUNTERS, INT_SLOTS, MODEL, REAL_COUNTERS, REAL_SLOTS,
+                             SCRATCH, SIZES, STATE, SYNC_LINE, Array, declared, element)
 
+__all__ = ["ArraySpec", "MODEL_ARRAYS", "MODEL_HOST_ARRAYS", "STATE_ARRAYS", "SCRATCH_ARRAYS", "allocate",
+           "check_host", "shape_of", "element_shape", "markdown", "Counters",
+           "host_write", "counter", "set_counter"]
 
-class ArraySpec(NamedTuple):
-    """One declared array: ``name``, ``shape`` (symbols above), ``dtype`` (element type),
-    ``unit`` (SI, "-" for none) and ``doc``."""
-    name: str
-    shape: str
-    dtype: str
-    unit: str
-    doc: str
-
-
-def _specs(rows) -> dict:
-    return {r[0]: ArraySpec(*r) for r in rows}
-
+ArraySpec = Array
 
 #: Taichi arrays of the Model (computed once at build; read by the kernels, never written).
-MODEL_ARRAYS = _specs([
-    ("node_mass", "(N,)", "real", "kg/m", "lumped nodal mass per unit thickness"),
-    ("node_free", "(N|1,)", "real vec2", "-", "1 for a free component, 0 for a prescribed one"),
-    ("tri_nodes", "(E,)", "i32 vec3", "-", "node indices of each triangle (counter-clockwise)"),
-    ("tri_rest_inv", "(E,)", "real mat2", "1/m", "inverse of the rest edge matrix (F = x-edges · this)"),
-    ("tri_mat", "(E,)", "i32", "-", "material index of each triangle"),
-    ("tri_body", "(E,)", "i32", "-", "body index of each triangle"),
-    ("tri_visc", "(E|1,)", "real", "Pa·s·m", "viscous damping coefficient of each triangle (docs/theory/contact.md §2.3)"),
-    ("tri_origin", "(E,)", "i32 vec3", "-", "the original (unsplit) nodes of each triangle, numbered apart per body"),
-    ("tri_prestress", "(E|1,)", "real vec3", "Pa", "initial stress (σxx, σyy, σxy)"),
-    ("tri_fans", "(F,)", "i32", "-", "the triangles around each node (offsets, then lists) for the neighbour links"),
-    ("mat_mu", "(M,)", "real", "Pa", "Lamé shear modulus μ of each material"),
-    ("mat_lam", "(M,)", "real", "Pa", "Lamé λ of each material (plane strain or stress)"),
-    ("mat_pair", "(M, M)", "real vec4", "Pa, Pa, -, Pa·s/m", "contact penalty, tangential penalty, friction "
-                                                       "coefficient, contact damping coefficient of each pair"),
-    ("body_flags", "(B,)", "i32", "-", "bit set per body (fixed, prescribed, contact)"),
-    ("contact_tri", "(K|1,)", "i32", "-", "the triangles that take part in contact"),
-    ("joint_nodes", "(J|1,)", "i32 vec4", "-", "the four nodes of each joint (two per face)"),
-    ("joint_tris", "(J|1,)", "i32 vec4", "-", "the two triangles of each joint and their edges"),
-    ("joint_prop", "(J|1,)", "real vec8 | vec14", "Pa, J/m², Pa/m, -, m", "joint strengths, fracture energies, "
-                                                             "penalties, friction; prestressed joints: the "
-                                                             "initial offsets (o⁰, s⁰) of the three points"),
-    ("load_nodes", "(L|1,)", "i32 vec5", "-", "load rows: kind, nodes, curve"),
-    ("load_vals", "(L|1,)", "real vec4", "Pa or N/m", "load row values"),
-    ("curve_points", "(P|1,)", "real vec2", "s, -", "the amplitude curves' points (time, factor)"),
-    ("step_dt", "()", "real", "s", "the time step the kernels integrate with (Simulation.dt)"),
-    ("step_gravity", "()", "real vec2", "m/s²", "gravity"),
-    ("step_buffer", "()", "real", "m", "detection buffer"),
-    ("step_vlimit", "()", "real", "m/s", "node speed above which a step stops (speed_limit)"),
-    ("step_switches", "()", "i32", "-", "runtime switches (damping, prescribed velocities, ...)"),
-    ("fluid_edge", "(Q|1,)", "i32 vec8", "-", "fracture-network edges: node copies, fluid nodes, joint (engine.fluid)"),
-    ("fluid_index", "(I,)", "i32", "-", "the network's header and index lists (engine.fluid)"),
-])
-
+MODEL_ARRAYS = declared(MODEL)
 #: NumPy arrays of the Model (host copies and build results).
-MODEL_HOST_ARRAYS = _specs([
-    ("node_rest", "(N, 2)", "f64", "m", "rest (initial) node positions X"),
-    ("node_mass_np", "(N,)", "f64", "kg/m", "node_mass on the host"),
-    ("node_velocity0", "(N, 2)", "f64", "m/s", "initial node velocities"),
-    ("node_vbc0", "(N, 2)", "f64", "m/s", "prescribed velocities at t = 0"),
-    ("bc_group_masks", "(G, N)", "bool", "-", "nodes of each fix_nodes group"),
-    ("tri_nodes_np", "(E, 3)", "i32", "-", "tri_nodes on the host"),
-    ("tri_body_np", "(E,)", "i32", "-", "tri_body on the host"),
-    ("tri_mat_np", "(E,)", "i32", "-", "tri_mat on the host"),
-    ("tri_area0_np", "(E,)", "f64", "m²", "rest area of each triangle"),
-    ("tri_fracturing", "(E,)", "bool", "-", "whether a triangle belongs to a fracturing body"),
-    ("tri_intact0_np", "(E,)", "i32", "-", "initial tri_intact bits"),
-    ("joint_tris_np", "(J, 2)", "i32", "-", "the two triangles of each joint"),
-    ("joint_prop_np", "(J, 6)", "f64", "Pa, J/m², -", "the joints' material properties"),
-    ("joint_set_np", "(J,)", "i32", "-", "joint set index of each joint"),
-    ("joint_len0_np", "(J,)", "f64", "m", "rest length of each joint"),
-    ("joint_fs0", "(J|1, 3)", "f64", "Pa", "initial shear strength of each joint (three points): c, or "
-                                           "c − σ⁰ tan φ under an initial compression σ⁰"),
-    ("nb_pairs_np", "(nb, 2)", "i32", "-", "bonded neighbour triangle pairs"),
-    ("fluid_real0", "(R,)", "f64", "Pa, Pa·s, m, m²/s", "the fluid's parameters and sources at the start"),
-    ("fluid_content0", "(W|1,)", "f64", "m²", "initial fluid content of each network node"),
-    ("fluid_node_rest", "(W, 2)", "f64", "m", "initial positions of the network nodes"),
-    ("fluid_copies", "(k, 2)", "i32", "-", "(network node, node copy) pairs of the network's edge faces"),
-])
-
+MODEL_HOST_ARRAYS = declared(HOST)
 #: Taichi arrays of the State (what a step changes; all saved by checkpoints).
-STATE_ARRAYS = _specs([
-    ("node_x", "(N,)", "real vec2", "m", "node positions"),
-    ("node_v", "(N,)", "real vec2", "m/s", "node velocities"),
-    ("node_f", "(N,)", "real vec2", "N/m", "nodal forces of the last step (per unit thickness)"),
-    ("node_vbc", "(N|1,)", "real vec2", "m/s", "prescribed velocities now"),
-    ("node_react", "(N|1,)", "real vec2", "N/m", "reactions at prescribed components"),
-    ("load_force", "(L|1,)", "real vec4", "N/m", "forces of the load rows at the last step"),
-    ("tri_diss", "(E|1,)", "real", "J/m", "energy dissipated by each triangle's damping"),
-    ("tri_intact", "(E,)", "i32", "-", "bits: intact, damaged, edges free, removed (< 0)"),
-    ("tri_nb_on", "(nb|1,)", "i32", "-", "whether each neighbour link is still bonded"),
-    ("joint_state", "(J|1,)", "i32", "-", "intact / damaged / broken per joint"),
-    ("joint_dmax", "(J|1,)", "real vec3", "m", "largest opening and slip reached"),
-    ("joint_zmax", "(J|1,)", "real vec3", "-", "softening factor at the largest opening"),
-    ("joint_fs", "(J|1,)", "real vec3", "Pa", "shear strength of each joint (three integration points)"),
-    ("joint_work", "(J|1,)", "real", "J/m", "work done on each joint"),
-    ("joint_break", "(J|1,)", "real vec4", "s, m, m, Pa", "time, position and fluid pressure of each joint's break "
-     "(pressure −1: none recorded)"),
-    ("joint_g", "(J|1,)", "real vec4", "J/m²", "energy released per mode"),
-    ("couple_start", "(K+1|1,)", "i32", "-", "first couple of each contact triangle (friction history)"),
-    ("couple_a", "(C,)", "i32", "-", "first triangle of each contact couple"),
-    ("couple_b", "(C,)", "i32", "-", "second triangle of each contact couple"),
-    ("couple_hist", "(6C|1,)", "real", "m", "tangential slip history of the couples (6 slots each, with friction)"),
-    ("step_real", "(REAL_COUNTERS,)", "real", "s, J/m, m", "real counters (engine.groups: TIME, DACC, energies)"),
-    ("step_int", "(INT_COUNTERS,)", "i32", "-", "integer counters (engine.groups: COUPLES, FOUND, ...)"),
-    ("fluid_edge_val", "(Q|1,)", "real vec8", "m, m, m³/(Pa·s), m²/s, N/m", "per network edge: aperture, length, "
-                                                                          "conductance, flux, face forces"),
-    ("fluid_node_val", "(W|1,)", "real vec4", "m², m², Pa, 1/s", "per network node: fluid content, volume, pressure, "
-                                                               "K ΣC/V"),
-    ("fluid_real", "(R,)", "real", "Pa, Pa·s, m, J/m, m²/s, m²", "the fluid's parameters, counters and sources "
-                                                                "(engine.fluid: F_K, ...)"),
-])
+STATE_ARRAYS = declared(STATE)
+#: Taichi arrays of the Scratch (work arrays of detection and of the parallel assembly; never saved).
+SCRATCH_ARRAYS = declared(SCRATCH)
+
+_CONSTANTS = {"REAL_COUNTERS": REAL_COUNTERS, "INT_COUNTERS": INT_COUNTERS, "DET_CAND": DET_CAND,
+              "SYNC_LINE": SYNC_LINE}
+
+
+def _eval(text: str, sizes: dict, what: str) -> int:
+    ns = {"__builtins__": {}, "max": max, "min": min, **_CONSTANTS, **sizes}
+    try:
+        value = eval(text, ns)      # noqa: S307 (expressions of engine.arrays, over the size symbols)
+    except NameError as exc:
+        raise KeyError(f"{what}: size {exc.name!r} of {text!r} not given (sizes: {sorted(sizes)})") from None
+    return int(value)
+
+
+def shape_of(spec: Array, sizes: dict) -> tuple:
+    """The shape of a declared array at ``sizes`` ({symbol of engine.arrays.SIZES: value})."""
+    return tuple(_eval(d, sizes, spec.name) for d in spec.shape)
+
+
+def element_shape(spec: Array, sizes: dict) -> tuple:
+    """The shape of one element of a declared array: () scalar, (K,) vector, (K, K) matrix."""
+    _, kind, width = element(spec.dtype)
+    if kind == "scalar":
+        return ()
+    k = _eval(width, sizes, spec.name)
+    return (k,) if kind == "vector" else (k, k)
+
+
+def _dtypes(base: str):
+    """(Taichi, NumPy) type of a declared base type."""
+    if base == "real":
+        return backend.real_ti(), backend.real_np()
+    return {"i32": (ti.i32, np.int32), "f64": (ti.f64, np.float64), "bool": (None, np.bool_)}[base]
+
+
+def host_write(arr, key, value) -> None:
+    """``arr[key] = value`` from the host, after the kernels already launched have finished.
+
+    Taichi's element write from Python does not wait for the device: on Vulkan it lands before a
+    kernel still in flight (a ``fill`` or a step) runs, which then overwrites or adds to it.
+    Every host write of an ndarray element goes through here (reads and ``from_numpy`` are
+    ordered with the launches already)."""
+    ti.sync()
+    arr[key] = value
+
+
+def counter(arr, k: int):
+    """Counter k of State.step_real / step_int, as a Python number (by name: :class:`Counters`)."""
+    v = arr[k]
+    return int(v) if arr.dtype in (ti.i32, ti.i64) else float(v)
+
+
+def set_counter(arr, k: int, value) -> None:
+    """Set counter k of State.step_real / step_int (:func:`host_write`)."""
+    host_write(arr, k, value)
+
+
+def allocate(obj, role: str, sizes: dict, values: dict | None = None, names=None) -> None:
+    """Set on ``obj`` a new Taichi ndarray for every declared array of ``role`` (or only ``names``),
+    of the declared element type and shape at ``sizes``, holding ``values[name]`` (NumPy data of
+    exactly that shape, or the value of a 0-d array), or zeros when no value is given.  A model
+    array must be given its value.  The declarations are read at each call (engine.arrays.ARRAYS)."""
+    values = values or {}
+    table = declared(role)
+    unknown = set(values) - set(table)
+    if unknown:
+        raise KeyError(f"allocate: {sorted(unknown)} are not declared {role} arrays (engine.arrays.ARRAYS)")
+    for name in (table if names is None else names):
+        spec = table[name]
+        shape, elem = shape_of(spec, sizes), element_shape(spec, sizes)
+        tdt, ndt = _dtypes(element(spec.dtype)[0])
+        if len(elem) == 1:
+            arr = ti.Vector.ndarray(elem[0], tdt, shape=shape)
+        elif len(elem) == 2:
+            arr = ti.Matrix.ndarray(elem[0], elem[1], tdt, shape=shape)
+        else:
+            arr = ti.ndarray(tdt, shape=shape)
+        if name in values:
+            if shape == ():
+                host_write(arr, None, values[name])
+            else:
+                data = np.ascontiguousarray(values[name], dtype=ndt)
+                if data.shape != shape + elem:
+                    raise ValueError(f"internal error: array {name} holds values of shape {data.shape}, declared "
+                                     f"{shape + elem} ({spec.dtype} {spec.shape}, engine.arrays)")
+                arr.from_numpy(data)
+        elif role == MODEL:
+            raise ValueError(f"internal error: model array {name} is declared but given no value")
+        setattr(obj, name, arr)
+
+
+def check_host(md, sizes: dict) -> None:
+    """Raise when a declared host array of ``md`` is missing or not of its declared type and shape."""
+    for name, spec in declared(HOST).items():
+        arr = getattr(md, name, None)
+        if not isinstance(arr, np.ndarray):
+            raise ValueError(f"internal error: host array {name} is declared but not built")
+        want = shape_of(spec, sizes)
+        ndt = _dtypes(element(spec.dtype)[0])[1]
+        if arr.shape != want or arr.dtype != ndt:
+            raise ValueError(f"internal error: host array {name} is {arr.dtype} {arr.shape}, declared "
+                             f"{np.dtype(ndt)} {want}")
+
+
+# -------------------------------------------------------------------------------------------------
+# counters
+# -------------------------------------------------------------------------------------------------
+class Counters:
+    """The counters of a state by name: ``state.counters.couples``, ``state.counters.time = 0.0``.
+
+    One attribute per slot of :data:`taichi_fdem.engine.arrays.REAL_SLOTS` (from ``step_real``,
+    a float) and :data:`~taichi_fdem.engine.arrays.INT_SLOTS` (from ``step_int``, an int), its
+    name in lower case; a run of slots (``split``, ``range``) reads as a NumPy array.  Reads and
+    writes go through :func:`taichi_fdem.sim.model.counter` / :func:`~taichi_fdem.sim.model.set_counter`.
+    """
+    __slots__ = ("_state",)
+
+    def __init__(self, state):
+        self._state = state
+
+    def __repr__(self) -> str:
+        return "Counters(" + ", ".join(f"{s.name.lower()}={getattr(self, s.name.lower())!r}"
+                                       for s in REAL_SLOTS + INT_SLOTS if s.count == 1) + ")"
+
+
+def _counter_property(array: str, first: int, slot) -> property:
+    if slot.count > 1:
+        def get(self):
+            return getattr(self._state, array).to_numpy()[first:first + slot.count]
+        return property(get, doc=f"{slot.doc} [{slot.unit}] ({array}[{first}:{first + slot.count}])")
+
+    def get(self):
+        return counter(getattr(self._state, array), first)
+
+    def put(self, value):
+        set_counter(getattr(self._state, array), first, value)
+    return property(get, put, doc=f"{slot.doc} [{slot.unit}] ({array}[{slot.name}])")
+
+
+def _install_counters() -> None:
+    for array, slots in (("step_real", REAL_SLOTS), ("step_int", INT_SLOTS)):
+        k = 0
+        for s in slots:
+            setattr(Counters, s.name.lower(), _counter_property(array, k, s))
+            k += s.count
+
+
+_install_counters()
+
+
+# -------------------------------------------------------------------------------------------------
+# the documentation's table
+# -------------------------------------------------------------------------------------------------
+def _cell(text: str) -> str:
+    return text.replace("|", "\\|")
+
+
+def markdown() -> str:
+    """The array table of docs/reference/arrays.md, generated from the declarations."""
+    out = ["(array-table)=", "# Arrays", "",
+           "Generated from `taichi_fdem/engine/arrays.py` (`python docs/_ext/array_table.py` writes this page;",
+           "`make docs` too): every array of a simulation, one declaration each, from which the argpack groups",
+           "of `engine/groups.py`, the allocation of model, state and scratch, the checkpoint list and this",
+           "table are generated.", "",
+           "Roles: **model** computed once by the build, constant through a run; **state** changed by the",
+           "steps, saved by checkpoints; **scratch** work arrays, never saved; **host** NumPy results of",
+           "the build kept by the model. `real` is the precision chosen by `fdem.init` (f64 or f32); `vecK` a",
+           "K-vector per entry, `matK` a K×K matrix. Shapes are expressions over the sizes below.", ""]
+    for group in GROUP_ORDER + ("",):
+        rows = [a for a in decl.ARRAYS if a.group == group]
+        out += [f"## {'Host arrays of the model' if not group else 'Group `' + group + '`'}", "",
+                "| array | role | element | shape | unit | meaning |", "|---|---|---|---|---|---|"]
+        for a in rows:
+            shape = "(" + ", ".join(a.shape) + ("," if len(a.shape) == 1 else "") + ")"
+            out.append(f"| `{a.name}` | {a.role} | `{_cell(a.dtype)}` | `{_cell(shape)}` | {_cell(a.unit)} | "
+                       f"{_cell(a.doc)} |")
+        out.append("")
+    out += ["## Sizes", "", "| symbol | meaning |", "|---|---|"]
+    out += [f"| `{k}` | {_cell(v)} |" for k, v in SIZES.items()]
+    out.append("")
+    for array, slots in (("step_real", REAL_SLOTS), ("step_int", INT_SLOTS)):
+        out += [f"## Counters of `{array}`", "",
+                "| slot | constant | host name | unit | meaning |", "|---|---|---|---|---|"]
+        k = 0
+        for s in slots:
+            where = str(k) if s.count == 1 else f"{k}–{k + s.count - 1}"
+            out.append(f"| {where} | `{s.name}` | `counters.{s.name.lower()}` | {_cell(s.unit)} | {_cell(s.doc)} |")
+            k += s.count
+        out.append("")
+    return "\n".join(out)

@@ -21,10 +21,8 @@ import os
 
 import numpy as np
 
-from ..engine.groups import BROKEN
 from ..engine.joints import MODE_NAMES
 from .ae import _components
-from .model import counter
 from .views import View
 
 __all__ = ["Cracks", "CrackEventLog", "read_crack_events", "CSV_COLUMNS"]
@@ -192,7 +190,7 @@ class Cracks(View):
     @property
     def broken_count(self) -> int:
         """Number of joints broken so far."""
-        return counter(self._sim.state.step_int, BROKEN) if self._sim.model.fracture else 0
+        return self._sim.state.counters.broken if self._sim.model.fracture else 0
 
     def broken(self) -> dict:
         """The joints broken so far (docs/theory/joints.md §7.8); see :meth:`events` for more.
@@ -380,7 +378,7 @@ class CrackEventLog:
         sim = self.sim
         if not len(self.written):
             return 0
-        n = counter(sim.state.step_int, BROKEN)
+        n = sim.state.counters.broken
         if n == self.seen:
             return 0
         self.seen = n

@@ -5,11 +5,12 @@ nodes left without a triangle are held, and the energy they held is booked (docs
 from __future__ import annotations
 
 import numpy as np
-import taichi as ti
 
 from .. import backend
-from ..engine.groups import DACC, DACC_FORCE, SWITCH_BC
-from .model import host_write, set_counter
+from ..engine.arrays import MODEL, STATE
+from ..engine.groups import DACC_FORCE, SWITCH_BC
+from .arrays import allocate, host_write
+from .state import state_sizes
 
 __all__ = ["remove", "apply_removal"]
 
@@ -56,24 +57,16 @@ def apply_removal(sim) -> None:
     np.add.at(mass, tris[active].ravel(), np.repeat(rho[active] * md.tri_area0_np[active] / 3.0, 3))
     orphans = mass <= 0.0
     sim._orphans = orphans
-    full = getattr(md, "node_mass_full", None)
-    if full is None:
-        full = md.node_mass_full = md.node_mass_np.copy()
-    mass[orphans] = full[orphans]             # held still: any positive mass will do
+    mass[orphans] = md.node_mass_full[orphans]     # held still: any positive mass will do
     md.node_mass_np = mass
     md.node_mass.from_numpy(mass.astype(backend.real_np()))
     real = backend.real_np()
     n = md.node_count
-    if md.node_free.shape[0] != n:            # the scene had no prescribed velocities
-        md.node_free = ti.Vector.ndarray(2, backend.real_ti(), shape=n)
-        md.node_free.from_numpy(np.ones((n, 2), real))
-        md.has_bc = True
+    if not md.has_bc:                         # the scene had no prescribed velocities: full-size arrays
+        md.has_bc = md.sizes["bc"] = True
+        allocate(md, MODEL, md.sizes, {"node_free": np.ones((n, 2), real)}, names=("node_free",))
+        allocate(st, STATE, state_sizes(md, st), names=("node_vbc", "node_react"))
         host_write(md.step_switches, None, int(md.step_switches[None]) | SWITCH_BC)
-    for name in ("node_vbc", "node_react"):
-        if getattr(st, name).shape[0] != n:
-            arr = ti.Vector.ndarray(2, backend.real_ti(), shape=n)
-            arr.fill(0)
-            setattr(st, name, arr)
     free = md.node_free.to_numpy()
     free[orphans] = 0.0
     md.node_free.from_numpy(free)
@@ -88,4 +81,4 @@ def apply_removal(sim) -> None:
         g[: len(jt)][dead] = 0.0
         st.joint_g.from_numpy(g)
     if md.contact:
-        set_counter(st.step_real, DACC, DACC_FORCE)       # re-detect without the removed triangles
+        st.counters.dacc = DACC_FORCE                     # re-detect without the removed triangles

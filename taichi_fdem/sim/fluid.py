@@ -15,7 +15,6 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-import taichi as ti
 
 from .. import backend
 from ..engine.fluid import (F_AMAX, F_AMIN, F_BAD, F_DAMAGED, F_HEAD, F_K, F_MU, F_WORK, HEADER, H_G_NODE, H_G_START,
@@ -113,18 +112,16 @@ def _csr(n: int, owner: np.ndarray, entry: np.ndarray, base: int):
     return starts, entry[order]
 
 
-def _no_fluid(md) -> None:
-    """One-row placeholders of the fluid arrays (a scene without a fluid)."""
-    md.fluid_edge = ti.Vector.ndarray(8, ti.i32, shape=1)
-    md.fluid_edge.fill(0)
-    md.fluid_index = ti.ndarray(ti.i32, shape=HEADER)
-    md.fluid_index.fill(0)
+def _no_fluid(md) -> dict:
+    """One-row placeholders of the fluid arrays (a scene without a fluid); returns the values
+    of the model's fluid arrays."""
     md.fluid_real0 = np.zeros(F_HEAD)
     md.fluid_content0 = np.zeros(1)
     md.fluid_node_rest = np.zeros((0, 2))
     md.fluid_copies = np.zeros((0, 2), np.int32)
     md.fluid_edge_count = md.fluid_node_count = 0
     md.fluid_sources = []
+    return {"fluid_edge": np.zeros((1, 8), np.int32), "fluid_index": np.zeros(HEADER, np.int32)}
 
 
 def _fluid_sources(net: FluidNetwork, injections, curves):
@@ -206,16 +203,16 @@ def _fluid_contents(md, net: FluidNetwork, spec, r) -> np.ndarray:
     return V * (1.0 + spec.initial_pressure / spec.fluid.bulk_modulus)
 
 
-def install_fluid(md, scene, net: FluidNetwork, curves) -> None:
-    """The fluid arrays of the model (``md.fluid`` False: one-row placeholders): sources
-    selected on the fluid nodes' initial positions, the index lists, the parameters and the
-    initial contents (:func:`_fluid_contents`)."""
+def install_fluid(md, scene, net: FluidNetwork, curves) -> dict:
+    """The fluid of the model (``md.fluid`` False: one-row placeholders): sources selected on
+    the fluid nodes' initial positions, the index lists, the parameters and the initial contents
+    (:func:`_fluid_contents`).  Returns the values of the model's fluid arrays
+    ({"fluid_edge": (Q, 8), "fluid_index": (I,)}, engine.arrays)."""
     spec = getattr(scene, "_fluid", None)
     injections = list(getattr(scene, "_injections", []))
     md.fluid = spec is not None
     if not md.fluid:
-        _no_fluid(md)
-        return
+        return _no_fluid(md)
     if not net.edge_count:
         raise ValueError("Scene.set_fluid: the scene has no fracture network: no body has cracks (add_body(cracks=)) "
                          "or joints (add_body(fracture=))")
@@ -223,10 +220,6 @@ def install_fluid(md, scene, net: FluidNetwork, curves) -> None:
     e = net.edges
     rows, nodes_of = _fluid_sources(net, injections, curves)
     index = _fluid_index(net, rows, nodes_of, curves.slices)
-    md.fluid_edge = ti.Vector.ndarray(8, ti.i32, shape=E)
-    md.fluid_edge.from_numpy(e.astype(np.int32))
-    md.fluid_index = ti.ndarray(ti.i32, shape=len(index))
-    md.fluid_index.from_numpy(index.astype(np.int32))
     # parameters and initial contents
     fluid, K = spec.fluid, spec.fluid.bulk_modulus
     r = np.zeros(F_HEAD + SRC_STRIDE * len(rows))
@@ -246,23 +239,16 @@ def install_fluid(md, scene, net: FluidNetwork, curves) -> None:
     md.fluid_copies = np.unique(np.stack([np.concatenate([e[:, 4], e[:, 4], e[:, 5], e[:, 5]]),
                                           np.concatenate([e[:, 0], e[:, 3], e[:, 1], e[:, 2]])], axis=1),
                                 axis=0).astype(np.int32)
+    return {"fluid_edge": e.astype(np.int32), "fluid_index": index.astype(np.int32)}
 
 
-def allocate_fluid_state(md, st) -> None:
-    """The fluid arrays of the state: edge values, node values (the initial contents), the
-    parameters, counters and sources."""
-    rti, real = backend.real_ti(), backend.real_np()
-    E = max(md.fluid_edge_count, 1)
-    F = max(md.fluid_node_count, 1)
-    st.fluid_edge_val = ti.Vector.ndarray(8, rti, shape=E)
-    st.fluid_edge_val.fill(0)
-    nv = np.zeros((F, 4), real)
+def fluid_state_values(md) -> dict:
+    """The initial values of the state's fluid arrays: node values (the initial contents) and
+    the parameters, counters and sources (the edge values start at zero)."""
+    nv = np.zeros((max(md.fluid_node_count, 1), 4), backend.real_np())
     if md.fluid:
         nv[:, 0] = md.fluid_content0
-    st.fluid_node_val = ti.Vector.ndarray(4, rti, shape=F)
-    st.fluid_node_val.from_numpy(nv)
-    st.fluid_real = ti.ndarray(rti, shape=len(md.fluid_real0))
-    st.fluid_real.from_numpy(md.fluid_real0.astype(real))
+    return {"fluid_node_val": nv, "fluid_real": md.fluid_real0.astype(backend.real_np())}
 
 
 def fluid_failure(sim) -> str | None:

@@ -25,53 +25,14 @@ import numpy as np
 import taichi as ti
 
 from . import fluid as fluid_net, timestep
-from .arrays import MODEL_ARRAYS, MODEL_HOST_ARRAYS, STATE_ARRAYS
-from .. import backend
+from .arrays import Counters, allocate, check_host, counter, host_write, set_counter
+from ..engine.arrays import MODEL, SCRATCH, STATE, declared
+from .topology import bonds
 from ..engine.groups import SWITCH_BC, SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING, SWITCH_PRESTRESS
-from ..engine.joints import FAN_HEAD, HANDOVER_DAMAGE, fan_links, initial_intact, neighbour_pairs, prestress_offsets
+from ..engine.joints import HANDOVER_DAMAGE
 from ..engine.loads import LOAD_ABSORB, LOAD_FORCE, LOAD_PRESSURE, LOAD_TRACTION, LOAD_VELOCITY
 
-
-def _ndarray(data: np.ndarray, dtype, vec: int | None = None, mat: tuple | None = None):
-    """A Taichi ndarray holding ``data`` (shape (n,), (n, vec) or (n, *mat))."""
-    data = np.ascontiguousarray(data)
-    if vec is not None:
-        arr = ti.Vector.ndarray(vec, dtype, shape=data.shape[:-1])
-    elif mat is not None:
-        arr = ti.Matrix.ndarray(mat[0], mat[1], dtype, shape=data.shape[:-2])
-    else:
-        arr = ti.ndarray(dtype, shape=data.shape)
-    arr.from_numpy(data)
-    return arr
-
-
-def _scalar(value, dtype):
-    """A 0-d Taichi ndarray holding ``value``."""
-    arr = ti.ndarray(dtype, shape=())
-    host_write(arr, None, value)
-    return arr
-
-
-def host_write(arr, key, value) -> None:
-    """``arr[key] = value`` from the host, after the kernels already launched have finished.
-
-    Taichi's element write from Python does not wait for the device: on Vulkan it lands before a
-    kernel still in flight (a ``fill`` or a step) runs, which then overwrites or adds to it.
-    Every host write of an ndarray element goes through here (reads and ``from_numpy`` are
-    ordered with the launches already)."""
-    ti.sync()
-    arr[key] = value
-
-
-def counter(arr, k: int):
-    """Counter k of State.step_real / step_int, as a Python number."""
-    v = arr[k]
-    return int(v) if arr.dtype in (ti.i32, ti.i64) else float(v)
-
-
-def set_counter(arr, k: int, value) -> None:
-    """Set counter k of State.step_real / step_int (:func:`host_write`)."""
-    host_write(arr, k, value)
+__all__ = ["Model", "State", "Scratch", "build_model", "counter", "set_counter", "host_write"]
 
 
 def _next_pow2(n: int) -> int:
@@ -79,17 +40,21 @@ def _next_pow2(n: int) -> int:
 
 
 class _Arrays:
-    """A bag of named arrays; the Taichi ones are declared in :attr:`ARRAYS`
-    (:mod:`taichi_fdem.sim.arrays`: shape, element type, unit)."""
+    """A bag of named arrays; its Taichi arrays are the ones declared with its :attr:`ROLE` in
+    :data:`taichi_fdem.engine.arrays.ARRAYS`."""
 
-    #: name -> :class:`~taichi_fdem.sim.arrays.ArraySpec` of every Taichi array (None: undeclared)
-    ARRAYS: dict | None = None
+    ROLE = ""
 
     def ndarrays(self) -> dict:
-        """The Taichi arrays, by name: the declared ones in declared order (then any other)."""
-        arrays = {k: v for k, v in vars(self).items() if isinstance(v, ti.Ndarray)}
-        order = list(self.ARRAYS or ()) + [k for k in arrays if k not in (self.ARRAYS or ())]
-        return {k: arrays[k] for k in order if k in arrays}
+        """The Taichi arrays, by name, in declared order: exactly the declared ones (TypeError
+        when the object holds an undeclared Taichi array or lacks a declared one)."""
+        names = declared(self.ROLE)
+        held = {k for k, v in vars(self).items() if isinstance(v, ti.Ndarray)}
+        if held != set(names):
+            raise TypeError(f"{type(self).__name__}: Taichi arrays not declared {sorted(held - set(names))}, "
+                            f"declared but not allocated {sorted(set(names) - held)} "
+                            "(taichi_fdem/engine/arrays.py)")
+        return {k: getattr(self, k) for k in names}
 
 
 class Model(_Arrays):
@@ -100,22 +65,31 @@ class Model(_Arrays):
     ``fracture``, ``has_bc``, ``has_bc_work``, ``force_dt``.  Time steps [s]: ``dt``,
     ``dt_estimate``, ``dt_limit``, ``dt_elastic``, ``dt_contact``, ``dt_joint``; ``dashpot_rate``
     [1/s] (absorbing boundaries: stable while dashpot_rate · dt < 1).  ``buffer`` [m],
-    ``speed_limit`` [m/s].  Arrays: the Taichi ones in :data:`~taichi_fdem.sim.arrays.MODEL_ARRAYS`,
-    the NumPy copies in :data:`~taichi_fdem.sim.arrays.MODEL_HOST_ARRAYS` (name, shape, unit).
+    ``speed_limit`` [m/s].  ``sizes``: the values of the size symbols of
+    :data:`taichi_fdem.engine.arrays.SIZES` the arrays were allocated at.  Arrays: the Taichi ones
+    in :data:`~taichi_fdem.sim.arrays.MODEL_ARRAYS`, the NumPy ones in
+    :data:`~taichi_fdem.sim.arrays.MODEL_HOST_ARRAYS` (docs/reference/arrays.md).
     """
-    ARRAYS = MODEL_ARRAYS
-    HOST_ARRAYS = MODEL_HOST_ARRAYS
+    ROLE = MODEL
 
 
 class State(_Arrays):
     """What a step changes (see the module docstring): the Taichi arrays declared in
     :data:`~taichi_fdem.sim.arrays.STATE_ARRAYS`, every one saved by checkpoints, and
-    ``couple_max``, the capacity of the couple buffer."""
-    ARRAYS = STATE_ARRAYS
+    ``couple_max``, the capacity of the couple buffer.  :attr:`counters` reads and writes the
+    counters of ``step_real`` / ``step_int`` by name."""
+    ROLE = STATE
+
+    @property
+    def counters(self) -> Counters:
+        """The counters by name (:class:`taichi_fdem.sim.arrays.Counters`): ``state.counters.couples``."""
+        return Counters(self)
 
 
 class Scratch(_Arrays):
-    """Contact-detection work arrays (rewritten at each detection; never saved)."""
+    """Work arrays of detection and of the parallel assembly (never saved): the Taichi arrays
+    declared in :data:`~taichi_fdem.sim.arrays.SCRATCH_ARRAYS`."""
+    ROLE = SCRATCH
 
 
 def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_limit=None,
@@ -123,57 +97,13 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
                 handover_damage: float | None = None) -> Model:
     """Compute the :class:`Model` of ``scene`` (validating the time step against its limit);
     ``handover_damage`` None: :data:`taichi_fdem.engine.joints.HANDOVER_DAMAGE`."""
-    if handover_damage is None:
-        handover_damage = HANDOVER_DAMAGE
-    if joined_pairs not in ("joint", "contact"):
-        raise ValueError(f"Scene.build: joined_pairs must be 'joint' or 'contact', got {joined_pairs!r}")
-    if isinstance(handover_damage, bool) or not isinstance(handover_damage, (int, float, np.integer, np.floating)) \
-            or not 0.0 <= float(handover_damage) <= 1.0:
-        raise ValueError(f"Scene.build: handover_damage must be a number from 0 to 1 (the joint damage at which "
-                         f"contact takes over a joined pair), got {handover_damage!r}")
-    if not scene.bodies:
-        raise ValueError("Scene.build: the scene has no bodies; add one with scene.add_body(...)")
-    if not (0.0 < float(safety) <= 1.0):
-        raise ValueError(f"Scene.build: safety must be in (0, 1], got {safety}")
-    md = Model()
-    md.joined_pairs = joined_pairs
-    md.handover_damage = float(handover_damage)
-    real, rti = backend.real_np(), backend.real_ti()
+    md = _new_model(scene, safety, joined_pairs, handover_damage)
     bodies = list(scene.bodies)
     md.bodies = bodies
 
     # ---- nodes and triangles -----------------------------------------------------------------
-    X = np.concatenate([b.mesh.points for b in bodies]).astype(np.float64)
-    tris = np.concatenate([b.mesh.triangles + b.node_start for b in bodies]).astype(np.int32)
-    tri_body = np.concatenate([np.full(b.mesh.triangle_count, b.index, np.int32) for b in bodies])
-    materials, mat_index = [], {}
-    for b in bodies:
-        for mt in _body_materials(b):
-            if id(mt) not in mat_index:
-                mat_index[id(mt)] = len(materials)
-                materials.append(mt)
-    md.materials = materials
-    tri_mat = np.concatenate([np.array([mat_index[id(mt)] for mt in _body_materials(b)], np.int32)[_tri_material(b)]
-                              for b in bodies])
-    md.node_count, md.tri_count = len(X), len(tris)
-    md.node_rest, md.tri_nodes_np, md.tri_body_np, md.tri_mat_np = X, tris, tri_body, tri_mat
-
-    V = np.zeros_like(X)
-    for b in bodies:
-        r = X[b.nodes] - b.mesh.centroid
-        V[b.nodes] = b.velocity + b.angular_velocity * np.stack([-r[:, 1], r[:, 0]], axis=1)
-
-    x0, x1, x2 = X[tris[:, 0]], X[tris[:, 1]], X[tris[:, 2]]
-    F0 = np.stack([x1 - x0, x2 - x0], axis=2)          # columns: edges 0→1, 0→2
-    area0 = 0.5 * np.linalg.det(F0)
-    rest_inv = np.linalg.inv(F0)
-    rho = np.array([m.density for m in materials])[tri_mat]
-    mass = np.zeros(len(X))
-    np.add.at(mass, tris.ravel(), np.repeat(rho * area0 / 3.0, 3))
-    md.node_mass_np = mass
-    edge_len = np.stack([np.linalg.norm(x1 - x0, axis=1), np.linalg.norm(x2 - x1, axis=1),
-                         np.linalg.norm(x0 - x2, axis=1)], axis=1)
-    altitude = 2.0 * area0 / edge_len.max(axis=1)       # smallest altitude of each triangle
+    X, tris, tri_body, materials, tri_mat, V = _nodes_and_triangles(md, bodies)
+    area0, rest_inv, rho, mass, edge_len, altitude = _rest_shapes(md, X, tris, materials, tri_mat)
 
     # ---- boundary conditions -----------------------------------------------------------------
     curves = _Curves()
@@ -191,6 +121,183 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     pair = _pair_table(scene, materials)
 
     # ---- joints (docs/theory/joints.md §7, §13): per-joint properties and joint sets ------------------------
+    joint_nodes, joint_tris, joint_prop, joint_len = _joint_table(md, scene, bodies, X, materials, tri_mat)
+
+    # ---- contact participation ---------------------------------------------------------------
+    ctri, used_pairs = _contact_triangles(md, bodies, pair, tri_mat)
+    betas = np.array([m.damping for m in materials])
+    md.damping = bool(np.any(betas > 0))
+    beta_t = betas[tri_mat]
+
+    # ---- stable time step (docs/theory/elements.md §6.2) ------------------------------------------------------
+    net = _time_step(md, scene, dt, safety, force_dt, X, tris, free, materials, tri_mat, pair, used_pairs, mass,
+                     (area0, altitude, beta_t, ctri), (joint_tris, joint_prop, joint_len))
+
+    _buffer_and_speed_limit(md, scene, buffer, speed_limit, edge_len[ctri], materials, V)
+
+    # ---- loads, curves, initial stress, local damping (docs/theory/loads.md §12) --------------------------
+    load_nodes, load_vals, md.dashpot_rate = _load_table(scene, bodies, X, mass, md.dt, curves, free, vbc_raw, vcurve)
+    md.load_count = len(load_nodes)
+    fluid_values = fluid_net.install_fluid(md, scene, net, curves)   # (its curves join the table first)
+    md.loads = md.load_count > 0
+    md.curves = curves.list
+    md.curve_slices = curves.slices
+    prestress = _prestress(scene, tri_body, X, tris)
+    md.prestress = prestress is not None
+    md.qs_alpha = float(quasi_static)
+    md.local_damping = md.qs_alpha > 0.0
+
+    # ---- the bonds of the fracturing bodies (sim.topology) -------------------------------------
+    md.ctri_count = len(ctri) if md.contact else 0
+    md.tri_prestress_np = prestress if md.prestress else np.zeros((0, 3))
+    sn_tau = _joint_prestress(scene, X, joint_nodes[: md.joint_count], tri_body[joint_tris[: md.joint_count, 0]]) \
+        if md.fracture and md.prestress else None
+    origin, joint_tris4, joint_cols, fans = bonds(md, X, tris, tri_mat, area0, pair, body_flags, tri_body, ctri,
+                                                  (joint_nodes, joint_tris, joint_prop, joint_len), sn_tau)
+
+    # ---- the Taichi arrays of the model (engine.arrays; one-row placeholders for unused features)
+    values = {
+        "node_mass": mass, "node_free": free if md.has_bc else np.ones((1, 2)),
+        "load_nodes": load_nodes if md.loads else np.zeros((1, 5)),
+        "load_vals": load_vals if md.loads else np.zeros((1, 4)), "curve_points": curves.points(),
+        "tri_nodes": tris, "tri_rest_inv": rest_inv, "tri_mat": tri_mat, "tri_body": tri_body,
+        "tri_visc": _tri_viscosity(materials, tri_mat, area0, beta_t, rho) if md.damping else np.zeros(1),
+        "tri_origin": origin, "tri_prestress": prestress if md.prestress else np.zeros((1, 3)), "tri_fans": fans,
+        "mat_mu": [m.shear_modulus for m in materials], "mat_lam": [m.lambda_y(scene.plane) for m in materials],
+        "mat_pair": pair, "contact_tri": ctri if md.contact else np.zeros(1), "body_flags": body_flags,
+        "joint_nodes": joint_nodes, "joint_tris": joint_tris4, "joint_prop": np.concatenate(joint_cols, axis=1),
+        "step_dt": md.dt, "step_gravity": [float(g) for g in scene.gravity], "step_buffer": md.buffer,
+        "step_vlimit": md.speed_limit,
+        "step_switches": SWITCH_DAMPING * md.damping + SWITCH_CDAMPING * md.contact_damping + SWITCH_BC * md.has_bc
+        + SWITCH_BC_WORK * md.has_bc_work + SWITCH_PRESTRESS * md.prestress,
+        **fluid_values}
+    md.sizes = _model_sizes(md, values, len(materials), len(groups))
+    allocate(md, MODEL, md.sizes, values)
+    check_host(md, md.sizes)
+    return md
+
+
+def _new_model(scene, safety, joined_pairs, handover_damage) -> Model:
+    """An empty :class:`Model` after the checks of the build's arguments."""
+    if handover_damage is None:
+        handover_damage = HANDOVER_DAMAGE
+    if joined_pairs not in ("joint", "contact"):
+        raise ValueError(f"Scene.build: joined_pairs must be 'joint' or 'contact', got {joined_pairs!r}")
+    if isinstance(handover_damage, bool) or not isinstance(handover_damage, (int, float, np.integer, np.floating)) \
+            or not 0.0 <= float(handover_damage) <= 1.0:
+        raise ValueError(f"Scene.build: handover_damage must be a number from 0 to 1 (the joint damage at which "
+                         f"contact takes over a joined pair), got {handover_damage!r}")
+    if not scene.bodies:
+        raise ValueError("Scene.build: the scene has no bodies; add one with scene.add_body(...)")
+    if not (0.0 < float(safety) <= 1.0):
+        raise ValueError(f"Scene.build: safety must be in (0, 1], got {safety}")
+    md = Model()
+    md.joined_pairs = joined_pairs
+    md.handover_damage = float(handover_damage)
+    return md
+
+
+def _buffer_and_speed_limit(md, scene, buffer, speed_limit, contact_edges, materials, V) -> None:
+    """Set ``md.buffer`` [m] (None: a quarter of the contact triangles' mean edge length) and
+    ``md.speed_limit`` [m/s] (None: twice the largest P-wave speed, at least ten times the
+    largest initial speed)."""
+    if buffer is None:
+        buffer = 0.25 * float(contact_edges.mean()) if len(contact_edges) else 0.0
+    buffer = float(buffer)
+    if not (math.isfinite(buffer) and buffer >= 0):
+        raise ValueError(f"Scene.build: buffer must be a finite length >= 0 m, got {buffer}")
+    md.buffer = buffer
+    if speed_limit is None:
+        speed_limit = 2.0 * max(m.p_wave_speed(scene.plane) for m in materials)
+        speed_limit = max(speed_limit, 10.0 * float(np.abs(V).max(initial=0.0)))
+    md.speed_limit = float(speed_limit)
+    if not (md.speed_limit > 0):
+        raise ValueError(f"Scene.build: speed_limit must be > 0 m/s, got {speed_limit}")
+
+
+def _nodes_and_triangles(md, bodies):
+    """(rest positions X (N, 2), triangles (E, 3), body and material of each triangle, the
+    materials, initial velocities (N, 2)) of the bodies; sets the model's counts and host copies."""
+    X = np.concatenate([b.mesh.points for b in bodies]).astype(np.float64)
+    tris = np.concatenate([b.mesh.triangles + b.node_start for b in bodies]).astype(np.int32)
+    tri_body = np.concatenate([np.full(b.mesh.triangle_count, b.index, np.int32) for b in bodies])
+    materials, mat_index = [], {}
+    for b in bodies:
+        for mt in _body_materials(b):
+            if id(mt) not in mat_index:
+                mat_index[id(mt)] = len(materials)
+                materials.append(mt)
+    md.materials = materials
+    tri_mat = np.concatenate([np.array([mat_index[id(mt)] for mt in _body_materials(b)], np.int32)[_tri_material(b)]
+                              for b in bodies])
+    md.node_count, md.tri_count = len(X), len(tris)
+    md.node_rest, md.tri_nodes_np, md.tri_body_np, md.tri_mat_np = X, tris, tri_body, tri_mat
+    V = np.zeros_like(X)
+    for b in bodies:
+        r = X[b.nodes] - b.mesh.centroid
+        V[b.nodes] = b.velocity + b.angular_velocity * np.stack([-r[:, 1], r[:, 0]], axis=1)
+    return X, tris, tri_body, materials, tri_mat, V
+
+
+def _rest_shapes(md, X, tris, materials, tri_mat):
+    """(rest area (E,) [m²], F0⁻¹ (E, 2, 2) [1/m], density (E,) [kg/m³], lumped nodal mass (N,)
+    [kg/m], edge lengths (E, 3) [m], smallest altitude (E,) [m]) of the triangles."""
+    x0, x1, x2 = X[tris[:, 0]], X[tris[:, 1]], X[tris[:, 2]]
+    F0 = np.stack([x1 - x0, x2 - x0], axis=2)          # columns: edges 0→1, 0→2
+    area0 = 0.5 * np.linalg.det(F0)
+    rest_inv = np.linalg.inv(F0)
+    rho = np.array([m.density for m in materials])[tri_mat]
+    mass = np.zeros(len(X))
+    np.add.at(mass, tris.ravel(), np.repeat(rho * area0 / 3.0, 3))
+    md.node_mass_np, md.node_mass_full, md.tri_area0_np = mass, mass.copy(), area0
+    edge_len = np.stack([np.linalg.norm(x1 - x0, axis=1), np.linalg.norm(x2 - x1, axis=1),
+                         np.linalg.norm(x0 - x2, axis=1)], axis=1)
+    altitude = 2.0 * area0 / edge_len.max(axis=1)       # smallest altitude of each triangle
+    return area0, rest_inv, rho, mass, edge_len, altitude
+
+
+def _time_step(md, scene, dt, safety, force_dt, X, tris, free, materials, tri_mat, pair, used_pairs, mass, tri,
+               joints):
+    """Set the model's stable time-step estimates and its time step ``md.dt`` (validating ``dt``
+    against the limit, docs/theory/elements.md §6.2); returns the fluid's fracture network (None
+    without a fluid)."""
+    area0, altitude, beta_t, ctri = tri
+    joint_tris, joint_prop, joint_len = joints
+    bodies = md.bodies
+    moving = ~np.all(free[tris].reshape(len(tris), 6) == 0.0, axis=1)
+    rho_all = np.array([m.density for m in materials])
+    cp = np.array([m.p_wave_speed(scene.plane) for m in materials])[tri_mat]
+    pmax = _touching_penalty(bodies, tri_mat, moving, pair) if md.contact else 0.0
+    rho_min = min(m.density for m in materials)
+    xi_max = used_pairs[..., 3].max() / (4.0 * math.sqrt(pmax * rho_min)) if md.contact_damping and pmax > 0 else 0.0
+    if md.fracture:
+        # the node mass a joint moves is set by its triangles' size: the smaller of their
+        # smallest altitudes, at most the joint length
+        h_j = np.minimum(np.minimum(altitude[joint_tris[:, 0]], altitude[joint_tris[:, 1]]), joint_len)
+        j_rho = np.minimum(rho_all[tri_mat[joint_tris[:, 0]]], rho_all[tri_mat[joint_tris[:, 1]]])
+        j_pf = joint_prop[:, 5]
+    else:
+        h_j = j_rho = j_pf = np.zeros(0)
+    fspec = getattr(scene, "_fluid", None)
+    net = fluid_net.build_network(bodies) if fspec is not None else None
+    dt_fluid = fluid_net.fluid_stiffness_step(net, X, mass, np.any(free != 0.0, axis=1), fspec.fluid.bulk_modulus,
+                                              fspec.aperture_min) if fspec is not None else math.inf
+    steps = timestep.estimate_time_steps(
+        altitude=altitude, area0=area0, cp=cp, beta=beta_t, moving=moving,
+        contact_altitude=altitude[ctri] if md.contact else np.zeros(0), contact_penalty=pmax, rho_min=rho_min,
+        xi_max=xi_max, joint_h=h_j, joint_rho=j_rho, joint_penalty=j_pf, fluid_step=dt_fluid)
+    md.dt_fluid = steps["fluid"]
+    md.dt_elastic, md.dt_contact, md.dt_joint = steps["elastic"], steps["contact"], steps["joint"]
+    md.dt_estimate, md.dt_limit = steps["estimate"], steps["limit"]
+    md.dt = timestep.choose_time_step(steps, dt, safety, force_dt)
+    md.force_dt = bool(force_dt)
+    return net
+
+
+def _joint_table(md, scene, bodies, X, materials, tri_mat):
+    """(joint_nodes (J, 4), joint_tris (J, 2), joint_prop (J, 6), rest lengths (J,)) of the
+    fracturing bodies (one zero row without joints); sets the model's joint flags, counts and
+    host arrays and warns about soft or slender joint parameters (§7.9)."""
     jn, jt, jp, js = [], [], [], []
     for b in bodies:
         if b.fracture and b.joint_count:
@@ -212,8 +319,12 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     if md.fracture:
         _warn_joint_parameters(md.joint_set_names, md.joint_set_np, joint_prop, joint_len,
                                np.array([m.young for m in materials])[tri_mat[joint_tris[:, 0]]])
+    return joint_nodes, joint_tris, joint_prop, joint_len
 
-    # ---- contact participation ---------------------------------------------------------------
+
+def _contact_triangles(md, bodies, pair, tri_mat):
+    """(the triangles that take part in contact, the pair table of the materials that meet);
+    sets ``md.contact``, ``md.friction`` and ``md.contact_damping``."""
     contact = len(bodies) >= 2 or any(b.self_contact for b in bodies)
     ctri = []
     if contact:
@@ -230,154 +341,27 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     used_pairs = pair[np.ix_(np.unique(tri_mat), np.unique(tri_mat))] if md.contact else pair[:0, :0]
     md.friction = bool(md.contact and np.any(used_pairs[..., 2] > 0))
     md.contact_damping = bool(md.contact and np.any(used_pairs[..., 3] > 0))
-    betas = np.array([m.damping for m in materials])
-    md.damping = bool(np.any(betas > 0))
-    beta_t = betas[tri_mat]
+    return ctri, used_pairs
 
-    # ---- stable time step (docs/theory/elements.md §6.2) ------------------------------------------------------
-    moving = ~np.all(free[tris].reshape(len(tris), 6) == 0.0, axis=1)
-    rho_all = np.array([m.density for m in materials])
-    cp = np.array([m.p_wave_speed(scene.plane) for m in materials])[tri_mat]
-    pmax = _touching_penalty(bodies, tri_mat, moving, pair) if md.contact else 0.0
-    rho_min = min(m.density for m in materials)
-    xi_max = used_pairs[..., 3].max() / (4.0 * math.sqrt(pmax * rho_min)) if md.contact_damping and pmax > 0 else 0.0
-    if md.fracture:
-        # the node mass a joint moves is set by its triangles' size: use their smallest
-        # altitude, not the joint length (the length alone was optimistic on slender meshes)
-        h_j = np.minimum(np.minimum(altitude[joint_tris[:, 0]], altitude[joint_tris[:, 1]]), joint_len)
-        j_rho = np.minimum(rho_all[tri_mat[joint_tris[:, 0]]], rho_all[tri_mat[joint_tris[:, 1]]])
-        j_pf = joint_prop[:, 5]
-    else:
-        h_j = j_rho = j_pf = np.zeros(0)
-    fspec = getattr(scene, "_fluid", None)
-    net = fluid_net.build_network(bodies) if fspec is not None else None
-    dt_fluid = fluid_net.fluid_stiffness_step(net, X, mass, np.any(free != 0.0, axis=1), fspec.fluid.bulk_modulus,
-                                              fspec.aperture_min) if fspec is not None else math.inf
-    steps = timestep.estimate_time_steps(
-        altitude=altitude, area0=area0, cp=cp, beta=beta_t, moving=moving,
-        contact_altitude=altitude[ctri] if md.contact else np.zeros(0), contact_penalty=pmax, rho_min=rho_min,
-        xi_max=xi_max, joint_h=h_j, joint_rho=j_rho, joint_penalty=j_pf, fluid_step=dt_fluid)
-    md.dt_fluid = steps["fluid"]
-    md.dt_elastic, md.dt_contact, md.dt_joint = steps["elastic"], steps["contact"], steps["joint"]
-    md.dt_estimate, md.dt_limit = steps["estimate"], steps["limit"]
-    md.dt = timestep.choose_time_step(steps, dt, safety, force_dt)
-    md.force_dt = bool(force_dt)
 
-    if buffer is None:
-        buffer = 0.25 * float(edge_len[ctri].mean()) if len(ctri) else 0.0
-    buffer = float(buffer)
-    if not (math.isfinite(buffer) and buffer >= 0):
-        raise ValueError(f"Scene.build: buffer must be a finite length >= 0 m, got {buffer}")
-    md.buffer = buffer
-    if speed_limit is None:
-        speed_limit = 2.0 * max(m.p_wave_speed(scene.plane) for m in materials)
-        speed_limit = max(speed_limit, 10.0 * float(np.abs(V).max(initial=0.0)))
-    md.speed_limit = float(speed_limit)
-    if not (md.speed_limit > 0):
-        raise ValueError(f"Scene.build: speed_limit must be > 0 m/s, got {speed_limit}")
+def _model_sizes(md, values: dict, materials: int, groups: int) -> dict:
+    """The size symbols of engine.arrays.SIZES that the model fixes, and its feature switches."""
+    K = md.ctri_count if md.contact else 1
+    return {"N": md.node_count, "E": md.tri_count, "M": materials, "B": len(md.bodies), "G": groups,
+            "L": max(md.load_count, 1), "P": len(values["curve_points"]), "K": K,
+            "H": _next_pow2(2 * K) if md.contact else 1, "J": len(values["joint_nodes"]), "NB": md.nb_count,
+            "V": md.fan_count, "F": len(values["tri_fans"]), "Q": max(md.fluid_edge_count, 1),
+            "W": max(md.fluid_node_count, 1), "NC": len(md.fluid_copies), "I": len(values["fluid_index"]),
+            "R": len(md.fluid_real0), "bc": md.has_bc, "damping": md.damping, "prestress": md.prestress,
+            "joint_prestress": md.joint_prestress, "contact": md.contact, "friction": md.friction,
+            "fracture": md.fracture, "fluid": md.fluid}
 
-    # ---- loads, curves, initial stress, local damping (docs/theory/loads.md §12) --------------------------
-    load_nodes, load_vals, md.dashpot_rate = _load_table(scene, bodies, X, mass, md.dt, curves, free, vbc_raw, vcurve)
-    md.load_count = len(load_nodes)
-    fluid_net.install_fluid(md, scene, net, curves)      # (its curves join the table before it is made)
-    md.loads = md.load_count > 0
-    md.curves = curves.list
-    md.curve_slices = curves.slices
-    prestress = _prestress(scene, tri_body, X, tris)
-    md.prestress = prestress is not None
-    md.qs_alpha = float(quasi_static)
-    md.local_damping = md.qs_alpha > 0.0
 
-    # ---- Taichi arrays of the model (dummies of size 1 for unused features) --------------------
-    v2 = lambda a: _ndarray(np.asarray(a, real), rti, vec=2)
-    sc = lambda a: _ndarray(np.asarray(a, real), rti)
-    i32 = lambda a: _ndarray(np.asarray(a, np.int32), ti.i32)
-    md.node_mass = sc(mass)
-    md.node_free = v2(free if md.has_bc else np.ones((1, 2)))
-    md.tri_nodes = _ndarray(tris, ti.i32, vec=3)
-    md.tri_rest_inv = _ndarray(rest_inv.astype(real), rti, mat=(2, 2))
-    md.tri_area0_np = area0
-    md.tri_mat = i32(tri_mat)
-    md.tri_body = i32(tri_body)
-    if md.damping:
-        E = np.array([m.young for m in materials])[tri_mat]
-        h = np.sqrt(4.0 * area0 / math.sqrt(3.0))       # edge of the equilateral of equal area
-        md.tri_visc = sc(2.0 * h * beta_t * np.sqrt(E * rho))
-    else:
-        md.tri_visc = sc(np.zeros(1))
-    md.mat_mu = sc([m.shear_modulus for m in materials])
-    md.mat_lam = sc([m.lambda_y(scene.plane) for m in materials])
-    md.mat_pair = _ndarray(pair.astype(real), rti, vec=4)
-    md.body_flags = i32(body_flags)
-    md.ctri_count = len(ctri) if md.contact else 0
-    md.contact_tri = i32(ctri if md.contact else np.zeros(1, np.int32))
-    md.joint_nodes = _ndarray(joint_nodes, ti.i32, vec=4)
-    # (A, B, e_A, e_B): the joint's triangles and the index of its edge in each (constant: the
-    # joint nodes and the triangles' nodes never change), read by engine.joints.pair_carried
-    edges = np.zeros((len(joint_tris), 2), np.int32)
-    if md.fracture:
-        edges[:, 0] = _edge_index(tris[joint_tris[:, 0]], joint_nodes[:, 0], joint_nodes[:, 1])
-        edges[:, 1] = _edge_index(tris[joint_tris[:, 1]], joint_nodes[:, 2], joint_nodes[:, 3])
-    md.joint_tris = _ndarray(np.concatenate([joint_tris, edges], axis=1), ti.i32, vec=4)
-    # original (unsplit) nodes of each triangle, numbered apart from every other body's
-    origin = tris.copy()
-    md.tri_fracturing = np.zeros(len(tris), bool)
-    base = len(X)
-    for b in bodies:
-        if b.origin_triangles is not None:
-            origin[b.triangles] = b.origin_triangles + base
-            base += int(b.origin_triangles.max()) + 1
-        if b.fracture:
-            md.tri_fracturing[b.triangles] = b.tri_bonded if b.tri_bonded is not None else True
-    md.tri_origin = _ndarray(origin, ti.i32, vec=3)
-    # the per-joint constants of the share of contact a joint carries (docs/theory/joints.md §7.10,
-    # engine.joints.carried_share): k_x / L = 3 p (1/(2A_A) + 1/(2A_B)) from the rest areas, and μ
-    mA, mB = tri_mat[joint_tris[:, 0]], tri_mat[joint_tris[:, 1]]
-    kx_per_len = 3.0 * pair[mA, mB, 0] * (0.5 / area0[joint_tris[:, 0]] + 0.5 / area0[joint_tris[:, 1]])
-    carried = np.stack([kx_per_len, pair[mA, mB, 2]], axis=1) if md.fracture else np.zeros((len(joint_prop), 2))
-    cols = [joint_prop, carried]
-    md.joint_fs0 = np.repeat(joint_prop[:, 1:2], 3, axis=1)       # initial shear strength c [Pa]
-    # prestressed joints start at the point of their law that carries σ⁰·n̂ (docs/theory/joints.md §7.11):
-    # 6 more columns, the offsets, and only then (engine.joints.eval_joint compiles them by width)
-    sn_tau = _joint_prestress(scene, X, joint_nodes[: md.joint_count], tri_body[joint_tris[: md.joint_count, 0]]) \
-        if md.fracture and md.prestress else None
-    md.joint_prestress = sn_tau is not None and bool(np.any(sn_tau != 0.0))
-    if md.joint_prestress:
-        offsets, md.joint_fs0 = prestress_offsets(joint_prop, joint_len, sn_tau[0], sn_tau[1])
-        cols.append(offsets)
-    md.joint_prop = _ndarray(np.concatenate(cols, axis=1).astype(real), rti, vec=sum(c.shape[1] for c in cols))
-    md.step_dt = _scalar(md.dt, rti)
-    md.step_gravity = ti.Vector.ndarray(2, rti, shape=())
-    host_write(md.step_gravity, None, [float(g) for g in scene.gravity])
-    md.step_buffer = _scalar(buffer, rti)
-    md.step_vlimit = _scalar(md.speed_limit, rti)
-    md.load_nodes = _ndarray(load_nodes if md.loads else np.zeros((1, 5), np.int32), ti.i32, vec=5)
-    md.load_vals = _ndarray((load_vals if md.loads else np.zeros((1, 4))).astype(real), rti, vec=4)
-    md.curve_points = _ndarray(curves.points().astype(real), rti, vec=2)
-    md.prestress_np = prestress
-    md.tri_prestress = _ndarray((prestress if md.prestress else np.zeros((1, 3))).astype(real), rti, vec=3)
-    md.step_switches = _scalar(SWITCH_DAMPING * md.damping + SWITCH_CDAMPING * md.contact_damping
-                               + SWITCH_BC * md.has_bc + SWITCH_BC_WORK * md.has_bc_work
-                               + SWITCH_PRESTRESS * md.prestress, ti.i32)
-    # the initial tri_intact bits.  A pair that would have no contact couple has no contact share
-    # for its joint to carry: a body without self-contact, or whose every node is prescribed
-    # (engine.detection.is_excluded)
-    tflags = body_flags[tri_body]
-    couples = ((tflags & 1) != 0) & ((tflags & 2) == 0) & md.contact
-    md.tri_intact0_np = initial_intact(tris, joint_nodes[: md.joint_count], md.joint_tris_np,
-                                       md.tri_fracturing & couples & (md.joined_pairs == "joint"), md.tri_fracturing)
-    # the neighbour pairs: bonded triangles of such bodies that share an original node
-    in_ctri = np.zeros(len(tris), bool)
-    in_ctri[ctri] = md.contact
-    eligible = md.tri_fracturing & couples & in_ctri
-    md.nb_pairs_np = neighbour_pairs(origin, eligible)
-    md.nb_count = len(md.nb_pairs_np)
-    # the fans of the original nodes: which corner pairs are still tied by intact joints
-    fans = fan_links(tris, origin, X, joint_nodes[: md.joint_count], md.joint_tris_np, md.nb_pairs_np, eligible) \
-        if md.fracture and md.nb_count else np.zeros(FAN_HEAD + 1, np.int32)
-    md.fan_count = int(fans[0])
-    md.tri_fans = i32(fans)
-    return md
+def _tri_viscosity(materials, tri_mat, area0, beta_t, rho) -> np.ndarray:
+    """The viscous damping coefficient of each triangle [Pa·s·m] (docs/theory/contact.md §2.3)."""
+    E = np.array([m.young for m in materials])[tri_mat]
+    h = np.sqrt(4.0 * area0 / math.sqrt(3.0))       # edge of the equilateral of equal area
+    return 2.0 * h * beta_t * np.sqrt(E * rho)
 
 
 def _boundary_conditions(scene, bodies, X, curves):
@@ -628,15 +612,6 @@ def _pair_table(scene, materials) -> np.ndarray:
             xi = ov.get("contact_damping", min(a.contact_damping, b.contact_damping))
             pair[i, j] = (p, kt, mu, 4.0 * xi * math.sqrt(p * min(a.density, b.density)))
     return pair
-
-
-def _edge_index(tri_nodes, p, q) -> np.ndarray:
-    """For each row, the index e of the edge of the triangle tri_nodes (k, 3) whose ends are nodes p
-    and q (edge e runs from vertex e to vertex e + 1): the edge opposite the vertex that is neither."""
-    other = (tri_nodes != p[:, None]) & (tri_nodes != q[:, None])
-    if not np.all(other.sum(axis=1) == 1):
-        raise ValueError("internal error: a joint's nodes are not an edge of its triangle")
-    return ((np.argmax(other, axis=1) + 1) % 3).astype(np.int32)
 
 
 def _warn_joint_parameters(set_names, joint_set, joint_prop, joint_len, young) -> None:

@@ -85,8 +85,8 @@ class SimulationResults:
         lam = self.model.mat_lam.to_numpy()[self.model.tri_mat_np][:, None, None]
         I = np.eye(2)
         T = (mu / J[:, None, None]) * (F @ F.transpose(0, 2, 1) - I) + lam * (J - 1.0 / J)[:, None, None] * I
-        S0 = self.model.prestress_np
-        if S0 is not None:                  # initial stress: + F S⁰ Fᵀ / J (docs/theory/loads.md §12.4)
+        S0 = self.model.tri_prestress_np
+        if self.model.prestress:            # initial stress: + F S⁰ Fᵀ / J (docs/theory/loads.md §12.4)
             S = np.stack([np.stack([S0[:, 0], S0[:, 2]], 1), np.stack([S0[:, 2], S0[:, 1]], 1)], 1)
             T = T + F @ S @ F.transpose(0, 2, 1) / J[:, None, None]
         T[self.state.tri_intact.to_numpy() < 0] = 0.0      # removed by an excavation

@@ -4,19 +4,20 @@
 :class:`~taichi_fdem.sim.model.Model` (positions, velocities, the joints' and triangles' evolving
 arrays, the couple buffer with the neighbour pairs first); :func:`allocate_scratch` the work
 arrays of detection and of the parallel assembly; :func:`pack_groups` the argpacks of
-:mod:`taichi_fdem.engine.groups` drawn from all three.
+:mod:`taichi_fdem.engine.groups` drawn from all three.  Element types and shapes are the
+declared ones (:mod:`taichi_fdem.engine.arrays`), evaluated at :func:`state_sizes` and
+:func:`scratch_sizes`.
 """
 from __future__ import annotations
 
 import numpy as np
-import taichi as ti
 
-from .. import backend
-from ..engine.groups import (COUPLES, DACC, DACC_FORCE, DET_CAND, FORCE_BLOCKS, GROUPS, HANDOVER, INT_COUNTERS,
-                            NB_PAIRS, QS_ALPHA, REAL_COUNTERS, REBALANCE, SERIAL_FLUID_MEMBERS, SYNC_LINE, TEAM_CHUNK,
-                            TEAM_MEMBERS, SerialFluidGroup, TeamGroup)
-from .fluid import allocate_fluid_state
-from .model import Model, Scratch, State, _ndarray, _next_pow2, counter, set_counter
+from ..engine.arrays import SCRATCH, STATE
+from ..engine.groups import (ASSEMBLY_MEMBERS, DACC_FORCE, FORCE_BLOCKS, GROUPS, SERIAL_FLUID_MEMBERS, TEAM_CHUNK,
+                             TEAM_MEMBERS, SerialFluidGroup, TeamGroup)
+from .arrays import allocate
+from .fluid import fluid_state_values
+from .model import Model, Scratch, State
 
 
 # -------------------------------------------------------------------------------------------------
@@ -27,45 +28,30 @@ def nb_on_size(md: Model) -> int:
     return max(md.nb_count + md.fan_count, 1)
 
 
+def state_sizes(md: Model, st: State) -> dict:
+    """The size symbols of the state's declared shapes: the model's and the couple capacity C."""
+    return {**md.sizes, "C": st.couple_max}
+
+
 def allocate_state(md: Model) -> State:
     """The initial :class:`State` of a model: rest positions, initial velocities, and a couple
-    list holding only the neighbour pairs (:func:`install_neighbour_pairs`; detection is due)."""
-    real, rti = backend.real_np(), backend.real_ti()
+    list holding only the neighbour pairs (:func:`install_neighbour_pairs`; detection is due).
+    Every declared state array (engine.arrays) not given a value here starts at zero."""
     st = State()
-    v2 = lambda a: _ndarray(np.asarray(a, real), rti, vec=2)
-    sc = lambda a: _ndarray(np.asarray(a, real), rti)
-    i32 = lambda a: _ndarray(np.asarray(a, np.int32), ti.i32)
-    st.node_x = v2(md.node_rest)
-    st.node_v = v2(md.node_velocity0)
-    st.node_f = v2(np.zeros_like(md.node_rest))
-    st.node_vbc = v2(md.node_vbc0 if md.has_bc else np.zeros((1, 2)))
-    st.node_react = v2(np.zeros_like(md.node_rest) if md.has_bc else np.zeros((1, 2)))
-    st.load_force = _ndarray(np.zeros((max(md.load_count, 1), 4), real), rti, vec=4)
-    st.tri_diss = sc(np.zeros(md.tri_count if md.damping else 1))
-    st.tri_intact = i32(md.tri_intact0_np)
-    st.tri_nb_on = i32(np.zeros(nb_on_size(md)))                 # set by Simulation (refresh_neighbours)
-    nj = md.joint_nodes.shape[0]
-    st.joint_state = i32(np.zeros(nj))
-    st.joint_dmax = _ndarray(np.zeros((nj, 3), real), rti, vec=3)
-    st.joint_zmax = _ndarray(np.ones((nj, 3), real), rti, vec=3)              # z(dmax), z(0) = 1
-    st.joint_fs = _ndarray(md.joint_fs0.astype(real), rti, vec=3)
-    st.joint_work = sc(np.zeros(nj))
-    st.joint_break = _ndarray(np.zeros((nj, 4), real), rti, vec=4)
-    st.joint_g = _ndarray(np.zeros((nj, 4), real), rti, vec=4)
     K = md.ctri_count if md.contact else 1
-    st.couple_start = i32(np.zeros(K + 1 if md.friction else 1))
-    st.couple_max = 0
-    st.step_real = ti.ndarray(rti, shape=REAL_COUNTERS)          # slots: engine.groups.TIME, ...
-    st.step_real.fill(0)
-    st.step_int = ti.ndarray(ti.i32, shape=INT_COUNTERS)         # slots: engine.groups.COUPLES, ...
-    st.step_int.fill(0)
-    allocate_fluid_state(md, st)
-    grow_couples(md, st, md.nb_count + 2 * K + 64 if md.contact else 1)
+    st.couple_max = md.nb_count + 2 * K + 64 if md.contact else 1
+    allocate(st, STATE, state_sizes(md, st), {
+        "node_x": md.node_rest, "node_v": md.node_velocity0,
+        "node_vbc": md.node_vbc0 if md.has_bc else np.zeros((1, 2)),
+        "tri_intact": md.tri_intact0_np,                # (tri_nb_on: set by Simulation, refresh_neighbours)
+        "joint_zmax": np.ones((md.sizes["J"], 3)),      # z(dmax), z(0) = 1
+        "joint_fs": md.joint_fs0, **fluid_state_values(md)})
     install_neighbour_pairs(md, st)
-    set_counter(st.step_real, QS_ALPHA, md.qs_alpha)
-    set_counter(st.step_real, HANDOVER, md.handover_damage)
+    c = st.counters
+    c.qs_alpha = md.qs_alpha
+    c.handover = md.handover_damage
     if md.contact:
-        set_counter(st.step_real, DACC, DACC_FORCE)                   # detect at the first step
+        c.dacc = DACC_FORCE                             # detect at the first step
     return st
 
 
@@ -74,7 +60,8 @@ def install_neighbour_pairs(md: Model, st: State) -> None:
     drop the other couples (a detection is due): at the start, and when a checkpoint written
     before neighbour pairs is loaded."""
     M = md.nb_count
-    set_counter(st.step_int, NB_PAIRS, M)
+    c = st.counters
+    c.nb_pairs = M
     if not md.contact:
         return
     if st.couple_max < M + 64:
@@ -89,67 +76,56 @@ def install_neighbour_pairs(md: Model, st: State) -> None:
             h = st.couple_hist.to_numpy()
             h[: 6 * M] = 0.0
             st.couple_hist.from_numpy(h)
-    set_counter(st.step_int, COUPLES, M)
-    set_counter(st.step_int, REBALANCE, 0)
-    set_counter(st.step_real, DACC, DACC_FORCE)
+    c.couples = M
+    c.rebalance = 0
+    c.dacc = DACC_FORCE
 
 
 def grow_couples(md: Model, st: State, capacity: int) -> None:
     """(Re)allocate the couple buffer of ``st`` with room for ``capacity`` couples, keeping its
     content (couples and their friction history)."""
-    rti = backend.real_ti()
-    keep = counter(st.step_int, COUPLES) if st.couple_max else 0
-    old = None
+    keep = st.counters.couples
+    values = {}
     if keep:
-        old = (st.couple_a.to_numpy()[:keep], st.couple_b.to_numpy()[:keep],
-               st.couple_hist.to_numpy()[:6 * keep] if md.friction else None)
-    st.couple_a = ti.ndarray(ti.i32, shape=capacity)
-    st.couple_b = ti.ndarray(ti.i32, shape=capacity)
-    hcap = 6 * capacity if md.friction else 1
-    st.couple_hist = ti.ndarray(rti, shape=hcap)
-    if old is not None:
-        a = np.zeros(capacity, np.int32); a[:keep] = old[0]; st.couple_a.from_numpy(a)
-        b = np.zeros(capacity, np.int32); b[:keep] = old[1]; st.couple_b.from_numpy(b)
-        if md.friction:
-            h = np.zeros(hcap, backend.real_np()); h[:6 * keep] = old[2]; st.couple_hist.from_numpy(h)
+        for name, per in (("couple_a", 1), ("couple_b", 1)) + ((("couple_hist", 6),) if md.friction else ()):
+            old = getattr(st, name).to_numpy()
+            new = np.zeros(per * capacity, old.dtype)
+            new[:per * keep] = old[:per * keep]
+            values[name] = new
     st.couple_max = capacity
+    allocate(st, STATE, state_sizes(md, st), values, names=("couple_a", "couple_b", "couple_hist"))
+
+
+def scratch_sizes(md: Model, st: State, sw: Scratch) -> dict:
+    """The size symbols of the scratch's declared shapes: the state's and the assembly's."""
+    blocks, slots = sw.parallel and sw.blocks, sw.parallel and not sw.blocks
+    team = sw.force_blocks if blocks else 0
+    return {**state_sizes(md, st), "FB": sw.force_blocks, "blocks": blocks, "slots": slots, "T": team,
+            "U": -(-md.node_count // TEAM_CHUNK) if team else 0}          # engine.blocks.chunk_count
 
 
 def allocate_scratch(md: Model, st: State, parallel: bool = False, blocks: bool = True,
                      force_blocks: int = FORCE_BLOCKS) -> Scratch:
     """Detection work arrays sized for the model's contact triangles and the state's couple
     buffer, and (``parallel``) the assembly arrays of the parallel strategy: the block copies of
-    the nodal forces (``blocks``, the CPU default) or the force slots and node lists."""
-    rti = backend.real_ti()
+    the nodal forces (``blocks``, the CPU default) or the force slots and node lists; all zero."""
     sw = Scratch()
     sw.parallel = bool(parallel)
     sw.blocks = bool(blocks)
     sw.force_blocks = int(force_blocks)
-    K = md.ctri_count if md.contact else 1
-    H = _next_pow2(2 * K) if md.contact else 1
-    sw.det_bound = ti.Vector.ndarray(13, rti, shape=K)   # circle (c, r), box (lo, hi), vertices
-    sw.det_sort = ti.Vector.ndarray(3, ti.i32, shape=K)
-    sw.det_bucket = ti.Vector.ndarray(2, ti.i32, shape=H)
-    # det_cnew: the K + 1 counts, then DET_CAND partners per contact triangle (engine.detection.cand_slot)
-    for name, n in (("cnew", K + 1 + DET_CAND * K), ("old_start", K + 1 if md.friction else 1)):
-        setattr(sw, "det_" + name, ti.ndarray(ti.i32, shape=n))
-    size_couple_scratch(md, st, sw)
+    allocate(sw, SCRATCH, scratch_sizes(md, st, sw))
     return sw
 
 
 def size_couple_scratch(md: Model, st: State, sw: Scratch) -> None:
-    """Scratch sized by the couple buffer: the previous-couple copies that carry friction history
-    over, and the assembly arrays (:func:`size_assembly`)."""
-    cap = st.couple_max
-    sw.couple_skip = ti.ndarray(backend.real_ti(), shape=cap if md.contact else 1)   # no certificates
-    sw.couple_skip.fill(0)
-    sw.det_old_b = ti.ndarray(ti.i32, shape=cap if md.friction else 1)
-    sw.det_old_hist = ti.ndarray(backend.real_ti(), shape=6 * cap if md.friction else 1)
+    """Reallocate (zero) the scratch sized by the couple buffer: the certificates, the
+    previous-couple copies that carry friction history over, and the assembly arrays."""
+    allocate(sw, SCRATCH, scratch_sizes(md, st, sw), names=("couple_skip", "det_old_b", "det_old_hist"))
     size_assembly(md, st, sw)
 
 
 def size_assembly(md: Model, st: State, sw: Scratch) -> None:
-    """The parallel strategy's assembly arrays (1-element placeholders otherwise).
+    """Reallocate (zero) the parallel strategy's assembly arrays (1-element placeholders otherwise).
 
     Blocks (``sw.blocks``): a copy of the nodal forces for each block but the first (which adds
     into node_f), block-major (asm_force[(b − 1) N + n]), then two entries per block for its
@@ -157,30 +133,9 @@ def size_assembly(md: Model, st: State, sw: Scratch) -> None:
     them); the barrier counter, the flags and the per-chunk partials of
     :func:`taichi_fdem.engine.step.run_steps_blocks` (asm_sync, asm_part).  Slots:
     one force slot per triangle node (3) and couple node (6), and the node lists (3 per
-    triangle, 4 per joint, 6 per couple) with their starts.
+    triangle, 4 per joint, 6 per couple) with their starts.  Shapes: engine.arrays.
     """
-    rti = backend.real_ti()
-    N = md.node_count
-    if sw.parallel and sw.blocks:
-        sw.asm_force = ti.Vector.ndarray(2, rti, shape=(sw.force_blocks - 1) * N + 2 * sw.force_blocks)
-        sw.asm_node_slots = ti.ndarray(ti.i32, shape=1)
-        sw.asm_node_start = ti.ndarray(ti.i32, shape=1)
-    elif sw.parallel:
-        ncap = st.couple_max if md.contact else 0
-        sw.asm_force = ti.Vector.ndarray(2, rti, shape=3 * md.tri_count + 6 * ncap)
-        sw.asm_node_slots = ti.ndarray(ti.i32, shape=3 * md.tri_count + 4 * md.joint_count + 6 * ncap)
-        sw.asm_node_start = ti.ndarray(ti.i32, shape=N + 1)
-    else:
-        sw.asm_force = ti.Vector.ndarray(2, rti, shape=1)
-        sw.asm_node_slots = ti.ndarray(ti.i32, shape=1)
-        sw.asm_node_start = ti.ndarray(ti.i32, shape=1)
-    team = sw.force_blocks if sw.parallel and sw.blocks else 0
-    chunks = -(-N // TEAM_CHUNK) if team else 0                  # engine.blocks.chunk_count
-    # engine.team: two lines of counters, a claim slot per unit (blocks or chunks), each chunk's
-    # non-finite flag; each chunk's largest |v|², constraint and local-damping work
-    sw.asm_sync = ti.ndarray(ti.i32, shape=2 * SYNC_LINE + max(team, chunks) + chunks)
-    sw.asm_sync.fill(0)
-    sw.asm_part = ti.ndarray(rti, shape=max(1, 3 * chunks))
+    allocate(sw, SCRATCH, scratch_sizes(md, st, sw), names=ASSEMBLY_MEMBERS)
 
 
 def pack_groups(md: Model, st: State, sw: Scratch) -> dict:
