@@ -296,3 +296,12 @@ def test_taichi_private_names_are_caught(tmp_path):
                        "y = ti.Vector([1.0, 2.0])\nimport taichi_fdem._x\nv = ti.__version__\n")
     hits = taichi_private_names([planted])
     assert [int(h.split(":")[1]) for h in hits] == [2, 3, 4, 5, 6, 7, 8], hits
+
+
+def test_the_architecture_page_names_every_module():
+    """docs/architecture.md describes the code file by file: every module of the package is
+    named there (as ``file.py`` within its folder's section, or with its folder)."""
+    text = (PKG.parent / "docs" / "architecture.md").read_text()
+    missing = [name for name, path in _modules()
+               if path.name != "__init__.py" and f"`{path.name}`" not in text and f"{path.name}" not in text]
+    assert not missing, "modules docs/architecture.md does not name: " + ", ".join(missing)
