@@ -30,6 +30,7 @@ def _constraint_tables(ck, data: dict, names, curves: dict) -> list:
 
 
 def _load_tables(ck, data: dict, names, curves: dict) -> list:
+    """One resolved dict per ``[[loads]]``: its kind with that kind's value, a region, a curve."""
     out = []
     for k, t in enumerate(_array(ck, data, "loads", "kind, its value and a region")):
         p = ("loads", k)
@@ -54,6 +55,7 @@ def _load_tables(ck, data: dict, names, curves: dict) -> list:
 
 
 def _initial_stress_tables(ck, data: dict, names) -> list:
+    """One resolved dict per ``[[initial_stress]]``."""
     out = []
     for k, t in enumerate(_array(ck, data, "initial_stress", "sxx, syy, sxy")):
         p = ("initial_stress", k)
@@ -69,6 +71,7 @@ def _initial_stress_tables(ck, data: dict, names) -> list:
 
 
 def _excavate_tables(ck, data: dict, names) -> list:
+    """One resolved dict per ``[[excavate]]``: a body and/or a region, the tables in order of time."""
     out = []
     for k, t in enumerate(_array(ck, data, "excavate", "time and the body and/or region removed")):
         p = ("excavate", k)

@@ -34,6 +34,7 @@ _EDGE_TABLE_KEYS = {**REGION_KEYS, "lines": _Key("polylines", unit="m"), "line_g
 
 
 def _edge_table(ck, t, path: tuple, keys=None) -> dict:
+    """A resolved edge table: exactly one of a region of edge midpoints, ``lines`` or ``line_group``."""
     keys = _EDGE_TABLE_KEYS if keys is None else keys
     ck.table(t, path, "a region (xmin, ..., r_max), lines = [[[x, y], ...], ...] or line_group = \"NAME\"")
     ck.keys(t, keys, path)
@@ -75,6 +76,8 @@ def _cracks(ck, value, path: tuple):
 
 
 def _strength_keys(ck, raw: dict, v: dict, path: tuple) -> None:
+    """The joint-strength spread keys of a table: weibull_modulus or strength_cov, not both;
+    strength_seed and strength_scale_energy need one of them, strength_floor needs strength_cov."""
     if v["weibull_modulus"] is not None and v["strength_cov"] is not None:
         raise ck.error(path + ("strength_cov",), "give either weibull_modulus or strength_cov, not both")
     for k in ("strength_seed", "strength_scale_energy"):
@@ -99,12 +102,14 @@ def strength_of(v: dict):
 
 
 def _known_curve(ck, curves: dict, name: str, path: tuple) -> None:
+    """``name`` is a ``[curves.NAME]`` of the file."""
     if name not in curves:
         raise ck.error(path, f"unknown curve {name!r}{_suggest(name, curves)}; defined: "
                        f"{', '.join(curves) or 'none (add a [curves.NAME] table)'}")
 
 
 def _array(ck, data: dict, key: str, what: str) -> list:
+    """The array of tables ``[[key]]`` of ``data`` (empty when absent)."""
     t = data.get(key, [])
     if not isinstance(t, list):
         raise ck.error((key,), f"{key} must be an array of tables [[{key}]] ({what})", table=())
@@ -112,10 +117,12 @@ def _array(ck, data: dict, key: str, what: str) -> list:
 
 
 def _known_body(ck, names, c: dict, path: tuple) -> None:
+    """The ``body`` of the resolved table ``c``, if any, is one of ``names``."""
     if c.get("body") is not None and c["body"] not in names:
         raise ck.error(path + ("body",), f"unknown body {c['body']!r}{_suggest(c['body'], names)}")
 
 
 def _fmt(path: tuple) -> str:
+    """A key path as dotted text."""
     return ".".join(str(p) for p in path)
 

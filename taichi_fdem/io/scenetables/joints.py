@@ -8,11 +8,15 @@ from .keys import INTERACTION_KEYS, JOINT_SET_KEYS
 
 
 def _joint_set_tables(ck, data: dict, materials: dict, names) -> list:
+    """One resolved dict per ``[[joint_sets]]``."""
     return _joint_set_list(ck, _array(ck, data, "joint_sets", "name, material and the edges"), ("joint_sets",),
                            materials, names, JOINT_SET_KEYS)
 
 
 def _joint_set_list(ck, items, base: tuple, materials: dict, names, schema: dict) -> list:
+    """One resolved dict per joint-set table of ``items`` (at ``base``, keys of ``schema``): a
+    unique name, a material that can fracture, exactly one edge selector; ``names`` (None: no
+    body key) are the bodies it may name."""
     if not isinstance(items, list):
         raise ck.error(base, f"{_fmt(base)} must be an array of tables [[{_fmt(base)}]]", table=())
     out, seen = [], set()
@@ -46,6 +50,7 @@ def _joint_set_list(ck, items, base: tuple, materials: dict, names, schema: dict
 
 
 def _interaction_tables(ck, data: dict, materials: dict) -> list:
+    """One resolved dict per ``[[interactions]]``: two defined materials and at least one value."""
     out = []
     for k, t in enumerate(_array(ck, data, "interactions", "materials = [a, b] and the contact values")):
         p = ("interactions", k)
