@@ -11,6 +11,7 @@ import os
 from dataclasses import dataclass, field
 from typing import Any
 
+from .scenetables.common import strength_of
 from .toml_check import SceneFileError
 
 __all__ = ["SceneSpec", "RunSettings"]
@@ -181,7 +182,6 @@ class SceneSpec:
                 kw[k] = self.materials[kw[k]]
         if "quasi_static" in kw:
             kw["quasi_static"] = kw["quasi_static"] or False
-        from .scenefile import strength_of
         strength = strength_of(p)
         for k in ("weibull_modulus", "strength_cov", "strength_seed"):
             kw.pop(k, None)
@@ -253,49 +253,63 @@ class SceneSpec:
         """(:class:`~taichi_fdem.scene.Scene`, {body name: Body}): bodies, joint sets, contact
         interactions, constraints, loads, initial stresses, the fluid and its sources added, in
         that order (each kind in the file's order)."""
-        import numpy as np
-        from .. import mesh as _mesh
         from ..scene import Scene
-        from .scenefile import strength_of
         scene = Scene(gravity=self.scene["gravity"], plane=self.scene["plane"], thickness=self.scene["thickness"])
         self.__dict__["_made_curves"] = {}
-        bodies = {}
-        for i, b in enumerate(self.bodies):
-            built = self.build_mesh(i)
-            m, labels = built if isinstance(built, tuple) else (built, None)
-            if b.get("materials") is not None or b["shape"] == "grains":
-                material, groups = self._group_materials(i, labels), labels
-            else:
-                material, groups = self.materials[b["material"]], None
-            # polylines are given in the mesh's own coordinates: move them with the body (rotation
-            # about the centroid, then the centroid to position), as add_body moves the mesh
-            c0 = m.centroid
-            ca, sa = np.cos(b["rotation"]), np.sin(b["rotation"])
-            rot = np.array([[ca, -sa], [sa, ca]])
-            shift = (np.asarray(b["position"]) - c0) if b["position"] is not None else np.zeros(2)
-            moved = b["position"] is not None or b["rotation"] != 0.0
-            move = (lambda p: (np.asarray(p) - c0) @ rot.T + c0 + shift) if moved else np.asarray  # noqa: E731
-            line_groups = self._line_groups(i)
-            place = lambda line: _mesh.Polyline(move(line))  # noqa: E731
-            place_group = lambda name: _mesh.Segments(  # noqa: E731
-                move(line_groups(name).segments.reshape(-1, 2)).reshape(-1, 2, 2), name=name)
-            cracks = None
-            if b.get("cracks"):
-                cracks = [place(line) for line in b["cracks"]]
-            elif b.get("crack_regions"):
-                cracks = [_edges(r, place, place_group) for r in b["crack_regions"]]
-            try:
-                bodies[b["name"]] = scene.add_body(
-                    m, material, position=b["position"], velocity=b["velocity"],
-                    angular_velocity=b["angular_velocity"], rotation=b["rotation"], fixed=b["fixed"],
-                    prescribed_velocity=b["prescribed_velocity"], self_contact=b["self_contact"], name=b["name"],
-                    fracture=_edges(b.get("fracture", False), place, place_group), cracks=cracks,
-                    crack_friction=b.get("crack_friction"), strength=strength_of(b), groups=groups,
-                    velocity_curve=self.curve(b.get("velocity_curve")))
-            except (ValueError, TypeError) as exc:
-                key = "cracks" if "crack" in str(exc) else "fracture" if "joint" in str(exc) or "fracture" in str(exc) \
-                    else "name"
-                raise self._body_error(i, key, str(exc)) from None
+        bodies = {b["name"]: self._add_body(scene, i) for i, b in enumerate(self.bodies)}
+        self._add_joint_sets(scene, bodies)
+        for c in self.interactions:
+            a, b = (self.materials[n] for n in c["materials"])
+            scene.set_interaction(a, b, friction=c["friction"], penalty=c["penalty"],
+                                  tangential_penalty=c["tangential_penalty"], contact_damping=c["contact_damping"])
+        self._add_boundary(scene, bodies)
+        self._add_fluid(scene)
+        return scene, bodies
+
+    def _add_body(self, scene, i: int):
+        """Add body ``i`` to ``scene`` (its mesh built, its polylines placed with it); returns the Body."""
+        import numpy as np
+        from .. import mesh as _mesh
+        b = self.bodies[i]
+        built = self.build_mesh(i)
+        m, labels = built if isinstance(built, tuple) else (built, None)
+        if b.get("materials") is not None or b["shape"] == "grains":
+            material, groups = self._group_materials(i, labels), labels
+        else:
+            material, groups = self.materials[b["material"]], None
+        # polylines are given in the mesh's own coordinates: move them with the body (rotation
+        # about the centroid, then the centroid to position), as add_body moves the mesh
+        c0 = m.centroid
+        ca, sa = np.cos(b["rotation"]), np.sin(b["rotation"])
+        rot = np.array([[ca, -sa], [sa, ca]])
+        shift = (np.asarray(b["position"]) - c0) if b["position"] is not None else np.zeros(2)
+        moved = b["position"] is not None or b["rotation"] != 0.0
+        move = (lambda p: (np.asarray(p) - c0) @ rot.T + c0 + shift) if moved else np.asarray  # noqa: E731
+        line_groups = self._line_groups(i)
+        place = lambda line: _mesh.Polyline(move(line))  # noqa: E731
+        place_group = lambda name: _mesh.Segments(  # noqa: E731
+            move(line_groups(name).segments.reshape(-1, 2)).reshape(-1, 2, 2), name=name)
+        cracks = None
+        if b.get("cracks"):
+            cracks = [place(line) for line in b["cracks"]]
+        elif b.get("crack_regions"):
+            cracks = [_edges(r, place, place_group) for r in b["crack_regions"]]
+        try:
+            return scene.add_body(
+                m, material, position=b["position"], velocity=b["velocity"],
+                angular_velocity=b["angular_velocity"], rotation=b["rotation"], fixed=b["fixed"],
+                prescribed_velocity=b["prescribed_velocity"], self_contact=b["self_contact"], name=b["name"],
+                fracture=_edges(b.get("fracture", False), place, place_group), cracks=cracks,
+                crack_friction=b.get("crack_friction"), strength=strength_of(b), groups=groups,
+                velocity_curve=self.curve(b.get("velocity_curve")))
+        except (ValueError, TypeError) as exc:
+            key = "cracks" if "crack" in str(exc) else "fracture" if "joint" in str(exc) or "fracture" in str(exc) \
+                else "name"
+            raise self._body_error(i, key, str(exc)) from None
+
+    def _add_joint_sets(self, scene, bodies: dict) -> None:
+        """Add the ``[[joint_sets]]`` (after all bodies)."""
+        from .. import mesh as _mesh
         for k, j in enumerate(self.joint_sets):
             if j["interfaces"]:
                 selector = "interfaces"
@@ -308,10 +322,10 @@ class SceneSpec:
                                     body=bodies[j["body"]] if j["body"] else None, strength=strength_of(j))
             except (ValueError, TypeError) as exc:
                 raise self._error(("joint_sets", k), str(exc)) from None
-        for c in self.interactions:
-            a, b = (self.materials[n] for n in c["materials"])
-            scene.set_interaction(a, b, friction=c["friction"], penalty=c["penalty"],
-                                  tangential_penalty=c["tangential_penalty"], contact_damping=c["contact_damping"])
+
+    def _add_boundary(self, scene, bodies: dict) -> None:
+        """Add the ``[[constraints]]``, ``[[loads]]`` and ``[[initial_stress]]``; a region that
+        selects no node is refused."""
         for k, c in enumerate(self.constraints):
             where = _Region(**_region(c))
             body = bodies[c["body"]] if c["body"] else None
@@ -332,6 +346,9 @@ class SceneSpec:
         for c in self.initial_stress:
             scene.initial_stress(c["sxx"], c["syy"], c["sxy"], body=bodies[c["body"]] if c["body"] else None,
                                  gradient=c["gradient"], y_ref=c["y_ref"])
+
+    def _add_fluid(self, scene) -> None:
+        """Set the ``[fluid]`` and add its ``[[inject]]`` sources (nothing without a fluid)."""
         fl = getattr(self, "fluid", None)
         if fl is not None:
             from ..material import Fluid
@@ -342,7 +359,6 @@ class SceneSpec:
             for c in getattr(self, "injections", []):
                 curve = Curve.ramp(c["ramp"]) if c["ramp"] is not None else self.curve(c.get("curve"))
                 scene.inject(_Region(**_region(c)), rate=c["rate"], pressure=c["pressure"], curve=curve)
-        return scene, bodies
 
     def _line_groups(self, i: int):
         """``get(name)``: the Segments of the physical line group ``name`` of body ``i``'s mesh
