@@ -114,6 +114,65 @@ def _material_label(body, mt, group: int) -> str:
     return f"the body's material {mt!r}"
 
 
+def _joint_properties(body, joints, set_of_edge, joint_sets: list, where: str) -> np.ndarray:
+    """The joint properties (e, 6) of every interior edge of ``body`` (rows of the edges that are
+    no joint stay 0): the body's own joints (``set_of_edge`` 0) take the weaker material of their
+    two triangles (lower tensile strength), the joints of set k ≥ 1 the material of
+    ``joint_sets[k − 1]``; each set's strength distribution then spreads them.  ValueError when
+    an own joint's material cannot fracture."""
+    u, _, tA, _, tB, _ = body.edge_table
+    mats = body.materials[: body.group_count]
+    groups = body.tri_group
+    prop = np.zeros((len(u), 6))
+    own = joints & (set_of_edge == 0)
+    if own.any():
+        ft = np.array([mt.tensile_strength if mt.can_fracture else np.inf for mt in mats])
+        ga, gb = groups[tA], groups[tB]
+        weaker = np.where(ft[ga] <= ft[gb], ga, gb)
+        for g in np.unique(weaker[own]):
+            mt = mats[g]
+            if not mt.can_fracture:
+                raise ValueError(f"{where}: joints need tensile_strength [Pa] and fracture_energy [J/m²] on "
+                                 f"{_material_label(body, mt, int(g))}")
+            prop[own & (weaker == g)] = mt.joint_properties()
+    for k, js in enumerate(joint_sets, start=1):
+        rows = joints & (set_of_edge == k)
+        if rows.any():
+            prop[rows] = js.material.joint_properties()
+    _apply_strength(prop, own, body.strength, (body.index, 0))
+    for k, js in enumerate(joint_sets, start=1):
+        _apply_strength(prop, joints & (set_of_edge == k), js.strength, (body.index, k))
+    return prop
+
+
+def _crack_face_materials(body, crack, tri_material) -> None:
+    """Reset ``body``'s materials to its material groups, then, when the body has a
+    ``crack_friction`` and cracks (``crack``, a mask over its interior edges), append one copy
+    per material group of the crack faces with that friction (``body.crack_clones``: (copy,
+    original) pairs) and give it to the triangles along a crack in ``tri_material`` (m,)."""
+    del body.materials[body.group_count:]
+    body.crack_clones = []
+    if body.crack_friction is None or not crack.any():
+        return
+    _, _, tA, _, tB, _ = body.edge_table
+    mats = body.materials[: body.group_count]
+    groups = body.tri_group
+    face = np.zeros(body.source_mesh.triangle_count, bool)
+    face[tA[crack]] = True
+    face[tB[crack]] = True
+    # one crack-face material per material group, with the crack's friction
+    clone_of = {}
+    for g in np.unique(groups[face]):
+        clone_of[int(g)] = len(body.materials)
+        clone = mats[g].with_(friction=body.crack_friction)
+        body.materials.append(clone)
+        body.crack_clones.append((clone, mats[g]))
+    lut = np.arange(len(body.materials), dtype=np.int32)
+    for g, c in clone_of.items():
+        lut[g] = c
+    tri_material[face] = lut[groups[face]]
+
+
 def split_body(body, joint_sets: list, where: str) -> None:
     """(Re)compute ``body``'s split mesh, joints and per-joint properties from its selections.
 
@@ -123,8 +182,7 @@ def split_body(body, joint_sets: list, where: str) -> None:
     """
     src = body.source_mesh
     table = body.edge_table
-    u, v, tA, _, tB, _ = table
-    mats = body.materials[: body.group_count]
+    u, v = table[0], table[1]
     groups = body.tri_group
     joint_mask = body.fracture_mask.copy()
     set_of_edge = np.zeros(len(u), np.int32)              # 0: the body's own joints ("default")
@@ -154,50 +212,14 @@ def split_body(body, joint_sets: list, where: str) -> None:
     if unsplit:
         warnings.warn(f"{where}: {unsplit} selected joint edge(s) are not split (both their ends are tips "
                       f"inside the body) and carry no joint", RuntimeWarning, stacklevel=4)
-    # properties of each joint: the body's own joints take the weaker material of their two
-    # triangles (lower tensile strength), joint sets their own material
-    prop = np.zeros((len(u), 6))
-    own = joints & (set_of_edge == 0)
-    if own.any():
-        ft = np.array([mt.tensile_strength if mt.can_fracture else np.inf for mt in mats])
-        ga, gb = groups[tA], groups[tB]
-        weaker = np.where(ft[ga] <= ft[gb], ga, gb)
-        for g in np.unique(weaker[own]):
-            mt = mats[g]
-            if not mt.can_fracture:
-                raise ValueError(f"{where}: joints need tensile_strength [Pa] and fracture_energy [J/m²] on "
-                                 f"{_material_label(body, mt, int(g))}")
-            prop[own & (weaker == g)] = mt.joint_properties()
-    for k, js in enumerate(joint_sets, start=1):
-        rows = joints & (set_of_edge == k)
-        if rows.any():
-            prop[rows] = js.material.joint_properties()
-    _apply_strength(prop, own, body.strength, (body.index, 0))
-    for k, js in enumerate(joint_sets, start=1):
-        _apply_strength(prop, joints & (set_of_edge == k), js.strength, (body.index, k))
+    prop = _joint_properties(body, joints, set_of_edge, joint_sets, where)
     # a crack is damage from the start: triangles at a crack node are never "bonded" (contact
     # with their corner neighbours is evaluated from the first step, sim.topology.fan_links)
     crack_nodes = np.zeros(src.point_count, bool)
     crack_nodes[u[crack]] = True
     crack_nodes[v[crack]] = True
     bonded = ~crack_nodes[np.asarray(src.triangles)].any(axis=1)
-    del body.materials[body.group_count:]
-    body.crack_clones = []
-    if body.crack_friction is not None and crack.any():
-        face = np.zeros(m, bool)
-        face[tA[crack]] = True
-        face[tB[crack]] = True
-        # one crack-face material per material group, with the crack's friction
-        clone_of = {}
-        for g in np.unique(groups[face]):
-            clone_of[int(g)] = len(body.materials)
-            clone = mats[g].with_(friction=body.crack_friction)
-            body.materials.append(clone)
-            body.crack_clones.append((clone, mats[g]))
-        lut = np.arange(len(body.materials), dtype=np.int32)
-        for g, c in clone_of.items():
-            lut[g] = c
-        tri_material[face] = lut[groups[face]]
+    _crack_face_materials(body, crack, tri_material)
     body.mesh = mesh
     body.origin_triangles = origin
     body.joint_nodes = jn[joints]

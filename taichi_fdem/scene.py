@@ -203,6 +203,23 @@ def _curve(curve, where: str):
     return curve
 
 
+def _body_motion(velocity, angular_velocity, fixed, prescribed_velocity, velocity_curve, where: str):
+    """(initial velocity (2,) [m/s], initial spin [rad/s], prescribed velocity (2,) [m/s] or None)
+    of :meth:`Scene.add_body`'s arguments; ValueError (TypeError for a curve that is not a
+    :class:`Curve`) naming a wrong one, a body both fixed and prescribed, or a velocity curve
+    without a prescribed velocity."""
+    v = _vec2(velocity, "velocity", where)
+    w = _finite(angular_velocity, "angular_velocity", where)
+    pv = None
+    if prescribed_velocity is not None:
+        if fixed:
+            raise ValueError(f"{where}: give either fixed=True or prescribed_velocity, not both")
+        pv = _vec2(prescribed_velocity, "prescribed_velocity", where)
+    if _curve(velocity_curve, where) is not None and pv is None:
+        raise ValueError(f"{where}: velocity_curve needs a prescribed_velocity to multiply")
+    return v, w, pv
+
+
 @dataclass
 class _NodeConstraint:
     where: Callable
@@ -333,15 +350,7 @@ class Scene:
             mesh = mesh.rotated(rotation)
         if position is not None:
             mesh = mesh.translated(_vec2(position, "position", where) - mesh.centroid)
-        v = _vec2(velocity, "velocity", where)
-        w = _finite(angular_velocity, "angular_velocity", where)
-        pv = None
-        if prescribed_velocity is not None:
-            if fixed:
-                raise ValueError(f"{where}: give either fixed=True or prescribed_velocity, not both")
-            pv = _vec2(prescribed_velocity, "prescribed_velocity", where)
-        if _curve(velocity_curve, where) is not None and pv is None:
-            raise ValueError(f"{where}: velocity_curve needs a prescribed_velocity to multiply")
+        v, w, pv = _body_motion(velocity, angular_velocity, fixed, prescribed_velocity, velocity_curve, where)
         if crack_friction is not None:
             crack_friction = _finite(crack_friction, "crack_friction", where)
             if crack_friction < 0:

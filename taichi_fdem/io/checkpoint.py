@@ -307,18 +307,7 @@ def load(path):
         raise CheckpointError(f"Simulation.load: {path!r} was written with precision {meta.get('precision')!r} "
                               f"but taichi_fdem runs in {active!r}; call fdem.init(precision="
                               f"{meta.get('precision')!r}) before loading")
-    try:
-        bundle = pickle.loads(data["scene"].tobytes())
-        plain = pickle.loads(data["plain"].tobytes())
-        scene = bundle["scene"]
-        scene._interactions = {}
-        for a, b, props in bundle["interactions"]:
-            scene._interactions[(id(a), id(b))] = props
-        build, driver, state_plain = plain["build"], plain["driver"], plain["state"]
-    except Exception as exc:
-        raise CheckpointError(f"Simulation.load: {path!r}: the saved scene or settings cannot be read "
-                              f"({type(exc).__name__}: {exc})") from None
-
+    scene, build, driver, state_plain = _unbundle(path, data)
     strategy = driver.get("_strategy", driver.get("strategy", "auto"))
     sim = scene.build(dt=build["dt"], force_dt=True, strategy=strategy,
                       buffer=build["buffer"], speed_limit=build["speed_limit"], check_overlap=False,
@@ -329,6 +318,37 @@ def load(path):
     st = sim.state
     for name, value in state_plain.items():
         setattr(st, name, value)
+    _restore_arrays(path, data, st)
+    _upgrade_state(sim, build)
+    for name, value in driver.items():
+        setattr(sim, name, _unpack(value))
+    sim._after_restore()
+    return sim
+
+
+def _unbundle(path: str, data: dict):
+    """(scene, build settings, driver attributes, plain state attributes) of the checkpoint
+    ``data`` read from ``path``, the scene's interactions keyed by its materials again;
+    CheckpointError when they cannot be unpickled."""
+    try:
+        bundle = pickle.loads(data["scene"].tobytes())
+        plain = pickle.loads(data["plain"].tobytes())
+        scene = bundle["scene"]
+        scene._interactions = {}
+        for a, b, props in bundle["interactions"]:
+            scene._interactions[(id(a), id(b))] = props
+        return scene, plain["build"], plain["driver"], plain["state"]
+    except Exception as exc:
+        raise CheckpointError(f"Simulation.load: {path!r}: the saved scene or settings cannot be read "
+                              f"({type(exc).__name__}: {exc})") from None
+
+
+def _restore_arrays(path: str, data: dict, st) -> None:
+    """Overwrite the arrays of the state ``st`` with those of the checkpoint ``data`` (read from
+    ``path``): every saved Taichi array, re-allocated when its saved kind, dtype or shape differs,
+    and every saved NumPy array.  CheckpointError for a saved array the state does not declare,
+    missing data, or data that does not fit."""
+    meta = data["meta"]
     undeclared = sorted(set(meta["ndarrays"]) - set(declared(STATE)))
     if undeclared:
         raise CheckpointError(f"Simulation.load: {path!r} holds state arrays this taichi_fdem does not declare: "
@@ -350,6 +370,13 @@ def load(path):
     for key, values in data.items():
         if key.startswith("np."):
             setattr(st, key[3:], values)
+
+
+def _upgrade_state(sim, build: dict) -> None:
+    """Bring the restored state of ``sim`` written by an older layout to the current one: the
+    tri_intact bits of the joined pairs, the integer counters, the fans' link masks and the
+    neighbour pairs, each when the checkpoint (its ``build`` settings or array shapes) predates it."""
+    st = sim.state
     if "joined_pairs" not in build and sim.model.fracture:
         # a checkpoint from before the tri_intact bits (1 intact, 0 damaged): no edge carried,
         # and a damaged triangle of a fracturing body is bonded to nothing
@@ -371,7 +398,3 @@ def load(path):
         # a checkpoint from before neighbour pairs: they become the first couples again and the
         # others are detected anew (the slip history of the saved couples is not carried over)
         install_neighbour_pairs(sim.model, st)
-    for name, value in driver.items():
-        setattr(sim, name, _unpack(value))
-    sim._after_restore()
-    return sim

@@ -131,40 +131,7 @@ def arrange(v: np.ndarray, lines: list[Segments], where: str) -> Arrangement:
     allsegs = np.concatenate([bnd, segs])                                     # outline first
     A, D = allsegs[:, 0], allsegs[:, 1] - allsegs[:, 0]
     lens = np.sqrt((D * D).sum(1))
-    found = []
-    rows = max(1, _CHUNK // len(allsegs))
-    for start in range(0, L, rows):
-        i = np.arange(start, min(L, start + rows)) + k                        # rows: line segments
-        p, r, lr = A[i][:, None], D[i][:, None], lens[i][:, None]
-        q, s, ls = A[None], D[None], lens[None]
-        qp = q - p
-        denom = _cross(r, s)
-        parallel = np.abs(denom) <= 1e-12 * lr * ls
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = np.where(parallel, np.nan, _cross(qp, s) / denom)
-            u = np.where(parallel, np.nan, _cross(qp, r) / denom)
-        meet = (~parallel & (t * lr >= -tol) & (t * lr <= lr + tol) & (u * ls >= -tol) & (u * ls <= ls + tol))
-        jj = np.arange(len(allsegs))[None]
-        meet &= jj != i[:, None]
-        rr, cc = np.nonzero(meet)
-        if rr.size:
-            tt = np.clip(t[rr, cc], 0.0, 1.0)[:, None]
-            found.append(A[i[rr]] + tt * D[i[rr]])
-        # collinear overlaps
-        off = np.abs(_cross(qp, r)) / lr
-        t0 = (qp * r).sum(-1) / lr
-        t1 = ((qp + s) * r).sum(-1) / lr
-        overlap = np.minimum(lr, np.maximum(t0, t1)) - np.maximum(0.0, np.minimum(t0, t1))
-        bad = parallel & (off <= tol) & (overlap > tol) & (jj != i[:, None])
-        if bad.any():
-            rr, cc = np.argwhere(bad)[0]
-            a = A[i[rr]] + D[i[rr]] * max(0.0, min(t0[rr, cc], t1[rr, cc])) / lr[rr, 0]
-            me = _line_label(lines, owner[i[rr] - k])
-            if cc < k:
-                raise ValueError(f"{where}: {me} runs along the polygon boundary (edge {cc}) from {_fmt(a)}; "
-                                 f"boundary edges are mesh edges already, leave that part out of the line")
-            raise ValueError(f"{where}: {me} and {_line_label(lines, owner[cc - k])} overlap (collinear) from "
-                             f"{_fmt(a)}; overlapping lines are not merged, give the common part once")
+    found = _crossings(A, D, lens, k, tol, lines, owner, where)
 
     # 3. nodes: polygon vertices, line points, crossings; points closer than tol merged
     pool = np.concatenate([v, ends] + found)
@@ -177,22 +144,7 @@ def arrange(v: np.ndarray, lines: list[Segments], where: str) -> Arrangement:
     n_start, n_end = node_of[seg_start], node_of[seg_end]
 
     # 4. the nodes lying on each segment, in order along it
-    chains = []
-    rows = max(1, _CHUNK // len(nodes))
-    for start in range(0, len(allsegs), rows):
-        i = np.arange(start, min(len(allsegs), start + rows))
-        r, lr = D[i][:, None], lens[i][:, None]
-        w = nodes[None] - A[i][:, None]
-        along = (w * r).sum(-1) / lr
-        across = np.abs(_cross(w, r)) / lr
-        on = (across <= tol) & (along > tol) & (along < lr - tol)
-        for row, seg in enumerate(i.tolist()):
-            inner = np.flatnonzero(on[row])
-            inner = inner[(inner != n_start[seg]) & (inner != n_end[seg])]
-            inner = inner[np.argsort(along[row, inner], kind="stable")]
-            chain = [int(n_start[seg])] + inner.tolist() + [int(n_end[seg])]
-            chains.append([c for j, c in enumerate(chain) if j == 0 or c != chain[j - 1]])
-
+    chains = _chains(nodes, A, D, lens, n_start, n_end, tol)
     ring = np.array([c for chain in chains[:k] for c in chain[:-1]], dtype=np.int64)
     pieces, piece_line = [], []
     for s in range(L):
@@ -217,6 +169,71 @@ def arrange(v: np.ndarray, lines: list[Segments], where: str) -> Arrangement:
     _, first = np.unique(key[:, 0] * len(nodes) + key[:, 1], return_index=True)
     first = np.sort(first)
     return Arrangement(nodes, ring, pieces[first], piece_line[first], tol)
+
+
+def _crossings(A, D, lens, k: int, tol: float, lines, owner, where: str) -> list:
+    """The points where each line segment meets another segment, the outline's or a line's
+    (arrays of points (c, 2)), for the segments p = A + t D of length ``lens``, the ``k``
+    outline segments first; ValueError for a line running along the outline or along another
+    line (collinear overlap longer than ``tol``)."""
+    L = len(A) - k
+    found = []
+    rows = max(1, _CHUNK // len(A))
+    for start in range(0, L, rows):
+        i = np.arange(start, min(L, start + rows)) + k                        # rows: line segments
+        p, r, lr = A[i][:, None], D[i][:, None], lens[i][:, None]
+        q, s, ls = A[None], D[None], lens[None]
+        qp = q - p
+        denom = _cross(r, s)
+        parallel = np.abs(denom) <= 1e-12 * lr * ls
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.where(parallel, np.nan, _cross(qp, s) / denom)
+            u = np.where(parallel, np.nan, _cross(qp, r) / denom)
+        meet = (~parallel & (t * lr >= -tol) & (t * lr <= lr + tol) & (u * ls >= -tol) & (u * ls <= ls + tol))
+        jj = np.arange(len(A))[None]
+        meet &= jj != i[:, None]
+        rr, cc = np.nonzero(meet)
+        if rr.size:
+            tt = np.clip(t[rr, cc], 0.0, 1.0)[:, None]
+            found.append(A[i[rr]] + tt * D[i[rr]])
+        # collinear overlaps
+        off = np.abs(_cross(qp, r)) / lr
+        t0 = (qp * r).sum(-1) / lr
+        t1 = ((qp + s) * r).sum(-1) / lr
+        overlap = np.minimum(lr, np.maximum(t0, t1)) - np.maximum(0.0, np.minimum(t0, t1))
+        bad = parallel & (off <= tol) & (overlap > tol) & (jj != i[:, None])
+        if bad.any():
+            rr, cc = np.argwhere(bad)[0]
+            a = A[i[rr]] + D[i[rr]] * max(0.0, min(t0[rr, cc], t1[rr, cc])) / lr[rr, 0]
+            me = _line_label(lines, owner[i[rr] - k])
+            if cc < k:
+                raise ValueError(f"{where}: {me} runs along the polygon boundary (edge {cc}) from {_fmt(a)}; "
+                                 f"boundary edges are mesh edges already, leave that part out of the line")
+            raise ValueError(f"{where}: {me} and {_line_label(lines, owner[cc - k])} overlap (collinear) from "
+                             f"{_fmt(a)}; overlapping lines are not merged, give the common part once")
+    return found
+
+
+def _chains(nodes, A, D, lens, n_start, n_end, tol: float) -> list:
+    """For each segment p = A + t D (length ``lens``, from node ``n_start`` to node ``n_end``),
+    the chain of node ids along it: its start, the ``nodes`` within ``tol`` of its inside in
+    order along it, its end (no node twice in a row)."""
+    chains = []
+    rows = max(1, _CHUNK // len(nodes))
+    for start in range(0, len(A), rows):
+        i = np.arange(start, min(len(A), start + rows))
+        r, lr = D[i][:, None], lens[i][:, None]
+        w = nodes[None] - A[i][:, None]
+        along = (w * r).sum(-1) / lr
+        across = np.abs(_cross(w, r)) / lr
+        on = (across <= tol) & (along > tol) & (along < lr - tol)
+        for row, seg in enumerate(i.tolist()):
+            inner = np.flatnonzero(on[row])
+            inner = inner[(inner != n_start[seg]) & (inner != n_end[seg])]
+            inner = inner[np.argsort(along[row, inner], kind="stable")]
+            chain = [int(n_start[seg])] + inner.tolist() + [int(n_end[seg])]
+            chains.append([c for j, c in enumerate(chain) if j == 0 or c != chain[j - 1]])
+    return chains
 
 
 def distance_to_segments(p: np.ndarray, segs: np.ndarray) -> np.ndarray:

@@ -342,6 +342,46 @@ def _check_simple(v: np.ndarray, where: str) -> None:
                              f"{(i + 1) % k}) meets edge {j} (vertices {j}-{(j + 1) % k})")
 
 
+def _checked_outline(vertices, where: str):
+    """(v (k, 2) float64, the signed area [m²] of ``vertices``): the polygon ``vertices`` checked
+    (finite, within MAX_COORDINATE, at least 3 distinct consecutive vertices, a non-zero area,
+    simple) as a counter-clockwise outline without the repeated closing vertex; ValueError
+    naming what is wrong."""
+    try:
+        v = np.array(vertices, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{where}: vertices must be a sequence of (x, y) pairs") from None
+    if v.ndim != 2 or v.shape[1] != 2:
+        raise ValueError(f"{where}: vertices must have shape (k, 2), got {v.shape}")
+    bad = np.flatnonzero(~np.isfinite(v).all(axis=1))
+    if bad.size:
+        raise ValueError(f"{where}: vertex {int(bad[0])} is not finite: {tuple(v[bad[0]].tolist())}")
+    far = np.flatnonzero(np.abs(v).max(axis=1) > MAX_COORDINATE)
+    if far.size:
+        raise ValueError(f"{where}: vertex {int(far[0])} = {tuple(v[far[0]].tolist())} lies beyond {MAX_COORDINATE:g} m "
+                         f"from the origin (coordinates are in metres)")
+    if len(v) > 3 and np.array_equal(v[0], v[-1]):
+        v = v[:-1]
+    if len(v) < 3:
+        raise ValueError(f"{where}: a polygon needs at least 3 vertices, got {len(v)}")
+    scale = float(np.ptp(v, axis=0).max())
+    step = np.roll(v, -1, axis=0) - v
+    same = np.flatnonzero(np.sqrt((step * step).sum(1)) <= 1e-12 * scale)
+    if same.size:
+        i = int(same[0])
+        raise ValueError(f"{where}: vertices {i} and {(i + 1) % len(v)} coincide at {tuple(v[i].tolist())}")
+    signed = 0.5 * float(np.sum(v[:, 0] * np.roll(v[:, 1], -1) - np.roll(v[:, 0], -1) * v[:, 1]))
+    if abs(signed) <= 1e-12 * scale * scale:
+        sv = np.linalg.svd(v - v.mean(axis=0), compute_uv=False)
+        if sv[1] > 1e-12 * sv[0]:  # not all collinear: e.g. a bow-tie
+            _check_simple(v, where)
+        raise ValueError(f"{where}: polygon has zero area")
+    _check_simple(v, where)
+    if signed < 0:
+        v = v[::-1].copy()
+    return v, signed
+
+
 def polygon(vertices, h: float | None = None, lines=None, engine: str = "builtin") -> TriMesh:
     """A triangle mesh of the simple polygon ``vertices`` [(x, y), ...] [m].
 
@@ -393,39 +433,7 @@ def polygon(vertices, h: float | None = None, lines=None, engine: str = "builtin
     line piece an edge (it then never returns a mesh that does not follow the lines).
     """
     where = "polygon"
-    try:
-        v = np.array(vertices, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{where}: vertices must be a sequence of (x, y) pairs") from None
-    if v.ndim != 2 or v.shape[1] != 2:
-        raise ValueError(f"{where}: vertices must have shape (k, 2), got {v.shape}")
-    bad = np.flatnonzero(~np.isfinite(v).all(axis=1))
-    if bad.size:
-        raise ValueError(f"{where}: vertex {int(bad[0])} is not finite: {tuple(v[bad[0]].tolist())}")
-    far = np.flatnonzero(np.abs(v).max(axis=1) > MAX_COORDINATE)
-    if far.size:
-        raise ValueError(f"{where}: vertex {int(far[0])} = {tuple(v[far[0]].tolist())} lies beyond {MAX_COORDINATE:g} m "
-                         f"from the origin (coordinates are in metres)")
-    if len(v) > 3 and np.array_equal(v[0], v[-1]):
-        v = v[:-1]
-    if len(v) < 3:
-        raise ValueError(f"{where}: a polygon needs at least 3 vertices, got {len(v)}")
-    scale = float(np.ptp(v, axis=0).max())
-    step = np.roll(v, -1, axis=0) - v
-    same = np.flatnonzero(np.sqrt((step * step).sum(1)) <= 1e-12 * scale)
-    if same.size:
-        i = int(same[0])
-        raise ValueError(f"{where}: vertices {i} and {(i + 1) % len(v)} coincide at {tuple(v[i].tolist())}")
-    signed = 0.5 * float(np.sum(v[:, 0] * np.roll(v[:, 1], -1) - np.roll(v[:, 0], -1) * v[:, 1]))
-    if abs(signed) <= 1e-12 * scale * scale:
-        sv = np.linalg.svd(v - v.mean(axis=0), compute_uv=False)
-        if sv[1] > 1e-12 * sv[0]:  # not all collinear: e.g. a bow-tie
-            _check_simple(v, where)
-        raise ValueError(f"{where}: polygon has zero area")
-    _check_simple(v, where)
-    if signed < 0:
-        v = v[::-1].copy()
-
+    v, signed = _checked_outline(vertices, where)
     if engine not in _ENGINES:
         raise ValueError(f"{where}: unknown engine {engine!r}; choose one of {list(_ENGINES)}")
     if h is not None:

@@ -172,6 +172,33 @@ def voronoi_grains(width: float, height: float, grain_size: float, h: float, see
         fracture=True)`` then ``scene.add_joint_set("grain_boundaries", "interfaces", weak)``
         so that intra-grain and grain-boundary joints take their own properties.
     """
+    width, height, d, h, names, props = _check_arguments(width, height, grain_size, h, minerals, shape, relax)
+    scipy = _import_scipy()
+    rng = np.random.default_rng(seed)
+    v = _outline(shape, width, height, h)
+    area = 0.5 * float(np.sum(v[:, 0] * np.roll(v[:, 1], -1) - np.roll(v[:, 0], -1) * v[:, 1]))
+    count = max(2, round(area / (d * d)))
+    seeds = _relaxed_seeds(rng, v, count, relax, scipy)
+    merged = _grain_boundaries(seeds, v, width, height, h, scipy)
+    boundaries = Segments(merged, name="grain boundaries")
+    shift = np.asarray(center, float)
+    mesh = polygon(v + shift, h=h, lines=[Segments(merged + shift)])
+    edges = mesh.edges()
+    grain = _grain_of_triangles(mesh, edges, boundaries.select_edges(mesh.points - shift, edges), scipy)
+    tri_area = np.asarray(mesh.areas, np.float64)
+    garea = np.bincount(grain, tri_area, minlength=int(grain.max()) + 1)
+    labels = grain.view(GrainLabels)
+    labels.grain_mineral = None if names is None else _draw_minerals(rng, garea, names, props)
+    labels.grain_area = garea
+    labels.seeds = seeds + shift
+    labels.boundaries = Segments(merged + shift, name="grain boundaries")
+    return mesh, labels
+
+
+def _check_arguments(width, height, grain_size, h, minerals, shape, relax):
+    """The checked arguments of :func:`voronoi_grains`: (width, height, grain size, h [m], the
+    mineral names and their proportions normalised to sum 1, or None, None); ValueError naming
+    a wrong one."""
     where = "voronoi_grains"
     width = _positive("width", width, where)
     height = _positive("height", height, where)
@@ -194,11 +221,13 @@ def voronoi_grains(width: float, height: float, grain_size: float, h: float, see
         if not np.all(np.isfinite(props)) or np.any(props <= 0):
             raise ValueError(f"{where}: mineral proportions must be positive numbers, got {minerals}")
         props = props / props.sum()
-    scipy = _import_scipy()
-    rng = np.random.default_rng(seed)
-    v = _outline(shape, width, height, h)
-    area = 0.5 * float(np.sum(v[:, 0] * np.roll(v[:, 1], -1) - np.roll(v[:, 0], -1) * v[:, 1]))
-    count = max(2, round(area / (d * d)))
+    return width, height, d, h, names, props
+
+
+def _relaxed_seeds(rng, v: np.ndarray, count: int, relax: int, scipy) -> np.ndarray:
+    """``count`` seeds (count, 2) drawn uniformly in the outline ``v``, then moved ``relax`` times
+    to the centroids of their Voronoi cells (Lloyd iterations; the cells estimated on a dense
+    uniform sample of 200 points per seed)."""
     seeds = _sample(rng, v, count)
     if relax:
         dense = _sample(rng, v, 200 * count)
@@ -209,6 +238,15 @@ def voronoi_grains(width: float, height: float, grain_size: float, h: float, see
             sy = np.bincount(owner, dense[:, 1], minlength=count)
             moved = w > 0
             seeds[moved] = np.stack([sx[moved], sy[moved]], axis=1) / w[moved, None]
+    return seeds
+
+
+def _grain_boundaries(seeds: np.ndarray, v: np.ndarray, width: float, height: float, h: float, scipy) -> np.ndarray:
+    """The grain boundaries (s, 2, 2) [m]: the edges of the Voronoi diagram of ``seeds`` clipped
+    to the outline ``v``, with end points closer than ``h / 2`` merged (the outline's vertices and
+    points on the outline stay put), without collapsed or repeated segments nor segments along
+    the outline."""
+    count = len(seeds)
     far = 10.0 * max(width, height)
     ghosts = far * np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
     vor = scipy.spatial.Voronoi(np.concatenate([seeds, ghosts]))
@@ -232,13 +270,13 @@ def voronoi_grains(width: float, height: float, grain_size: float, h: float, see
     key = np.round(merged.reshape(-1, 4) / (1e-9 * width))
     merged = merged[np.unique(key, axis=0, return_index=True)[1]]
     mid = merged.mean(axis=1)
-    merged = merged[_inside(mid, v, 1e-9 * width)]
-    boundaries = Segments(merged, name="grain boundaries")
-    shift = np.asarray(center, float)
-    mesh = polygon(v + shift, h=h, lines=[Segments(merged + shift)])
-    # grains: connected components of triangles across edges that are not grain boundaries
-    edges = mesh.edges()
-    cut = boundaries.select_edges(mesh.points - shift, edges)
+    return merged[_inside(mid, v, 1e-9 * width)]
+
+
+def _grain_of_triangles(mesh: TriMesh, edges: np.ndarray, cut: np.ndarray, scipy) -> np.ndarray:
+    """The grain of each triangle of ``mesh`` (m,) int32: the connected components of triangles
+    across its ``edges`` (``mesh.edges()``) that are not grain boundaries (``cut``, a mask over
+    them), numbered in the order of their lowest triangle index."""
     tri = np.asarray(mesh.triangles, np.int64)
     m = len(tri)
     t = np.repeat(np.arange(m), 3)
@@ -260,22 +298,18 @@ def voronoi_grains(width: float, height: float, grain_size: float, h: float, see
     np.minimum.at(first, comp, np.arange(m))
     rank = np.empty_like(first)
     rank[np.argsort(first)] = np.arange(len(first))
-    grain = rank[comp].astype(np.int32)
-    tri_area = np.asarray(mesh.areas, np.float64)
-    G = len(first)
-    garea = np.bincount(grain, tri_area, minlength=G)
-    gmin = None
-    if names is not None:
-        gmin = [None] * G
-        have = np.zeros(len(names))
-        total = float(garea.sum())
-        for gi in rng.permutation(G).tolist():        # loop over grains at build time
-            j = int(np.argmax(props * total - have)) if have.sum() > 0 else int(rng.choice(len(names), p=props))
-            gmin[gi] = names[j]
-            have[j] += garea[gi]
-    labels = grain.view(GrainLabels)
-    labels.grain_mineral = gmin
-    labels.grain_area = garea
-    labels.seeds = seeds + shift
-    labels.boundaries = Segments(merged + shift, name="grain boundaries")
-    return mesh, labels
+    return rank[comp].astype(np.int32)
+
+
+def _draw_minerals(rng, garea: np.ndarray, names: list, props: np.ndarray) -> list:
+    """The mineral name of each grain: the grains, in a random order, each take the mineral
+    whose area share (``garea`` [m²]) is most below its proportion ``props``."""
+    G = len(garea)
+    gmin = [None] * G
+    have = np.zeros(len(names))
+    total = float(garea.sum())
+    for gi in rng.permutation(G).tolist():        # loop over grains at build time
+        j = int(np.argmax(props * total - have)) if have.sum() > 0 else int(rng.choice(len(names), p=props))
+        gmin[gi] = names[j]
+        have[j] += garea[gi]
+    return gmin

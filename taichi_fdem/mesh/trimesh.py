@@ -85,6 +85,39 @@ def _more(count: int) -> str:
     return f" (and {count - 1} more)" if count > 1 else ""
 
 
+def _integer_indices(tri_in: np.ndarray) -> np.ndarray:
+    """The node indices ``tri_in`` (m, 3) as int64: integer input as is, floats only when every
+    value is a finite integer; ValueError naming the first offending triangle otherwise."""
+    if tri_in.dtype.kind in "iu":
+        return tri_in.astype(np.int64, copy=False)
+    if tri_in.dtype.kind == "f":
+        tri64 = np.full(tri_in.shape, -1, dtype=np.int64)
+        ok = np.isfinite(tri_in) & (tri_in == np.round(tri_in))
+        if not ok.all():
+            t = int(np.flatnonzero(~ok.all(axis=1))[0])
+            raise ValueError(f"TriMesh: triangle {t} has non-integer node indices "
+                             f"{tuple(tri_in[t].tolist())}")
+        tri64[...] = tri_in
+        return tri64
+    raise ValueError(f"TriMesh: triangles must be integer node indices, got dtype {tri_in.dtype}")
+
+
+def _check_no_overlap(tri: np.ndarray, n: int) -> None:
+    """ValueError when two of the counter-clockwise triangles ``tri`` (m, 3) over ``n`` points
+    traverse the same directed edge (they overlap: an edge shared by more than two triangles,
+    or a folded mesh)."""
+    directed = np.stack([tri, np.roll(tri, -1, axis=1)], axis=2).reshape(-1, 2).astype(np.int64)
+    keys = directed[:, 0] * n + directed[:, 1]
+    order = np.argsort(keys, kind="stable")
+    dup = np.flatnonzero(keys[order][1:] == keys[order][:-1])
+    if dup.size:
+        e0, e1 = int(order[dup[0]]), int(order[dup[0] + 1])
+        u, v = directed[e0]
+        raise ValueError(f"TriMesh: triangles {e0 // 3} and {e1 // 3} both contain edge {u}->{v} with "
+                         f"the same orientation, so they overlap (an edge may be shared by at most two "
+                         f"triangles, lying on opposite sides of it){_more(dup.size)}")
+
+
 # --------------------------------------------------------------------------- TriMesh
 @dataclass(frozen=True, eq=False, repr=False)
 class TriMesh:
@@ -149,19 +182,7 @@ class TriMesh:
             raise ValueError(f"TriMesh: point {i} = {tuple(pts[i].tolist())} lies beyond {MAX_COORDINATE:g} m "
                              f"from the origin{_more(far.size)} (coordinates are in metres)")
 
-        if tri_in.dtype.kind in "iu":
-            tri64 = tri_in.astype(np.int64, copy=False)
-        elif tri_in.dtype.kind == "f":
-            tri64 = np.full(tri_in.shape, -1, dtype=np.int64)
-            ok = np.isfinite(tri_in) & (tri_in == np.round(tri_in))
-            if not ok.all():
-                t = int(np.flatnonzero(~ok.all(axis=1))[0])
-                raise ValueError(f"TriMesh: triangle {t} has non-integer node indices "
-                                 f"{tuple(tri_in[t].tolist())}")
-            tri64[...] = tri_in
-        else:
-            raise ValueError(f"TriMesh: triangles must be integer node indices, got dtype {tri_in.dtype}")
-
+        tri64 = _integer_indices(tri_in)
         out = np.flatnonzero(((tri64 < 0) | (tri64 >= n)).any(axis=1))
         if out.size:
             t = int(out[0])
@@ -189,18 +210,7 @@ class TriMesh:
             tri[cw, 1], tri[cw, 2] = tri[cw, 2].copy(), tri[cw, 1].copy()
             twice = np.abs(twice)
 
-        # two counter-clockwise triangles traversing the same directed edge overlap
-        directed = np.stack([tri, np.roll(tri, -1, axis=1)], axis=2).reshape(-1, 2).astype(np.int64)
-        keys = directed[:, 0] * n + directed[:, 1]
-        order = np.argsort(keys, kind="stable")
-        dup = np.flatnonzero(keys[order][1:] == keys[order][:-1])
-        if dup.size:
-            e0, e1 = int(order[dup[0]]), int(order[dup[0] + 1])
-            u, v = directed[e0]
-            raise ValueError(f"TriMesh: triangles {e0 // 3} and {e1 // 3} both contain edge {u}->{v} with "
-                             f"the same orientation, so they overlap (an edge may be shared by at most two "
-                             f"triangles, lying on opposite sides of it){_more(dup.size)}")
-
+        _check_no_overlap(tri, n)
         object.__setattr__(self, "points", _readonly(pts))
         object.__setattr__(self, "triangles", _readonly(np.ascontiguousarray(tri)))
         object.__setattr__(self, "_areas", _readonly(0.5 * twice))

@@ -107,15 +107,8 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
 
     # ---- boundary conditions -----------------------------------------------------------------
     curves = _Curves()
-    free, vbc, body_flags, vcurve, groups = _boundary_conditions(scene, bodies, X, curves)
-    md.bc_group_labels = [g[0] for g in groups]          # reactions recorded by the history
-    md.bc_group_masks = np.array([g[1] for g in groups], bool).reshape(len(groups), len(X))
-    md.has_bc = bool(np.any(free == 0.0))
-    md.has_bc_work = bool(np.any((free == 0.0) & (vbc != 0.0)))
-    vbc_raw = vbc
-    vbc = vbc * curves.at(vcurve, 0.0)          # curve-driven velocities start at A(0)
-    V = np.where(free == 0.0, vbc, V)
-    md.node_velocity0, md.node_vbc0 = V, vbc
+    free, vbc_raw, body_flags, vcurve, groups = _boundary_conditions(scene, bodies, X, curves)
+    V = _prescribe_velocities(md, free, vbc_raw, vcurve, groups, curves, V)
 
     # ---- materials and pair table --------------------------------------------------------------
     pair = _pair_table(scene, materials)
@@ -403,6 +396,21 @@ def _boundary_conditions(scene, bodies, X, curves):
         if np.all(free[b.nodes] == 0.0) and np.all(vbc[b.nodes] == 0.0):
             body_flags[b.index] |= 2
     return free, vbc, body_flags, vcurve, groups
+
+
+def _prescribe_velocities(md, free, vbc, vcurve, groups, curves, V) -> np.ndarray:
+    """The initial node velocities (n, 2): ``V`` with every held component (``free`` 0) set to its
+    prescribed velocity ``vbc`` times its curve at t = 0.  Sets the model's reaction groups
+    (``bc_group_labels``, ``bc_group_masks``), ``has_bc``, ``has_bc_work``, ``node_velocity0`` and
+    ``node_vbc0`` (the prescribed velocities at t = 0)."""
+    md.bc_group_labels = [g[0] for g in groups]          # reactions recorded by the history
+    md.bc_group_masks = np.array([g[1] for g in groups], bool).reshape(len(groups), len(V))
+    md.has_bc = bool(np.any(free == 0.0))
+    md.has_bc_work = bool(np.any((free == 0.0) & (vbc != 0.0)))
+    vbc = vbc * curves.at(vcurve, 0.0)          # curve-driven velocities start at A(0)
+    V = np.where(free == 0.0, vbc, V)
+    md.node_velocity0, md.node_vbc0 = V, vbc
+    return V
 
 
 class _Curves:

@@ -131,9 +131,28 @@ def fan_links(tri_nodes, tri_origin, node_x, joint_nodes, joint_tris, pairs, eli
     pairs = np.asarray(pairs, np.int64).reshape(-1, 2)
     eligible = np.asarray(eligible, bool)
     T = len(tri_origin)
-    J = len(joint_nodes)
     V = int(tri_origin.max()) + 1 if T else 0
-    # incidences (v, t) of the eligible triangles, sorted by node and angle: rank in the fan
+    inc_v, inc_t, n_fan, first, rank = _fan_order(tri_nodes, tri_origin, node_x, eligible, V)
+    rank_of = _rank_lookup(inc_v, inc_t, rank, T)
+    small = n_fan <= FAN_BITS
+    full = (np.int64(1) << np.minimum(n_fan, FAN_BITS)) - 1
+    linked = np.zeros(V, np.int64)                    # links that are joints or shared edges
+    _shared_edge_links(tri_nodes, inc_v, inc_t, n_fan, first, rank, small, linked)
+    link = _joint_links(tri_nodes, tri_origin, joint_nodes, joint_tris, pairs, eligible, rank_of, n_fan, small,
+                        linked)
+    missing = np.where(small, full & ~linked, (np.int64(1) << FAN_BITS) - 1)
+    ent, per_fan = _corner_pair_entries(tri_origin, pairs, rank_of, small, full, V)
+    E0 = FAN_HEAD + 2 * V + 1
+    starts = E0 + FAN_ENTRY * np.concatenate([[0], np.cumsum(per_fan)])
+    out = np.concatenate([[V, len(joint_nodes)], starts, missing, ent.ravel(), link.ravel()])
+    return out.astype(np.int32)
+
+
+def _fan_order(tri_nodes, tri_origin, node_x, eligible, V):
+    """The incidences (original node v, triangle t) of the ``eligible`` triangles, sorted by v and
+    then by the angle of t's centroid about v (rest positions ``node_x``): (inc_v, inc_t, n_fan
+    (V,) the size of each fan, first (V + 1,) where each fan's incidences start, rank: the rank
+    of each incidence in its fan)."""
     t = np.nonzero(eligible)[0]
     inc_v = tri_origin[t].ravel().astype(np.int64)
     inc_t = np.repeat(t, 3)
@@ -144,6 +163,12 @@ def fan_links(tri_nodes, tri_origin, node_x, joint_nodes, joint_tris, pairs, eli
     n_fan = np.bincount(inc_v, minlength=V)
     first = np.concatenate([[0], np.cumsum(n_fan)])                  # where each fan's ranks start
     rank = np.arange(len(inc_v)) - first[inc_v]
+    return inc_v, inc_t, n_fan, first, rank
+
+
+def _rank_lookup(inc_v, inc_t, rank, T):
+    """``rank_of(v, tt)``: the rank of triangle tt in the fan of v, −1 where it is not in it
+    (arrays in and out), for the incidences of :func:`_fan_order` over ``T`` triangles."""
     key = inc_v * max(T, 1) + inc_t
     ko = np.argsort(key, kind="stable")
     key_sorted, rank_sorted = key[ko], rank[ko]
@@ -156,16 +181,28 @@ def fan_links(tri_nodes, tri_origin, node_x, joint_nodes, joint_tris, pairs, eli
         i = np.minimum(np.searchsorted(key_sorted, k), len(key_sorted) - 1)
         return np.where(key_sorted[i] == k, rank_sorted[i], -1)
 
-    small = n_fan <= FAN_BITS
-    full = (np.int64(1) << np.minimum(n_fan, FAN_BITS)) - 1
-    linked = np.zeros(V, np.int64)                    # links that are joints or shared edges
-    # shared edges (both ends the same nodes, not cut): consecutive triangles sharing 2 nodes
+    return rank_of
+
+
+def _shared_edge_links(tri_nodes, inc_v, inc_t, n_fan, first, rank, small, linked) -> None:
+    """Set in ``linked`` (V,) the bit of every link of a fan of at most FAN_BITS triangles
+    (``small``) whose two triangles still share an edge (two common nodes: not cut)."""
     nxt = np.where(rank == n_fan[inc_v] - 1, first[inc_v], np.arange(len(inc_v)) + 1)   # next rank, wrapping
     if len(inc_v):
         a_nodes, b_nodes = tri_nodes[inc_t], tri_nodes[inc_t[nxt]]
         same = (a_nodes[:, :, None] == b_nodes[:, None, :]).any(axis=2).sum(axis=1) >= 2
         same &= (inc_t != inc_t[nxt]) & small[inc_v]
         np.bitwise_or.at(linked, inc_v[same], np.int64(1) << rank[same])
+
+
+def _joint_links(tri_nodes, tri_origin, joint_nodes, joint_tris, pairs, eligible, rank_of, n_fan, small,
+                 linked) -> np.ndarray:
+    """The (J, 3) link table of the joints: for each end, v·32 + bit of the link the joint is in
+    the fan of that end's original node v (−1 when it is no link of an eligible fan of at most
+    FAN_BITS triangles), and the index of the joint's triangle pair in ``pairs`` (−1: none).
+    Sets the bits of those links in ``linked`` (V,)."""
+    T = len(tri_origin)
+    J = len(joint_nodes)
     link = -np.ones((J, 3), np.int64)
     if J:
         A = np.asarray(joint_tris)[:, 0]
@@ -185,8 +222,14 @@ def fan_links(tri_nodes, tri_origin, node_x, joint_nodes, joint_tris, pairs, eli
             pk = pairs[:, 0] * max(T, 1) + pairs[:, 1]
             i = np.minimum(np.searchsorted(pk, lo * max(T, 1) + hi), len(pk) - 1)
             link[:, 2] = np.where(ok & (pk[i] == lo * max(T, 1) + hi), i, -1)
-    missing = np.where(small, full & ~linked, (np.int64(1) << FAN_BITS) - 1)
-    # corner pairs: exactly one original node in common
+    return link
+
+
+def _corner_pair_entries(tri_origin, pairs, rank_of, small, full, V):
+    """The entries of the corner pairs (the pairs with exactly one original node v in common),
+    grouped by fan: (P, FAN_ENTRY) rows (pair index, arc 1, arc 2, A, B), the two arcs of the
+    fan of v between the ranks of A and B as link masks (every link of a fan of more than
+    FAN_BITS triangles), and the number of entries of each fan (V,)."""
     oa, ob = tri_origin[pairs[:, 0]], tri_origin[pairs[:, 1]]
     eq = oa[:, :, None] == ob[:, None, :]
     pc = np.nonzero(eq.sum(axis=(1, 2)) == 1)[0]
@@ -197,10 +240,7 @@ def fan_links(tri_nodes, tri_origin, node_x, joint_nodes, joint_tris, pairs, eli
     arc2 = np.where(small[v], full[v] ^ arc1, full[v])
     o = np.argsort(v, kind="stable")
     ent = np.stack([pc[o], arc1[o], arc2[o], pairs[pc[o], 0], pairs[pc[o], 1]], axis=1)
-    E0 = FAN_HEAD + 2 * V + 1
-    starts = E0 + FAN_ENTRY * np.concatenate([[0], np.cumsum(np.bincount(v, minlength=V))])
-    out = np.concatenate([[V, J], starts, missing, ent.ravel(), link.ravel()])
-    return out.astype(np.int32)
+    return ent, np.bincount(v, minlength=V)
 
 
 def bonds(md, X, tris, tri_mat, area0, pair, body_flags, tri_body, ctri, joints, sn_tau):

@@ -648,6 +648,24 @@ def calibrate(model, params: dict, targets: dict, budget: int = 200, seed: int =
         ``best``, ``uncertainty``, ``history``, ``evaluations``, ``converged``, ``plot(path)``,
         ``to_csv(path)``.
     """
+    bounds, tg, method, rtol = _check_settings(model, params, targets, weights, budget, workers, method, popsize,
+                                               tol, start, sampler, diff_step, tolerance, rtol)
+    cal = Calibration(dict(bounds), tg, tolerance=tolerance, method=method)
+    ev = _Evaluator(cal, model, list(bounds), budget, workers, scheduler, timeout, init, workdir, on_batch)
+    _search(ev, bounds, budget, rtol, seed=seed, popsize=popsize, tol=tol, start=start, diff_step=diff_step,
+            sampler=sampler)
+    if not cal.best:
+        raise SweepError(f"calibrate: every one of the {cal.evaluations} evaluations failed; the first error: "
+                         f"{cal.history[0]['error'] if cal.history else 'none'}")
+    return cal
+
+
+def _check_settings(model, params, targets, weights, budget, workers, method, popsize, tol, start, sampler,
+                    diff_step, tolerance, rtol):
+    """The checked arguments of :func:`calibrate`: (bounds {name: (low, high)}, targets {name:
+    (value, weight)}, the method (``"auto"`` resolved), rtol (default ``tolerance / 10``)).
+    ImportError without SciPy, TypeError for a model that is not callable, ValueError naming
+    any other argument that is wrong or that is a setting of another method."""
     try:
         import scipy.optimize  # noqa: F401
     except ImportError as exc:  # pragma: no cover - depends on the installation
@@ -692,18 +710,25 @@ def calibrate(model, params: dict, targets: dict, budget: int = 200, seed: int =
         for k in names:
             if not bounds[k][0] <= float(start[k]) <= bounds[k][1]:
                 raise ValueError(f"calibrate: start[{k!r}] = {start[k]!r} lies outside its box {bounds[k]}")
-    cal = Calibration(dict(bounds), tg, tolerance=tolerance, method=method)
+    return bounds, tg, method, rtol
+
+
+def _search(ev, bounds, budget, rtol, *, seed, popsize, tol, start, diff_step, sampler) -> None:
+    """Run the calibration's method with the evaluator ``ev`` until it converges, stops or uses
+    the ``budget``, recording in ``ev.cal`` its message, whether it converged and its wall time.
+    The worker processes (``ev.workers`` > 1 without a scheduler) and the temporary folder of
+    the Dask batches (a scheduler without ``ev.workdir``) live as long as the search."""
+    cal, method = ev.cal, ev.cal.method
     tmp = None
-    if workdir is None and scheduler is not None:
+    if ev.workdir is None and ev.scheduler is not None:
         tmp = tempfile.TemporaryDirectory(prefix="fdem-calibrate-")
-        workdir = tmp.name
-    ev = _Evaluator(cal, model, names, budget, workers, scheduler, timeout, init, workdir, on_batch)
+        ev.workdir = tmp.name
     if method != "de":
         ev.rtol = float(rtol)
     xrtol = 1e-4
     try:
-        if workers > 1 and scheduler is None:
-            ev.pool = _Pool(int(workers), init)
+        if ev.workers > 1 and ev.scheduler is None:
+            ev.pool = _Pool(ev.workers, ev.init)
         if method == "de":
             cal.message = _run_de(ev, bounds, budget, seed, popsize, tol)
         elif method == "bracket":
@@ -727,10 +752,6 @@ def calibrate(model, params: dict, targets: dict, budget: int = 200, seed: int =
         if tmp is not None:
             tmp.cleanup()
     cal.wall_s = time.perf_counter() - ev.t_start
-    if not cal.best:
-        raise SweepError(f"calibrate: every one of the {cal.evaluations} evaluations failed; the first error: "
-                         f"{cal.history[0]['error'] if cal.history else 'none'}")
-    return cal
 
 
 def _no_metrics(sim):  # pragma: no cover - FunctionPoint never builds a simulation

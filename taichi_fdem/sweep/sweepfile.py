@@ -78,22 +78,7 @@ def load(path) -> tuple[Sweep, dict]:
     if not os.path.isfile(scene):
         raise SweepError(str(ck.error(sp + ("scene",), f"scene file {v['scene']!r} not found (looked for {scene}; "
                                       f"paths are relative to the sweep file's folder)")))
-    if ("axes" in s) == ("points" in s):
-        raise SweepError(str(ck.error(sp, "give exactly one of [sweep.axes] (a grid) or [[sweep.points]] (a list)",
-                                      table=sp)))
-    axes = points = None
-    if "axes" in s:
-        axes = s["axes"]
-        if not isinstance(axes, dict) or not axes:
-            raise SweepError(str(ck.error(sp + ("axes",), "[sweep.axes] must be a table of \"dotted.key\" = [values]")))
-        for k, vals in axes.items():
-            if not isinstance(vals, list) or not vals:
-                raise SweepError(str(ck.error(sp + ("axes", k), f"axis {k!r} must be a non-empty list of values, "
-                                              f"got {vals!r}", table=sp + ("axes",))))
-    else:
-        points = s["points"]
-        if not isinstance(points, list) or not points or not all(isinstance(p, dict) for p in points):
-            raise SweepError(str(ck.error(sp + ("points",), "points must be an array of tables [[sweep.points]]")))
+    axes, points = _axes_or_points(ck, s, sp)
     metrics = s.get("metrics", ["time", "steps", "energies"])
     where_m = ck.where(sp + ("metrics",))
     try:
@@ -109,3 +94,25 @@ def load(path) -> tuple[Sweep, dict]:
     output = v["output"] or os.path.splitext(os.path.basename(path))[0] + ".csv"
     return sweep, {"output": output, "workers": v["workers"], "scheduler": v["scheduler"],
                    "timeout": v["timeout"], "resume": v["resume"]}
+
+
+def _axes_or_points(ck, s: dict, sp: tuple):
+    """(axes, None) from the ``[sweep.axes]`` table of the ``[sweep]`` table ``s``, or (None,
+    points) from its ``[[sweep.points]]``; SweepError naming the file and line (checker ``ck``,
+    table path ``sp``) unless there is exactly one of them, well formed."""
+    if ("axes" in s) == ("points" in s):
+        raise SweepError(str(ck.error(sp, "give exactly one of [sweep.axes] (a grid) or [[sweep.points]] (a list)",
+                                      table=sp)))
+    if "axes" in s:
+        axes = s["axes"]
+        if not isinstance(axes, dict) or not axes:
+            raise SweepError(str(ck.error(sp + ("axes",), "[sweep.axes] must be a table of \"dotted.key\" = [values]")))
+        for k, vals in axes.items():
+            if not isinstance(vals, list) or not vals:
+                raise SweepError(str(ck.error(sp + ("axes", k), f"axis {k!r} must be a non-empty list of values, "
+                                              f"got {vals!r}", table=sp + ("axes",))))
+        return axes, None
+    points = s["points"]
+    if not isinstance(points, list) or not points or not all(isinstance(p, dict) for p in points):
+        raise SweepError(str(ck.error(sp + ("points",), "points must be an array of tables [[sweep.points]]")))
+    return None, points
