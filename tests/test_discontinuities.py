@@ -329,7 +329,7 @@ def test_guide_discontinuity_example_runs_as_written(capsys):
     assert (block.joint_set == 1).sum() == 20
     mid = 0.5 * (block.mesh.points[block.joint_nodes[:, 0]] + block.mesh.points[block.joint_nodes[:, 1]])
     own = block.joint_set == 0
-    assert np.all(np.abs(mid[own, 1]) < 0.1) and np.allclose(mid[~own, 1], 0.15)
+    assert np.all(np.abs(mid[own, 1]) <= 0.1 + 1e-9) and np.allclose(mid[~own, 1], 0.15)    # the band's midpoints
 
 
 def test_a_line_the_mesh_does_not_follow_is_reported():
