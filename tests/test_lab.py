@@ -104,8 +104,14 @@ def test_brazilian_chooses_and_reports_its_settings_without_changing_the_materia
     assert st["quasi_static"] == 0.7 and st["safety"] == 0.2 and st["load_time"] == 15.0
     assert st["joint_penalty_raised"] and st["joint_penalty"] == pytest.approx(fdem.lab.JOINT_PENALTY_FACTOR * 20e9)
     assert r.material.joint_penalty == pytest.approx(st["joint_penalty"])
-    assert st["alpha_deg"] == 10.0 and st["platen_penalty"] == pytest.approx(3 * 20e9)
+    # the symmetric disc of 20 elements: 64 boundary nodes, the flats end at the one at 11.25°
+    assert st["alpha_deg"] == pytest.approx(11.25) and st["loaded_arc_deg"] == pytest.approx(11.25)
+    assert r.hondros == pytest.approx(fdem.verification.hondros_factor(11.25), rel=1e-12)
+    assert st["mesh"] == "disk (symmetric)" and st["platen_penalty"] == pytest.approx(3 * 20e9)
     assert set(r.convergence) == {"rate"} and abs(r.convergence["rate"]) < 0.03, r.convergence
+    # the split starts in the centre, in tension, on the line of joints along the loaded diameter
+    x, y = r.split_start
+    assert abs(x) < 1e-6 and abs(y) < 0.05 / 6, r.split_start
     with pytest.raises(ValueError, match="check must be"):
         fdem.lab.brazilian(m, 0.05, 0.005, check="time")
     # a joint penalty the material sets is kept
@@ -200,3 +206,23 @@ def test_direct_shear_of_a_cohesive_joint():
     assert r5.peak_shear > r5.residual_shear * 3, r5
     with pytest.raises(ValueError, match="whole number of cells"):
         fdem.lab.direct_shear(fdem.Material(**kw), 0.1, 0.05, 0.0167, sn, joint=True)
+
+
+def test_loading_arc_ends_the_flats_at_a_boundary_node():
+    """With alpha_deg unset the caps are clipped at the boundary node nearest to 10°, so each
+    flat ends at a node; the Hondros factor takes the half-arc the flats actually span."""
+    from taichi_fdem.lab.tensile import loading_arc
+    pts = fdem.mesh.disk(0.025, 0.0025).points          # 64 nodes on the circle, 5.625° apart
+    assert loading_arc(pts, 0.025, None) == pytest.approx((11.25, 11.25), rel=1e-12)
+    # clipped at 10°, the flats end at the nodes at ±5.625°
+    assert loading_arc(pts, 0.025, 10.0) == pytest.approx((10.0, 5.625), rel=1e-12)
+    with pytest.raises(ValueError, match="alpha_deg"):
+        loading_arc(pts, 0.025, 75.0)
+
+
+def test_mesh_check_of_a_compression_test_reruns_on_a_refined_mesh():
+    """check="mesh" builds the default mesh again at h/2 (not the first run's mesh): the peak of
+    an elastic specimen loaded to the same strain changes, by little."""
+    r = fdem.lab.ucs(fdem.Material(**ROCK), 0.05, 0.1, 0.0125, samples=40, rate_transits=30, check="mesh")
+    assert set(r.convergence) == {"mesh"}
+    assert 0.0 < abs(r.convergence["mesh"]) < 0.02, r.convergence
