@@ -20,12 +20,10 @@ from .specimens import check_joint_sets
 #: LOAD_TIME D/c_p, at SAFETY × the time-step estimate, with local damping (α = 0.7).
 LOAD_TIME = 15.0
 SAFETY = 0.2
-#: The split: the first maximum of the load after which it has fallen by this fraction of it
-#: with a joint broken in tension (the halves of a split disc of high cohesion can carry the
-#: platens further, as two columns, and the load rises again).
-SPLIT_DROP = 0.02
-#: Samples recorded after the split before the test stops.
-AFTER_SPLIT = 10
+#: The split: the peak is the largest load up to SPLIT_WINDOW × D/c_p after the first joint of
+#: the central third (``|x|``, ``|y|`` < D/6) broke in tension; the halves of a split disc of high
+#: cohesion can carry the platens further, as two columns, and the load rises again.
+SPLIT_WINDOW = 2.0
 #: Half-angle [°] of the loading arc of :func:`brazilian` when ``alpha_deg`` is not given: the
 #: flats end at the disc's boundary node nearest to it (ISRM's curved jaws load about ±10°).
 LOADING_ARC_DEG = 10.0
@@ -105,11 +103,12 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
     ``mesh``, a disc centred on the origin).  ``joint_sets``: (name, selector, Material) triples
     added with :meth:`Scene.add_joint_set` (e.g. ``[("grain_boundaries", "interfaces", weak)]``).
     ``platen``: the platens' Material (default: 10 × stiffer, penalty 3 × the disc's E).
-    ``load_time`` below ``MIN_TRANSITS`` is refused.  The peak is the split's load: the first
-    maximum of the load after which it falls by :data:`SPLIT_DROP` (2 %) with a joint broken
-    in tension; the test stops :data:`AFTER_SPLIT` samples later (``peaked`` True; the halves of
-    a disc of high cohesion carry the platens further as two columns, and the load can rise
-    again), when the load has dropped below 30 % of its peak (``peaked`` True), or after
+    ``load_time`` below ``MIN_TRANSITS`` is refused.  The peak is the split's load: the
+    largest load up to :data:`SPLIT_WINDOW` (2) D/c_p after the first joint of the central third
+    (``|x|``, ``|y|`` < D/6) broke in tension, where the test stops (``peaked`` True; the halves
+    of a disc of high cohesion carry the platens further as two columns, and the load can rise
+    again); without a central split, when the load has dropped below 30 % of its peak
+    (``peaked`` True), or after
     ``max_time`` × the loading time (``peaked`` False, with a RuntimeWarning: the peak is then
     the last load reached, not the strength).
 
@@ -159,14 +158,18 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
         kin.append(specimen_kinetic(s, bodies[0]) / max(en["strain"], 1e-300))
         if draw is not None:
             draw(s)
-    split = []
+    split = []                       # the time of the first central tension break, then its sample
+    window = SPLIT_WINDOW * diameter / p["cp"]
 
     def stop(rec):
-        P = rec["P"]
-        if not split and rec["broken"][-1] and P[-1] < (1.0 - SPLIT_DROP) * max(P):
-            if np.any(np.asarray(sim.cracks.broken()["mode"]) == "I"):
-                split.append(len(P) - 1)
-        return bool(split) and len(P) - 1 >= split[0] + AFTER_SPLIT
+        if not split and rec["broken"][-1]:
+            bj = sim.cracks.broken()
+            x, y = bj["position"][:, 0], bj["position"][:, 1]
+            hit = np.flatnonzero((np.asarray(bj["mode"]) == "I") & (np.abs(x) < diameter / 6)
+                                 & (np.abs(y) < diameter / 6))
+            if len(hit):
+                split.append(float(bj["time"][hit[0]]))
+        return bool(split) and rec["t_P"][-1] > split[0] + window
     t0 = _time.perf_counter()
     try:
         rec = brazilian_load(sim, bodies, p, samples=samples, frame=frame, duration=max_time, stop=stop)
@@ -175,7 +178,10 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
             writer.close()
     wall = _time.perf_counter() - t0
     out = brazilian_result(sim, bodies, rec, p)
-    i = int(rec["P"][: split[0] + 1].argmax()) if split else int(rec["P"].argmax())
+    if split:                        # the split's load: the largest up to the window after the central break
+        last = int(np.searchsorted(rec["t_P"], split[0] + window, side="right"))
+        split.append(max(1, last))
+    i = int(rec["P"][: split[1]].argmax()) if split else int(rec["P"].argmax())
     half = int(abs(rec["P"][: i + 1] - 0.5 * rec["P"][i]).argmin())
     kinetic_ratio = float(kin[max(0, half - 1)]) if kin else math.nan
     warn_kinetic(kinetic_ratio, "lab.brazilian")
@@ -183,8 +189,8 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
     if not peaked:
         warnings.warn(f"lab.brazilian: the load had not dropped after {max_time:g} loading times: the peak is the "
                       "last load reached, not the strength (raise max_time)", RuntimeWarning, stacklevel=2)
-    if split:                        # the split's load, the first maximum (the record ends soon after it)
-        out["P_max_N_per_m"] = float(rec["P"][: split[0] + 1].max())
+    if split:
+        out["P_max_N_per_m"] = float(rec["P"][i])
     sigma = 2.0 * out["P_max_N_per_m"] / (math.pi * diameter)
     hf = hondros_factor(arc_deg)
     bj = sim.cracks.broken()
