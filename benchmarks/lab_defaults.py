@@ -91,7 +91,7 @@ RANGE = [(2e6, 20e9, 2.0, 25.0), (2e6, 20e9, 5.0, 45.0), (2e6, 5e9, 3.0, 35.0), 
 def cases(quick: bool = False) -> dict:
     out = {}
     out["convergence"] = [dict(material=dict(ft=4e6), call=dict(check="both")),
-                          dict(test="ucs", call=dict(check="both"))]
+                          dict(test="ucs", h=0.01, call=dict(check="both"))]
     # the issue's table: its materials and calls (G_I = 30 J/m² × (f_t / 8 MPa)², l_ch = 9.375 mm)
     out["issue"] = [dict(material=dict(ft=6e6, c_over_ft=20 / 6)),
                     dict(material=dict(ft=4e6, damping=1.0)),
@@ -99,6 +99,8 @@ def cases(quick: bool = False) -> dict:
                     dict(test="ucs"), dict(test="ucs", material=dict(damping=1.0))]
     out["issue_bts"] = out["issue"][:3]
     out["range"] = [dict(material=dict(ft=a, young=b, c_over_ft=c, phi=p)) for a, b, c, p in RANGE]
+    out["brittle_fast"] = [dict(material=dict(ft=a, young=b, c_over_ft=c, phi=p, lch=2.5e-3))
+                           for a, b, c, p in ((2e6, 20e9, 2.0, 25.0), (20e6, 80e9, 5.0, 45.0), (5e6, 5e9, 3.0, 35.0))]
     out["range_brittle"] = [dict(material=dict(ft=a, young=b, c_over_ft=c, phi=p, lch=2.5e-3)) for a, b, c, p in RANGE]
     # the spiral mesh (no line of edges along the loaded diameter) against the default one
     spiral = [(2e6, 20e9, 3.0, 35.0), (4e6, 20e9, 3.0, 35.0), (8e6, 20e9, 3.0, 35.0), (2e6, 20e9, 2.0, 25.0),
@@ -178,7 +180,7 @@ def tables(raw: dict, date: str, host: str) -> dict:
     if "convergence" in raw:
         rows = []
         for r in raw["convergence"]:
-            what = "`lab.ucs(m, 0.05, 0.1, 0.005, check=\"both\")` (`peak_stress`)" if r["case"].get("test") == "ucs" \
+            what = "`lab.ucs(m, 0.05, 0.1, 0.01, check=\"both\")` (`peak_stress`)" if r["case"].get("test") == "ucs" \
                 else "`lab.brazilian(m, 0.05, 0.0025, check=\"both\")`, f_t = 4 MPa (`centre_stress`)"
             cv = r["convergence"]
             rows.append([what, f"{cv.get('rate', math.nan):+.4f}", f"{cv.get('mesh', math.nan):+.4f}"])
