@@ -57,6 +57,7 @@ def brazilian(case: dict) -> dict:
     bj = r.sim.cracks.broken()
     first = bj["position"][:5].tolist()
     return dict(case=case, ratio=r.centre_stress / ft, central=r.central_fraction, peaked=bool(r.peaked),
+                split_start=list(r.split_start),
                 kinetic=r.kinetic_ratio, convergence=r.convergence, settings=r.settings, first=first,
                 modes=[str(m) for m in bj["mode"][:20]], wall=time.perf_counter() - t0,
                 warnings=sorted({str(x.message)[:120] for x in w}))
@@ -98,6 +99,7 @@ def cases(quick: bool = False) -> dict:
                     dict(material=dict(ft=8e6, damping=1.0)),
                     dict(test="ucs"), dict(test="ucs", material=dict(damping=1.0))]
     out["issue_bts"] = out["issue"][:3]
+    out["rate"] = [dict(material=dict(ft=4e6), call=dict(load_time=t)) for t in (15.0, 60.0)]
     out["range"] = [dict(material=dict(ft=a, young=b, c_over_ft=c, phi=p)) for a, b, c, p in RANGE]
     out["brittle_fast"] = [dict(material=dict(ft=a, young=b, c_over_ft=c, phi=p, lch=2.5e-3))
                            for a, b, c, p in ((2e6, 20e9, 2.0, 25.0), (20e6, 80e9, 5.0, 45.0), (5e6, 5e9, 3.0, 35.0))]
@@ -122,7 +124,6 @@ def _gpa(v):
 
 
 def _bts(r):
-    m = r["case"]["material"]
     cell = f"{r['ratio']:.3f}"
     if not r["peaked"]:
         cell += " (not split after 3 loading times)"
@@ -130,8 +131,13 @@ def _bts(r):
 
 
 def _start(r):
-    x, y = r["first"][0] if r.get("first") else (math.nan, math.nan)
-    return f"{abs(y) * 1e3:.1f}"
+    """``|y|`` [mm] of the first joint broken in tension."""
+    if "split_start" in r:
+        y = r["split_start"][1]
+    else:
+        i = r["modes"].index("I") if "I" in r["modes"] else 99
+        y = r["first"][i][1] if i < len(r["first"]) else math.nan
+    return "–" if not math.isfinite(y) else f"{abs(y) * 1e3:.1f}"
 
 
 def tables(raw: dict, date: str, host: str) -> dict:

@@ -101,7 +101,7 @@ def test_brazilian_chooses_and_reports_its_settings_without_changing_the_materia
         r = fdem.lab.brazilian(m, 0.05, 0.05 / 20, check="rate", samples=120)
     assert repr(m) == before and m.joint_penalty is None
     st = r.settings
-    assert st["quasi_static"] == 0.7 and st["safety"] == 0.2 and st["load_time"] == 15.0
+    assert st["quasi_static"] == 0.7 and st["safety"] == 0.2 and st["load_time"] == 30.0
     assert st["joint_penalty_raised"] and st["joint_penalty"] == pytest.approx(fdem.lab.JOINT_PENALTY_FACTOR * 20e9)
     assert r.material.joint_penalty == pytest.approx(st["joint_penalty"])
     # the symmetric disc of 20 elements: 64 boundary nodes, the flats end at the one at 11.25°

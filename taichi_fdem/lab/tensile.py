@@ -18,7 +18,7 @@ from .specimens import check_joint_sets
 
 #: Defaults of :func:`brazilian` (each a keyword): the loading to the expected peak lasts
 #: LOAD_TIME D/c_p, at SAFETY × the time-step estimate, with local damping (α = 0.7).
-LOAD_TIME = 15.0
+LOAD_TIME = 30.0
 SAFETY = 0.2
 #: The split: the peak is the largest load up to SPLIT_WINDOW × D/c_p after the first joint of
 #: the central third (``|x|``, ``|y|`` < D/6) broke in tension; the halves of a split disc of high
@@ -68,7 +68,7 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
     Quasi-static settings, chosen from the material and the disc unless given (all reported
     in ``result.settings``): ``quasi_static`` local non-viscous damping (True: α = 0.7, see
     :meth:`Scene.build <taichi_fdem.scene.Scene.build>`; False turns it off and leaves only
-    the material's own ``damping``); ``load_time`` (default ``LOAD_TIME`` = 15 D/c_p to the
+    the material's own ``damping``); ``load_time`` (default ``LOAD_TIME`` = 30 D/c_p to the
     expected peak); ``safety`` of the time step (default ``SAFETY`` = 0.2 of the estimate: at
     0.35 the platen contact gains energy, the disc rings and splits early); the joint penalty
     ``joint_penalty_factor`` × E where the material leaves ``joint_penalty`` unset (default
