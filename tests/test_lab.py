@@ -130,31 +130,43 @@ def test_halving_the_loading_rate_changes_the_default_brazilian_strength_by_unde
 
 
 # f_t [Pa], E [Pa], c / f_t, φ [°], l_ch [m]: rock whose Brazilian strength at the defaults is
-# within 10 % of f_t (20 elements across a 50 mm disc; benchmarks/results.md has the whole range
-# and docs/guide/lab.md why the rest is not)
-BTS_CASES = [(2e6, 20e9, 2.0, 25.0, 9.375e-3), (20e6, 80e9, 2.0, 25.0, 9.375e-3), (5e6, 5e9, 3.0, 35.0, 2.5e-3)]
+# within 10 % of f_t (20 elements across a 50 mm disc).  The whole range, and the rock whose
+# strength is not (a disc of few l_ch, and crushing at the flats): benchmarks/results.md,
+# docs/guide/lab.md "What the Brazilian strength measures"
+BTS_CASES = [(4e6, 20e9, 3.0, 35.0, 9.375e-3), (20e6, 80e9, 2.0, 25.0, 9.375e-3), (5e6, 5e9, 3.0, 35.0, 2.5e-3)]
+BTS_CASES_SLOW = [(2e6, 20e9, 2.0, 25.0, 9.375e-3), (2e6, 20e9, 5.0, 45.0, 9.375e-3), (20e6, 80e9, 5.0, 45.0, 2.5e-3)]
+
+
+def _bts_within_ten_percent(ft, young, c_over_ft, phi, lch):
+    r = fdem.lab.brazilian(_rock(ft, young, c_over_ft, phi, lch=lch), 0.05, 0.05 / 20)
+    assert r.peaked and abs(r.centre_stress / ft - 1.0) < 0.10, r
+    assert r.central_fraction > 1 / 3, r
 
 
 @pytest.mark.parametrize("ft, young, c_over_ft, phi, lch", BTS_CASES)
 def test_brazilian_strength_is_the_tensile_strength_at_the_defaults(ft, young, c_over_ft, phi, lch):
     """The default call, 20 elements across: BTS (the centre stress, the Hondros factor of the
     loaded arc included) within 10 % of f_t, the split along the loaded diameter."""
-    r = fdem.lab.brazilian(_rock(ft, young, c_over_ft, phi, lch=lch), 0.05, 0.05 / 20)
-    assert r.peaked and abs(r.centre_stress / ft - 1.0) < 0.10, r
-    assert r.central_fraction > 1 / 3, r
+    _bts_within_ten_percent(ft, young, c_over_ft, phi, lch)
 
 
-# rock of c >= 3 f_t and l_ch = D / 5.3: the split starts in tension in the centre, and the
-# cohesive zone that spans the central third before the first joint breaks carries the load
-# above f_t (the size effect of a cohesive crack, docs/guide/lab.md)
-SIZE_CASES = [(2e6, 20e9, 5.0, 45.0), (2e6, 5e9, 3.0, 35.0), (20e6, 80e9, 5.0, 45.0), (8e6, 20e9, 2.0, 45.0)]
+@pytest.mark.slow
+@pytest.mark.parametrize("ft, young, c_over_ft, phi, lch", BTS_CASES_SLOW)
+def test_brazilian_strength_is_the_tensile_strength_at_the_defaults_slow(ft, young, c_over_ft, phi, lch):
+    _bts_within_ten_percent(ft, young, c_over_ft, phi, lch)
+
+
+# rock of l_ch = D / 5.3 whose split starts in tension in the centre, and whose cohesive zone,
+# spanning the central third before the first joint breaks, carries the load above f_t (the
+# size effect of a cohesive crack, docs/guide/lab.md)
+SIZE_CASES = [(2e6, 5e9, 3.0, 35.0), (20e6, 80e9, 5.0, 45.0), (8e6, 20e9, 2.0, 45.0), (8e6, 20e9, 5.0, 25.0)]
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("ft, young, c_over_ft, phi", SIZE_CASES)
 def test_brazilian_disc_of_few_characteristic_lengths_splits_in_the_centre_above_ft(ft, young, c_over_ft, phi):
     r = fdem.lab.brazilian(_rock(ft, young, c_over_ft, phi), 0.05, 0.05 / 20)
-    assert r.peaked and 1.05 < r.centre_stress / ft < 1.30, r
+    assert r.peaked and 1.05 < r.centre_stress / ft < 1.25, r
     x, y = r.split_start
     assert abs(x) < 1e-6 and abs(y) < 0.05 / 6, r.split_start
 
