@@ -97,7 +97,7 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
 
     ``check``: None, "rate", "mesh" or "both": rerun at half the loading rate (``load_time`` ×
     2) and/or half ``h`` with the same settings, and put the relative change of
-    ``centre_stress`` in ``result.convergence`` (e.g. ``{"rate": 0.004}``).
+    ``centre_stress`` in ``result.convergence`` (e.g. ``{"rate": -0.027}``).
 
     ``material``: a Material or a dict of Materials with ``groups`` (labels per triangle of
     ``mesh``, a disc centred on the origin).  ``joint_sets``: (name, selector, Material) triples
