@@ -90,7 +90,7 @@ def _rock(ft, young, c_over_ft, phi, lch=9.375e-3, **kw):
 
 
 def test_brazilian_chooses_and_reports_its_settings_without_changing_the_material():
-    """The default call is quasi-static by itself: local damping on, the joint penalty raised
+    """The default call is quasi-static by itself: local damping on (α = 0.3), the joint penalty raised
     to JOINT_PENALTY_FACTOR × E on a copy of the material (the Material given keeps
     joint_penalty=None), everything reported in result.settings; check="rate" reruns at half
     the rate and reports the change of the peak (its size at the defaults: the slow test
@@ -102,7 +102,7 @@ def test_brazilian_chooses_and_reports_its_settings_without_changing_the_materia
         r = fdem.lab.brazilian(m, 0.05, 0.05 / 20)
     assert repr(m) == before and m.joint_penalty is None
     st = r.settings
-    assert st["quasi_static"] == 0.7 and st["safety"] == 0.2 and st["load_time"] == 30.0
+    assert st["quasi_static"] == 0.3 and st["safety"] == 0.2 and st["load_time"] == 60.0
     assert st["joint_penalty_raised"] and st["joint_penalty"] == pytest.approx(fdem.lab.JOINT_PENALTY_FACTOR * 20e9)
     assert r.material.joint_penalty == pytest.approx(st["joint_penalty"])
     # the symmetric disc of 20 elements: 64 boundary nodes, the flats end at the one at 11.25°

@@ -17,9 +17,13 @@ from .specimens import check_joint_sets
 
 
 #: Defaults of :func:`brazilian` (each a keyword): the loading to the expected peak lasts
-#: LOAD_TIME D/c_p, at SAFETY × the time-step estimate, with local damping (α = 0.7).
-LOAD_TIME = 30.0
+#: LOAD_TIME D/c_p, at SAFETY × the time-step estimate, with local damping of coefficient
+#: LOCAL_DAMPING (``quasi_static=``).  The local damping resists the opening of the softening
+#: joints as it resists any motion, so the split's load falls towards its quasi-static value
+#: as the loading slows and as α falls (docs/guide/lab.md, "The loading rate").
+LOAD_TIME = 60.0
 SAFETY = 0.2
+LOCAL_DAMPING = 0.3
 #: The split: the peak is the largest load up to SPLIT_WINDOW × D/c_p after the first joint of
 #: the central third (``|x|``, ``|y|`` < D/6) broke in tension; the halves of a split disc of high
 #: cohesion can carry the platens further, as two columns, and the load rises again.
@@ -66,11 +70,12 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
     a cohesive joint, between two platens closing at ±v.
 
     Quasi-static settings, chosen from the material and the disc unless given (all reported
-    in ``result.settings``): ``quasi_static`` local non-viscous damping (True: α = 0.7, see
-    :meth:`Scene.build <taichi_fdem.scene.Scene.build>`; False turns it off and leaves only
-    the material's own ``damping``); ``load_time`` (default ``LOAD_TIME`` = 30 D/c_p to the
-    expected peak); ``safety`` of the time step (default ``SAFETY`` = 0.2 of the estimate: at
-    0.35 the platen contact gains energy, the disc rings and splits early); the joint penalty
+    in ``result.settings``): ``quasi_static`` local non-viscous damping (default
+    :data:`LOCAL_DAMPING` α = 0.3; True: α = 0.7, see :meth:`Scene.build
+    <taichi_fdem.scene.Scene.build>`; False turns it off and leaves only the material's own
+    ``damping``); ``load_time`` (default ``LOAD_TIME`` = 60 D/c_p to the expected peak);
+    ``safety`` of the time step (default ``SAFETY`` = 0.2 of the estimate: at 0.35 the platen
+    contact gains energy, the disc rings and splits early); the joint penalty
     ``joint_penalty_factor`` × E where the material leaves ``joint_penalty`` unset (default
     :data:`~taichi_fdem.lab.results.JOINT_PENALTY_FACTOR` = 50; at the Material default of
     10 E the joints' tractions scatter about the elastic field and the disc splits early).
@@ -132,7 +137,7 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
     reruns = check_keyword(check, "lab.brazilian")
     load_time = LOAD_TIME if load_time is None else load_time
     safety = SAFETY if safety is None else safety
-    quasi_static = True if quasi_static is None else quasi_static
+    quasi_static = LOCAL_DAMPING if quasi_static is None else quasi_static
     factor = JOINT_PENALTY_FACTOR if joint_penalty_factor is None else joint_penalty_factor
     check_rate(load_time, "lab.brazilian")
     if not (math.isfinite(max_time) and max_time >= 1.0):
