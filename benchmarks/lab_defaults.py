@@ -183,7 +183,7 @@ def tables(raw: dict, date: str, host: str) -> dict:
     if "rate" in raw:
         rows = [[f"{r['case']['call']['load_time']:g}", f"{r['ratio']:.3f}"] for r in raw["rate"]]
         out.append(dict(title="Loading rate: f_t = 4 MPa, E = 20 GPa, c = 3 f_t, φ = 35°, l_ch = 9.4 mm",
-                        text="`load_time=` (the loading to the expected peak, in D/c_p; the default is 30).",
+                        text="`load_time=` (the loading to the expected peak, in D/c_p; the default is 60).",
                         columns=["=load_time [D/c_p]", "=BTS / f_t"], rows=rows))
     if "convergence" in raw:
         rows = []
