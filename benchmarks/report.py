@@ -3,10 +3,12 @@
     python benchmarks/report.py                                   # results.json -> results.md
     python benchmarks/report.py --pile out/pile.csv --fracture out/fracture.json --host "..." --date 2026-12-04
     python benchmarks/report.py --readme                           # also print the README's table
+    python benchmarks/report.py --lab out/lab.json                 # the lab tables of benchmarks/lab_defaults.py
 
 ``--pile`` takes the CSV of ``benchmarks/pile.py --csv``, ``--fracture`` the JSON of
-``benchmarks/fracture.py --json`` and ``--calibration`` that of ``benchmarks/calibration.py
---json``; their rows replace those of results.json, which is written
+``benchmarks/fracture.py --json``, ``--calibration`` that of ``benchmarks/calibration.py
+--json`` and ``--lab`` that of ``benchmarks/lab_defaults.py --json``; their rows replace those
+of results.json, which is written
 back, and results.md is generated from it.  results.md is generated: edit results.json (or
 re-run the benchmarks), not results.md.
 """
@@ -99,6 +101,25 @@ def readme_table(data: dict) -> str:
     return "\n".join(out)
 
 
+def lab_section(lab: dict | None) -> str:
+    """Markdown of the lab tests at their defaults (``benchmarks/lab_defaults.py``): its command,
+    set-up and tables, each table {"title", "text", "columns", "rows"} (cells already formatted;
+    a column is right-aligned when its name starts with "=")."""
+    if not lab:
+        return ""
+    out = ["", "## Lab tests at their defaults (`benchmarks/lab_defaults.py`)", "",
+           f"`{lab['command']}`; measured {lab['date']} on {lab['host']}.", "", lab["setup"].strip()]
+    for t in lab["tables"]:
+        cols = [c.lstrip("=") for c in t["columns"]]
+        align = ["---:" if c.startswith("=") else ":--" for c in t["columns"]]
+        out += ["", f"### {t['title']}", ""]
+        if t.get("text"):
+            out += [t["text"].strip(), ""]
+        out += ["| " + " | ".join(cols) + " |", "|" + "|".join(align) + "|"]
+        out += ["| " + " | ".join(str(c) for c in row) + " |" for row in t["rows"]]
+    return "\n".join(out) + "\n"
+
+
 def calibration_table(rows: list[dict]) -> str:
     """Markdown: evaluations each calibration method needed to reach 2 % / 5 % per problem."""
     out = ["| problem | method | budget | evaluations run | to 2 % | to 5 % | error of the best |",
@@ -162,7 +183,7 @@ M triangle-steps/s.
 ## The README's table
 
 {readme_table(data)}
-{extra_sections(data)}"""
+{lab_section(data.get("lab"))}{extra_sections(data)}"""
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(text)
     return text
@@ -173,6 +194,7 @@ def main(argv=None) -> int:
     ap.add_argument("--pile", help="CSV of benchmarks/pile.py --csv: replaces the pile rows")
     ap.add_argument("--fracture", help="JSON of benchmarks/fracture.py --json: replaces the plate rows")
     ap.add_argument("--calibration", help="JSON of benchmarks/calibration.py --json: replaces the calibration rows")
+    ap.add_argument("--lab", help="JSON of benchmarks/lab_defaults.py --json: replaces the lab tables")
     ap.add_argument("--host", help="the host the new rows were measured on")
     ap.add_argument("--date", help="the date of the new rows")
     ap.add_argument("--json", default=JSON_PATH, help="results.json to read and update")
@@ -195,6 +217,10 @@ def main(argv=None) -> int:
     if args.calibration:
         with open(args.calibration) as fh:
             data["calibration"] = json.load(fh)
+        changed = True
+    if args.lab:
+        with open(args.lab) as fh:
+            data["lab"] = json.load(fh)
         changed = True
     for key in ("host", "date"):
         if getattr(args, key):

@@ -105,6 +105,7 @@ def compression(material, width: float, height: float, h: float, confinement: fl
     if fracture:
         material, pf, raised = lab_materials(material, factor, where)
         first = _first(material)
+    given_mesh = mesh
     if mesh is None:
         mesh = jointed_specimen_mesh(width, height, h) if fracture else _mesh.rectangle(width, height, h)
     W, H = width, height
@@ -189,7 +190,8 @@ def compression(material, width: float, height: float, h: float, confinement: fl
                     platen_penalty=float(top.material.contact_penalty), settle_transits=float(settle))
     result = LabResult(test, curve, summary, sim=sim, bodies=(spec, top, bot), material=material, settings=settings)
     if reruns:
-        kw = dict(plane=plane, fracture=fracture, mesh=mesh, groups=groups, platen=platen, rate_transits=rate_transits,
+        # the mesh given (None: the rerun at h/2 builds its own default mesh)
+        kw = dict(plane=plane, fracture=fracture, mesh=given_mesh, groups=groups, platen=platen, rate_transits=rate_transits,
                   settle_transits=settle_transits, max_strain=max_strain, samples=samples, stop_drop=stop_drop,
                   safety=safety, quasi_static=quasi_static, handover_damage=handover_damage, penalty_factor=factor,
                   joint_sets=joint_sets, test=test)

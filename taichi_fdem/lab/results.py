@@ -17,9 +17,9 @@ MIN_TRANSITS = 10.0
 MAX_KINETIC_RATIO = 0.05
 #: Joint penalty p_f of a lab specimen whose material leaves it unset, in units of the
 #: material's E (``Material``'s own default is 10 E).  Intact joints add a compliance L/p_f
-#: beside each element's h/E and their end-point tractions scatter about the continuum stress;
-#: at 10 E a 20-element Brazilian disc splits at 0.86 f_t, at 50 E at 1.00 f_t
-#: (benchmarks/results.md).  The time step shrinks as 1/√p_f.
+#: beside each element's h/E and their end-point tractions scatter about the continuum stress,
+#: so that at 10 E the first joints reach f_t well before the continuum does.  The time step
+#: shrinks as 1/√p_f.
 JOINT_PENALTY_FACTOR = 50.0
 #: The same for the compression tests (``ucs``, ``triaxial``, ``compression``): their E and ν
 #: come from the whole specimen's compliance, to which every intact joint adds; at 200 E a

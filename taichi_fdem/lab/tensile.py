@@ -5,6 +5,9 @@ import math
 import time as _time
 import warnings
 
+import numpy as np
+
+from .. import mesh as _mesh
 from ..verification.fracture import brazilian_load, brazilian_result, brazilian_scene, hondros_factor
 from .compressive import _first, _positive, video_frames
 from ..scene import quasi_static_alpha
@@ -14,12 +17,52 @@ from .specimens import check_joint_sets
 
 
 #: Defaults of :func:`brazilian` (each a keyword): the loading to the expected peak lasts
-#: LOAD_TIME D/c_p, at SAFETY × the time-step estimate, with local damping (α = 0.7).
-LOAD_TIME = 15.0
+#: LOAD_TIME D/c_p, at SAFETY × the time-step estimate, with local damping of coefficient
+#: LOCAL_DAMPING (``quasi_static=``).  The local damping resists the opening of the softening
+#: joints as it resists any motion, so the split's load falls towards its quasi-static value
+#: as the loading slows and as α falls (docs/guide/lab.md, "The loading rate").
+LOAD_TIME = 60.0
 SAFETY = 0.2
+LOCAL_DAMPING = 0.3
+#: The split: the peak is the largest load up to SPLIT_WINDOW × D/c_p after the first joint of
+#: the central third (``|x|``, ``|y|`` < D/6) broke in tension; the halves of a split disc of high
+#: cohesion can carry the platens further, as two columns, and the load rises again.
+SPLIT_WINDOW = 2.0
+#: Half-angle [°] of the loading arc of :func:`brazilian` when ``alpha_deg`` is not given: the
+#: flats end at the disc's boundary node nearest to it (ISRM's curved jaws load about ±10°).
+LOADING_ARC_DEG = 10.0
 
 
-def brazilian(material, diameter: float, h: float, *, alpha_deg: float = 10.0, load_time: float | None = None,
+def _boundary_angles(points, radius: float):
+    """Angles [°] from the +y axis of the mesh nodes on the circle of ``radius`` (upper half)."""
+    r = np.hypot(points[:, 0], points[:, 1])
+    top = (r >= radius * (1.0 - 1e-9)) & (points[:, 1] > 0.0)
+    return np.degrees(np.arctan2(np.abs(points[top, 0]), points[top, 1]))
+
+
+def loading_arc(points, radius: float, alpha_deg: float | None):
+    """(clip angle α [°], loaded half-arc [°]) of a disc mesh (``points`` centred on the origin).
+
+    The caps are clipped to ``|y|`` ≤ R cos α.  With ``alpha_deg`` None, α is the angle of the
+    boundary node nearest to :data:`LOADING_ARC_DEG`, so that each flat ends at a node.  The
+    loaded half-arc is asin(w / 2R) of the flats' mean width w (the nodes clipped onto them):
+    the arc of the Hondros factor."""
+    if alpha_deg is None:
+        ang = _boundary_angles(points, radius)
+        ang = ang[ang > 1e-6]
+        alpha_deg = float(ang[np.argmin(np.abs(ang - LOADING_ARC_DEG))]) if len(ang) else LOADING_ARC_DEG
+    if not (math.isfinite(alpha_deg) and 0.0 < alpha_deg < 60.0):
+        raise ValueError(f"lab.brazilian: alpha_deg must be in (0, 60) degrees, got {alpha_deg!r}")
+    yc = radius * math.cos(math.radians(alpha_deg))
+    widths = []
+    for sign in (1.0, -1.0):
+        on = sign * points[:, 1] >= yc - 1e-9 * radius
+        widths.append(np.ptp(points[on, 0]) if on.sum() > 1 else 0.0)
+    half = 0.25 * (widths[0] + widths[1])
+    return float(alpha_deg), math.degrees(math.asin(min(1.0, half / radius)))
+
+
+def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = None, load_time: float | None = None,
               samples: int = 240, safety: float | None = None, platen=None, strength=None, groups=None, mesh=None,
               plane: str = "strain", max_time: float = 3.0, joint_sets=(), video: str | None = None,
               quasi_static=None, joint_penalty_factor: float | None = None, check=None) -> LabResult:
@@ -27,48 +70,65 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float = 10.0, l
     a cohesive joint, between two platens closing at ±v.
 
     Quasi-static settings, chosen from the material and the disc unless given (all reported
-    in ``result.settings``): ``quasi_static`` local non-viscous damping (True: α = 0.7, see
-    :meth:`Scene.build <taichi_fdem.scene.Scene.build>`; False turns it off and leaves only
-    the material's own ``damping``); ``load_time`` (default ``LOAD_TIME`` = 15 D/c_p to the
-    expected peak); ``safety`` of the time step (default ``SAFETY`` = 0.2 of the estimate: at
-    0.35 the platen contact gains energy, the disc rings and splits early); the joint penalty
+    in ``result.settings``): ``quasi_static`` local non-viscous damping (default
+    :data:`LOCAL_DAMPING` α = 0.3; True: α = 0.7, see :meth:`Scene.build
+    <taichi_fdem.scene.Scene.build>`; False turns it off and leaves only the material's own
+    ``damping``); ``load_time`` (default ``LOAD_TIME`` = 60 D/c_p to the expected peak);
+    ``safety`` of the time step (default ``SAFETY`` = 0.2 of the estimate: at 0.35 the platen
+    contact gains energy, the disc rings and splits early); the joint penalty
     ``joint_penalty_factor`` × E where the material leaves ``joint_penalty`` unset (default
     :data:`~taichi_fdem.lab.results.JOINT_PENALTY_FACTOR` = 50; at the Material default of
     10 E the joints' tractions scatter about the elastic field and the disc splits early).
     The material given is never changed: the test builds on a copy (``result.material``).
 
-    Platen contact (ISRM's loading arc): the disc's caps are flattened over ±``alpha_deg``
-    (10° by default, the arc ISRM's curved jaws load) so the load spreads over a few
-    elements: on a round disc the point load crushes the joints under the platen first and the
-    test splits at about half the strength.  The centre stress of a load spread over 2α is
-    (sin 2α − α)/α times 2P/(πD) (Hondros; 0.96 at ±10°): ``.peak_stress`` is the standard
+    The disc (``mesh`` None): :func:`mesh.disk <taichi_fdem.mesh.disk>`'s symmetric layout,
+    which has a straight line of joints along the loaded diameter, the path of the split a
+    Brazilian test measures (docs/guide/lab.md, "What the Brazilian strength measures"):
+    through a mesh without one (``layout="spiral"``) the split must zig-zag along joints
+    inclined to the diameter, which the disc's centre (σ_yy ≈ −3 σ_xx) loads in compression
+    and shear, and the peak then measures c, φ and the friction of the sliding faces as much
+    as f_t.
+
+    Platen contact (ISRM's loading arc): the disc's caps are flattened to ``|y|`` ≤ R cos α
+    so the load spreads over a few elements: on a round disc the point load crushes the joints
+    under the platen first and the test splits at about half the strength.  ``alpha_deg``
+    None: α is the angle of the boundary node nearest to :data:`LOADING_ARC_DEG` (10°, the arc
+    ISRM's curved jaws load), so each flat ends at a node.  The centre stress of a load spread
+    over a half-arc θ is (sin 2θ − θ)/θ times 2P/(πD) (Hondros; 0.95 at 11.25°), θ the half-arc
+    the flats actually span (``settings["loaded_arc_deg"]``): ``.peak_stress`` is the standard
     σ_t = 2P/(πDt) [Pa] (t = 1: loads per unit thickness), ``.centre_stress`` that times the
     Hondros factor (the one to compare with f_t).  The load P is the platens' work over a
     window of D/c_p divided by their approach (filters contact chatter and ringing).
 
     ``check``: None, "rate", "mesh" or "both": rerun at half the loading rate (``load_time`` ×
     2) and/or half ``h`` with the same settings, and put the relative change of
-    ``peak_stress`` in ``result.convergence`` (e.g. ``{"rate": 0.004}``).
+    ``centre_stress`` in ``result.convergence`` (e.g. ``{"rate": -0.027}``).
 
     ``material``: a Material or a dict of Materials with ``groups`` (labels per triangle of
     ``mesh``, a disc centred on the origin).  ``joint_sets``: (name, selector, Material) triples
     added with :meth:`Scene.add_joint_set` (e.g. ``[("grain_boundaries", "interfaces", weak)]``).
     ``platen``: the platens' Material (default: 10 × stiffer, penalty 3 × the disc's E).
-    ``load_time`` below ``MIN_TRANSITS`` is refused.  The test stops when the load has dropped
-    below 30 % of its peak (``peaked`` True), or after ``max_time`` × the loading time
-    (``peaked`` False, with a RuntimeWarning: the peak is then the last load reached, not the
-    strength).
+    ``load_time`` below ``MIN_TRANSITS`` is refused.  The peak is the split's load: the
+    largest load up to :data:`SPLIT_WINDOW` (2) D/c_p after the first joint of the central third
+    (``|x|``, ``|y|`` < D/6) broke in tension, where the test stops (``peaked`` True; the halves
+    of a disc of high cohesion carry the platens further as two columns, and the load can rise
+    again); without a central split, when the load has dropped below 30 % of its peak
+    (``peaked`` True), or after
+    ``max_time`` × the loading time (``peaked`` False, with a RuntimeWarning: the peak is then
+    the last load reached, not the strength).
 
     Similarity: the result depends on the dimensionless groups f_t/E, l_ch/D = E G_I/(f_t² D),
     c/f_t, φ, G_II/G_I, ν, p_f/E, the platens' E and penalty over the disc's E, h/D, α, β and
     ``load_time``; with all of them fixed, ``.peak_stress`` is proportional to f_t
-    (tests/test_lab.py checks it to 1e-6).  A disc of only a few l_ch splits above f_t (the
-    size effect of a cohesive crack).
+    (tests/test_lab.py checks it to 1e-6).  A disc of only a few l_ch splits above f_t: the
+    cohesive zone spans the centre before the first joint breaks (the size effect of a
+    cohesive crack, docs/guide/lab.md).
 
     Curve columns: time_s, approach_m, load_N_per_m (filtered), load_instantaneous_N_per_m,
     broken_joints.  Summary: peak_stress [Pa], centre_stress [Pa], peak_load [N/m], hondros,
     central_fraction (share of the joints broken by shortly after the peak within ``|x|`` < 0.15 D:
-    where the split starts), broken, fragments, kinetic_ratio, peaked.
+    where the split runs), split_start ((x, y) [m] of the first joint broken in tension, mode
+    I: where the split starts; NaN if none), broken, fragments, kinetic_ratio, peaked.
     """
     first = _first(material)
     _positive("lab.brazilian", diameter=diameter, h=h)
@@ -77,7 +137,7 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float = 10.0, l
     reruns = check_keyword(check, "lab.brazilian")
     load_time = LOAD_TIME if load_time is None else load_time
     safety = SAFETY if safety is None else safety
-    quasi_static = True if quasi_static is None else quasi_static
+    quasi_static = LOCAL_DAMPING if quasi_static is None else quasi_static
     factor = JOINT_PENALTY_FACTOR if joint_penalty_factor is None else joint_penalty_factor
     check_rate(load_time, "lab.brazilian")
     if not (math.isfinite(max_time) and max_time >= 1.0):
@@ -85,9 +145,12 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float = 10.0, l
     mat, pf, raised = lab_materials(material, factor, "lab.brazilian")
     elements = max(2, int(round(diameter / h)))
     t0 = _time.perf_counter()
+    disc = _mesh.disk(0.5 * diameter, h) if mesh is None else mesh
+    alpha_given = alpha_deg
+    alpha_deg, arc_deg = loading_arc(np.asarray(disc.points, dtype=np.float64), 0.5 * diameter, alpha_deg)
     sim, bodies, p = brazilian_scene(elements=elements, load_time=load_time, D=diameter, alpha_deg=alpha_deg,
                                      safety=safety, strength=strength, material=mat, platen=platen,
-                                     groups=groups, disc_mesh=mesh, plane=plane,
+                                     groups=groups, disc_mesh=disc, plane=plane,
                                      joint_sets=check_joint_sets(joint_sets, "lab.brazilian"),
                                      quasi_static=quasi_static)
     build = _time.perf_counter() - t0
@@ -100,26 +163,47 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float = 10.0, l
         kin.append(specimen_kinetic(s, bodies[0]) / max(en["strain"], 1e-300))
         if draw is not None:
             draw(s)
+    split = []                       # the time of the first central tension break, then its sample
+    window = SPLIT_WINDOW * diameter / p["cp"]
+
+    def stop(rec):
+        if not split and rec["broken"][-1]:
+            bj = sim.cracks.broken()
+            x, y = bj["position"][:, 0], bj["position"][:, 1]
+            hit = np.flatnonzero((np.asarray(bj["mode"]) == "I") & (np.abs(x) < diameter / 6)
+                                 & (np.abs(y) < diameter / 6))
+            if len(hit):
+                split.append(float(bj["time"][hit[0]]))
+        return bool(split) and rec["t_P"][-1] > split[0] + window
     t0 = _time.perf_counter()
     try:
-        rec = brazilian_load(sim, bodies, p, samples=samples, frame=frame, duration=max_time)
+        rec = brazilian_load(sim, bodies, p, samples=samples, frame=frame, duration=max_time, stop=stop)
     finally:
         if writer is not None:
             writer.close()
     wall = _time.perf_counter() - t0
     out = brazilian_result(sim, bodies, rec, p)
-    i = int(out["_peak_index"]) if "_peak_index" in out else int(rec["P"].argmax())
+    if split:                        # the split's load: the largest up to the window after the central break
+        last = int(np.searchsorted(rec["t_P"], split[0] + window, side="right"))
+        split.append(max(1, last))
+    i = int(rec["P"][: split[1]].argmax()) if split else int(rec["P"].argmax())
     half = int(abs(rec["P"][: i + 1] - 0.5 * rec["P"][i]).argmin())
     kinetic_ratio = float(kin[max(0, half - 1)]) if kin else math.nan
     warn_kinetic(kinetic_ratio, "lab.brazilian")
-    peaked = bool(rec["broken"][-1] > 0 and rec["P"][-1] < 0.3 * rec["P"].max())
+    peaked = bool(split) or bool(rec["broken"][-1] > 0 and rec["P"][-1] < 0.3 * rec["P"].max())
     if not peaked:
         warnings.warn(f"lab.brazilian: the load had not dropped after {max_time:g} loading times: the peak is the "
                       "last load reached, not the strength (raise max_time)", RuntimeWarning, stacklevel=2)
+    if split:
+        out["P_max_N_per_m"] = float(rec["P"][i])
     sigma = 2.0 * out["P_max_N_per_m"] / (math.pi * diameter)
-    hf = hondros_factor(alpha_deg)
+    hf = hondros_factor(arc_deg)
+    bj = sim.cracks.broken()
+    tension = np.flatnonzero(np.asarray(bj["mode"]) == "I")
+    start = tuple(float(v) for v in bj["position"][tension[0]]) if len(tension) else (math.nan, math.nan)
     summary = dict(peak_stress=sigma, centre_stress=sigma * hf, peak_load=out["P_max_N_per_m"], hondros=hf,
-                   central_fraction=out["central_fraction"], broken=out["broken_total"], fragments=out["fragments"],
+                   central_fraction=out["central_fraction"], split_start=start, broken=out["broken_total"],
+                   fragments=out["fragments"],
                    kinetic_ratio=kinetic_ratio, peaked=peaked, load_time=float(load_time), elements=elements, wall=wall,
                    build=build, steps=sim.step_count, dt=sim.dt, platen_speed=p["v"])
     pm = p["platen"]
@@ -127,12 +211,13 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float = 10.0, l
                     load_time=float(load_time), platen_speed=float(p["v"]), safety=float(safety), dt=float(sim.dt),
                     joint_penalty=pf, joint_penalty_factor=pf / first.young, joint_penalty_raised=raised,
                     platen_young=float(pm.young), platen_penalty=float(pm.contact_penalty),
-                    platen_friction=float(pm.friction), alpha_deg=float(alpha_deg), elements=elements)
+                    platen_friction=float(pm.friction), alpha_deg=float(alpha_deg), loaded_arc_deg=arc_deg,
+                    mesh="given" if mesh is not None else "disk (symmetric)", elements=elements)
     curve = dict(time_s=rec["t_P"], approach_m=rec["approach_P"], load_N_per_m=rec["P"],
                  load_instantaneous_N_per_m=rec["P_inst"], broken_joints=rec["broken"])
     result = LabResult("brazilian", curve, summary, sim=sim, bodies=bodies, material=mat, settings=settings)
     if reruns:
-        kw = dict(alpha_deg=alpha_deg, load_time=load_time, samples=samples, safety=safety, platen=platen,
+        kw = dict(alpha_deg=alpha_given, load_time=load_time, samples=samples, safety=safety, platen=platen,
                   strength=strength, groups=groups, mesh=mesh, plane=plane, max_time=max_time,
                   joint_sets=joint_sets, quasi_static=quasi_static, joint_penalty_factor=factor)
         if mesh is not None and "mesh" in reruns:
@@ -143,5 +228,5 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float = 10.0, l
             runs["rate"] = brazilian(material, diameter, h, **dict(kw, load_time=2.0 * load_time))
         if "mesh" in reruns:
             runs["mesh"] = brazilian(material, diameter, 0.5 * h, **kw)
-        result.convergence = convergence(result, runs)
+        result.convergence = convergence(result, runs, key="centre_stress")
     return result

@@ -216,7 +216,7 @@ def brazilian_scene(elements: int = 40, load_time: float = 100.0, D: float = 0.1
 
 
 def brazilian_load(sim, bodies, p, samples: int = 240, frame=None, window: float = 1.0,
-                   duration: float = 1.3) -> dict:
+                   duration: float = 1.3, stop=None) -> dict:
     """Load the disc of :func:`brazilian_scene` until the load falls below 30 % of its peak, or
     for at most ``duration`` × the loading time (``p["load_time"]`` × D/c_p).
 
@@ -227,8 +227,9 @@ def brazilian_load(sim, bodies, p, samples: int = 240, frame=None, window: float
     averaged over the last ``window`` × D/c_p: ΔW / Δapproach (the work the platens did over
     that window divided by their relative displacement), which removes the contact chatter
     and the disc's ringing (periods of 0.3–0.9 D/c_p); ``t_P`` and ``approach_P`` are the
-    window's middle, where a linearly rising load equals that average.  Returns the record as
-    arrays.
+    window's middle, where a linearly rising load equals that average.  ``frame(sim)`` is called
+    after every sample; ``stop(rec)`` too (the record so far, lists), and a true return ends the
+    loading.  Returns the record as arrays.
     """
     disk, top, bot = bodies
     D, cp = p["D"], p["cp"]
@@ -261,6 +262,8 @@ def brazilian_load(sim, bodies, p, samples: int = 240, frame=None, window: float
         if frame is not None:
             frame(sim)
         if rec["broken"][-1] and rec["P"][-1] < 0.3 * max(rec["P"]):
+            break
+        if stop is not None and stop(rec):
             break
     return {key: np.array(val) for key, val in rec.items()}
 
