@@ -144,6 +144,22 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
     return result
 
 
+def _warn_size(first, diameter: float, h: float) -> None:
+    """Warn where the disc measures more than f_t (D < 2 l_ch: the size effect of a cohesive
+    crack) or where the mesh does not resolve the cohesive zone (l_ch < 3 h: the split comes
+    early); l_ch = E G_I / f_t² (docs/guide/lab.md, "What the Brazilian strength measures")."""
+    lch = first.young * first.fracture_energy / first.tensile_strength ** 2
+    if lch < 3.0 * h:
+        warnings.warn(f"lab.brazilian: the characteristic length l_ch = E G_I/f_t² = {lch * 1e3:.3g} mm is under "
+                      f"3 elements (h = {h * 1e3:.3g} mm): the mesh does not resolve the cohesive zone and the "
+                      f"Brazilian strength comes out below f_t; use h <= l_ch/3 = {lch / 3 * 1e3:.3g} mm "
+                      "(docs/guide/lab.md)", RuntimeWarning, stacklevel=4)
+    elif diameter < 2.0 * lch:
+        warnings.warn(f"lab.brazilian: the disc (D = {diameter * 1e3:.3g} mm) is under two characteristic lengths "
+                      f"l_ch = E G_I/f_t² = {lch * 1e3:.3g} mm: the size effect of a cohesive crack makes its "
+                      "Brazilian strength exceed f_t (docs/guide/lab.md)", RuntimeWarning, stacklevel=4)
+
+
 def _brazilian_options(material, diameter, h, check, load_time, safety, quasi_static, joint_penalty_factor,
                        max_time) -> SimpleNamespace:
     """The checked arguments and the settings of :func:`brazilian` chosen from the material: first (the
@@ -162,6 +178,7 @@ def _brazilian_options(material, diameter, h, check, load_time, safety, quasi_st
     if not (math.isfinite(max_time) and max_time >= 1.0):
         raise ValueError(f"lab.brazilian: max_time must be >= 1 (loading times), got {max_time!r}")
     mat, pf, raised = lab_materials(material, factor, "lab.brazilian")
+    _warn_size(first, diameter, h)
     return SimpleNamespace(first=first, reruns=reruns, load_time=load_time, safety=safety, quasi_static=quasi_static,
                            factor=factor, mat=mat, pf=pf, raised=raised,
                            elements=max(2, int(round(diameter / h))))
