@@ -85,12 +85,6 @@ def test_imports_run_downwards():
 #: the longest a function (``def`` line and decorators to its last line) may be
 MAX_FUNCTION_LINES = 80
 
-#: functions still over the cap, at their present length: each may only shrink (a new long
-#: function, or a listed one grown, fails the test); delete an entry once its function is split
-LONG_FUNCTIONS = {
-    "lab.compressive.compression": 157, "lab.shear.direct_shear": 128, "lab.tensile.brazilian": 126,
-}
-
 
 def _function_lengths() -> dict:
     """{module.function: lines} of every function and method of the package (a method under its
@@ -107,11 +101,10 @@ def _function_lengths() -> dict:
 
 def test_no_function_over_80_lines():
     """Every function of the package, kernels and ``@ti.func`` included, is at most
-    MAX_FUNCTION_LINES long (split by concept: a phase, a law, a stage), apart from the listed
-    ones, which may only shrink."""
+    MAX_FUNCTION_LINES long (split by concept: a phase, a law, a stage)."""
     lengths = _function_lengths()
     assert lengths["engine.joints.eval_joint"] <= MAX_FUNCTION_LINES      # (the walk sees the @ti.func functions)
-    over = {k: n for k, n in lengths.items() if n > MAX_FUNCTION_LINES and n > LONG_FUNCTIONS.get(k, 0)}
+    over = {k: n for k, n in lengths.items() if n > MAX_FUNCTION_LINES}
     assert not over, "functions over %d lines: %s" % (MAX_FUNCTION_LINES, sorted(over.items(), key=lambda kv: -kv[1]))
 
 

@@ -263,3 +263,20 @@ def test_mesh_check_of_a_compression_test_reruns_on_a_refined_mesh():
     r = fdem.lab.ucs(fdem.Material(**ROCK), 0.05, 0.1, 0.0125, samples=40, rate_transits=30, check="mesh")
     assert set(r.convergence) == {"mesh"}
     assert 0.0 < abs(r.convergence["mesh"]) < 0.02, r.convergence
+
+
+def test_brazilian_warns_where_the_disc_cannot_measure_ft():
+    """l_ch under 3 elements (the cohesive zone unresolved) and a disc under two l_ch (the size
+    effect) are each warned of before the test runs, at the caller's line."""
+    def options(m):                                  # stands for lab.brazilian (one frame)
+        return fdem.lab.tensile._brazilian_options(m, 0.05, 0.0025, None, None, None, None, None, 3.0)
+
+    brittle = _rock(4e6, 20e9, 3.0, 35.0, lch=2.5e-3)                        # l_ch = h
+    with pytest.warns(RuntimeWarning, match=r"l_ch = E G_I/f_t² = 2\.5 mm is under 3 elements") as rec:
+        options(brittle)
+    assert rec[0].filename == __file__
+    with pytest.warns(RuntimeWarning, match="under two characteristic lengths"):
+        options(_rock(4e6, 20e9, 3.0, 35.0, lch=0.03))                           # D < 2 l_ch
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        options(_rock(4e6, 20e9, 3.0, 35.0))                                     # l_ch = D / 5.3

@@ -4,6 +4,7 @@ from __future__ import annotations
 import math
 import time as _time
 import warnings
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -89,8 +90,44 @@ def compression(material, width: float, height: float, h: float, confinement: fl
     young_initial, poisson_initial (the same over 5–30 % of the peak),
     plane_modulus E', plane_poisson ν', confinement, peak_mc (joints' Mohr–Coulomb), broken.
     """
-    where = f"lab.{test}"
-    given = material
+    o = _compression_options(material, width, height, h, confinement, fracture, mesh, rate_transits,
+                             penalty_factor, check, f"lab.{test}")
+    _compression_loading(o, height, confinement, plane, max_strain, settle_transits, rate_transits)
+    spec, top, bot, sim = _compression_specimen(o, width, confinement, plane, platen, groups, joint_sets, safety,
+                                                quasi_static, handover_damage)
+    rec, kin, wall = _compression_run(o, sim, spec, top, bot, width, height, confinement, samples, stop_drop,
+                                      history, frame, video)
+    summary, curve = _compression_measure(o, sim, rec, kin, confinement, plane, rate_transits, wall)
+    first, pf = o.first, o.pf
+    settings = dict(quasi_static=quasi_static_alpha(quasi_static), damping=float(first.damping),
+                    rate_transits=float(rate_transits), strain_rate=float(o.rate), safety=float(safety),
+                    dt=float(sim.dt), joint_penalty=pf,
+                    joint_penalty_factor=pf / first.young if o.fracture else math.nan,
+                    joint_penalty_raised=o.raised, platen_friction=float(top.material.friction),
+                    platen_penalty=float(top.material.contact_penalty), settle_transits=float(o.settle))
+    result = LabResult(test, curve, summary, sim=sim, bodies=(spec, top, bot), material=o.material,
+                       settings=settings)
+    if o.reruns:
+        # the mesh given (None: the rerun at h/2 builds its own default mesh)
+        kw = dict(plane=plane, fracture=o.fracture, mesh=mesh, groups=groups, platen=platen,
+                  rate_transits=rate_transits, settle_transits=settle_transits, max_strain=o.max_strain,
+                  samples=samples, stop_drop=stop_drop, safety=safety, quasi_static=quasi_static,
+                  handover_damage=handover_damage, penalty_factor=o.factor, joint_sets=joint_sets, test=test)
+        runs = {}
+        if "rate" in o.reruns:
+            runs["rate"] = compression(material, width, height, h, confinement,
+                                       **dict(kw, rate_transits=2 * rate_transits))
+        if "mesh" in o.reruns:
+            runs["mesh"] = compression(material, width, height, 0.5 * h, confinement, **kw)
+        result.convergence = convergence(result, runs)
+    return result
+
+
+def _compression_options(material, width, height, h, confinement, fracture, mesh, rate_transits, penalty_factor,
+                         check, where) -> SimpleNamespace:
+    """The checked arguments of :func:`compression` and the specimen's materials: where, reruns, fracture,
+    factor, material (the copy the test builds on), first (its first Material), pf (joint penalty [Pa/m],
+    NaN without fracture), raised, mesh (the given one or the default specimen)."""
     first = _first(material)
     _positive(where, width=width, height=height, h=h)
     if not (math.isfinite(confinement) and confinement >= 0):
@@ -105,29 +142,43 @@ def compression(material, width: float, height: float, h: float, confinement: fl
     if fracture:
         material, pf, raised = lab_materials(material, factor, where)
         first = _first(material)
-    given_mesh = mesh
     if mesh is None:
         mesh = jointed_specimen_mesh(width, height, h) if fracture else _mesh.rectangle(width, height, h)
-    W, H = width, height
+    return SimpleNamespace(where=where, reruns=reruns, fracture=fracture, factor=factor, material=material,
+                           first=first, pf=pf, raised=raised, mesh=mesh)
+
+
+def _compression_loading(o, height, confinement, plane, max_strain, settle_transits, rate_transits):
+    """The loading chosen from the material and the specimen, set on ``o``: transit (H/c_p [s]), peak_mc
+    (joints' Mohr–Coulomb peak [Pa], NaN without fracture), eps_peak (expected peak strain), max_strain,
+    settle (transits), t1 (end of the confinement's settling [s]), rate (nominal strain rate [1/s])."""
+    first = o.first
     cp = first.p_wave_speed(plane)
-    transit = H / cp
-    if fracture:
+    o.transit = height / cp
+    if o.fracture:
         c = first.cohesion if first.cohesion is not None else first.tensile_strength
-        peak_mc = mohr_coulomb_peak(confinement, c, first.friction_angle)
-        eps_peak = peak_mc / (0.5 * first.young)
-        max_strain = 2.5 * eps_peak if max_strain is None else max_strain
+        o.peak_mc = mohr_coulomb_peak(confinement, c, first.friction_angle)
+        o.eps_peak = o.peak_mc / (0.5 * first.young)
+        o.max_strain = 2.5 * o.eps_peak if max_strain is None else max_strain
     else:
-        peak_mc = math.nan
-        max_strain = 1e-3 if max_strain is None else max_strain
-        eps_peak = max_strain / 2.5
-    settle = (10.0 if confinement > 0 else 0.0) if settle_transits is None else settle_transits
-    t1 = settle * transit
-    rate = eps_peak / (rate_transits * transit)
+        o.peak_mc = math.nan
+        o.max_strain = 1e-3 if max_strain is None else max_strain
+        o.eps_peak = o.max_strain / 2.5
+    o.settle = (10.0 if confinement > 0 else 0.0) if settle_transits is None else settle_transits
+    o.t1 = o.settle * o.transit
+    o.rate = o.eps_peak / (rate_transits * o.transit)
+
+
+def _compression_specimen(o, width, confinement, plane, platen, groups, joint_sets, safety, quasi_static,
+                          handover_damage):
+    """(spec, top, bot, sim): the specimen between its platens (speed ramped over 5 transits after
+    the settling), the confining pressure ramped on its sides, built; sets ``o.build`` (wall time [s])."""
+    W, t1, transit = width, o.t1, o.transit
     start = Curve([0.0, t1, t1 + 5 * transit], [0.0, 0.0, 1.0], name="platens") if t1 > 0 else \
         Curve([0.0, 5 * transit], [0.0, 1.0], name="platens")
-    scene, spec, top, bot = platen_scene(mesh, material, platen_material=platen, plane=plane, fracture=fracture,
-                                         strain_rate=rate, groups=groups,
-                                         joint_sets=check_joint_sets(joint_sets, where))
+    scene, spec, top, bot = platen_scene(o.mesh, o.material, platen_material=platen, plane=plane,
+                                         fracture=o.fracture, strain_rate=o.rate, groups=groups,
+                                         joint_sets=check_joint_sets(joint_sets, o.where))
     top.velocity_curve = start
     bot.velocity_curve = start
     if confinement > 0:
@@ -138,9 +189,18 @@ def compression(material, width: float, height: float, h: float, confinement: fl
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="bodies overlap", category=RuntimeWarning)
         sim = scene.build(safety=safety, quasi_static=quasi_static, handover_damage=handover_damage)
-    build = _time.perf_counter() - t0
+    o.build = _time.perf_counter() - t0
+    return spec, top, bot, sim
+
+
+def _compression_run(o, sim, spec, top, bot, width, height, confinement, samples, stop_drop, history, frame,
+                     video):
+    """Load the specimen in ``samples`` steps until ``o.max_strain`` or the drop below ``stop_drop`` × the
+    peak: (rec, kin, wall), rec the (axial strain, axial stress, lateral strain, time) per sample, kin the
+    specimen's kinetic/strain energy per sample, wall the run's wall time [s]."""
+    W, H, t1, transit = width, height, o.t1, o.transit
     writer, draw = video_frames(video, (-0.9 * W, 0.9 * W, -0.68 * H, 0.68 * H))
-    duration = t1 + 5 * transit + max_strain / rate
+    duration = t1 + 5 * transit + o.max_strain / o.rate
     rec, kin = [], []
     t0 = _time.perf_counter()
     try:
@@ -162,14 +222,19 @@ def compression(material, width: float, height: float, h: float, confinement: fl
     finally:
         if writer is not None:
             writer.close()
-    wall = _time.perf_counter() - t0
+    return rec, kin, _time.perf_counter() - t0
+
+
+def _compression_measure(o, sim, rec, kin, confinement, plane, rate_transits, wall):
+    """(summary, curve) of :func:`compression` from its samples: the peak, the tangent elastic constants
+    (warns when too few samples), the kinetic ratio at half the peak (warns above ``MAX_KINETIC_RATIO``)."""
     eps, sig, lat, times = (np.array(c) for c in zip(*rec))
     k = int(np.argmax(sig))
     young = poisson = e_p = nu_p = math.nan
     try:
         young, poisson, e_p, nu_p = elastic_constants(eps, sig, lat, plane)
     except ValueError as err:
-        warnings.warn(f"{where}: {err}", RuntimeWarning, stacklevel=2)
+        warnings.warn(f"{o.where}: {err}", RuntimeWarning, stacklevel=3)
     young0 = poisson0 = math.nan
     try:
         young0, poisson0, _, _ = elastic_constants(eps, sig, lat, plane, level=0.175, band=0.125)
@@ -177,31 +242,14 @@ def compression(material, width: float, height: float, h: float, confinement: fl
         pass
     half = int(np.argmin(np.abs(sig[: k + 1] - 0.5 * sig[k])))
     kinetic_ratio = float(kin[half])
-    warn_kinetic(kinetic_ratio, where)
+    warn_kinetic(kinetic_ratio, o.where, stacklevel=4)
     summary = dict(peak_stress=float(sig[k]), peak_strain=float(eps[k]), young=young, poisson=poisson,
-                   young_initial=young0, poisson_initial=poisson0, plane_modulus=e_p, plane_poisson=nu_p, confinement=float(confinement), peak_mc=peak_mc,
-                   broken=sim.cracks.broken_count, kinetic_ratio=kinetic_ratio, rate_transits=float(rate_transits),
-                   strain_rate=float(rate), wall=wall, build=build, steps=sim.step_count, dt=sim.dt)
+                   young_initial=young0, poisson_initial=poisson0, plane_modulus=e_p, plane_poisson=nu_p,
+                   confinement=float(confinement), peak_mc=o.peak_mc, broken=sim.cracks.broken_count,
+                   kinetic_ratio=kinetic_ratio, rate_transits=float(rate_transits), strain_rate=float(o.rate),
+                   wall=wall, build=o.build, steps=sim.step_count, dt=sim.dt)
     curve = dict(time_s=times, axial_strain=eps, axial_stress_Pa=sig, lateral_strain=lat)
-    settings = dict(quasi_static=quasi_static_alpha(quasi_static), damping=float(first.damping),
-                    rate_transits=float(rate_transits), strain_rate=float(rate), safety=float(safety), dt=float(sim.dt),
-                    joint_penalty=pf, joint_penalty_factor=pf / first.young if fracture else math.nan,
-                    joint_penalty_raised=raised, platen_friction=float(top.material.friction),
-                    platen_penalty=float(top.material.contact_penalty), settle_transits=float(settle))
-    result = LabResult(test, curve, summary, sim=sim, bodies=(spec, top, bot), material=material, settings=settings)
-    if reruns:
-        # the mesh given (None: the rerun at h/2 builds its own default mesh)
-        kw = dict(plane=plane, fracture=fracture, mesh=given_mesh, groups=groups, platen=platen, rate_transits=rate_transits,
-                  settle_transits=settle_transits, max_strain=max_strain, samples=samples, stop_drop=stop_drop,
-                  safety=safety, quasi_static=quasi_static, handover_damage=handover_damage, penalty_factor=factor,
-                  joint_sets=joint_sets, test=test)
-        runs = {}
-        if "rate" in reruns:
-            runs["rate"] = compression(given, width, height, h, confinement, **dict(kw, rate_transits=2 * rate_transits))
-        if "mesh" in reruns:
-            runs["mesh"] = compression(given, width, height, 0.5 * h, confinement, **kw)
-        result.convergence = convergence(result, runs)
-    return result
+    return summary, curve
 
 
 def ucs(material, width: float, height: float, h: float, **kw) -> LabResult:

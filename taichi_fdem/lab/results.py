@@ -160,14 +160,15 @@ def check_rate(transits: float, where: str) -> None:
                          f"specimen; a quasi-static test needs >= {MIN_TRANSITS:g} (60-100 recommended)")
 
 
-def warn_kinetic(ratio: float, where: str) -> None:
-    """Warn (RuntimeWarning) when the specimen's kinetic/strain energy at half the peak exceeds ``MAX_KINETIC_RATIO``."""
+def warn_kinetic(ratio: float, where: str, stacklevel: int = 3) -> None:
+    """Warn (RuntimeWarning) when the specimen's kinetic/strain energy at half the peak exceeds ``MAX_KINETIC_RATIO``
+    (``stacklevel``: of the warning, counted from this function: 3 points at the caller's caller)."""
     if ratio > MAX_KINETIC_RATIO:
         warnings.warn(f"{where}: kinetic / strain energy of the specimen at half the peak is {ratio:.3g} "
                       f"(> {MAX_KINETIC_RATIO}): the test is not quasi-static; load more slowly, or damp the specimen's "
                       "material (Material(damping=1.0): without damping its elastic waves ring and the peak is "
                       "not the material's)", RuntimeWarning,
-                      stacklevel=3)
+                      stacklevel=stacklevel)
 
 
 def specimen_kinetic(sim, body) -> float:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import time as _time
 import warnings
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -50,6 +51,23 @@ def direct_shear(material, width: float, height: float, h: float, normal_stress:
     kinetic_ratio (upper block, at half the peak), with ``joint``: peak_mc [Pa], broken
     (joints broken).
     """
+    o = _shear_loading(material, width, height, h, normal_stress, lower_material, friction, displacement,
+                       rate_transits, settle_transits, plane)
+    upper, lower = _shear_boxes(o, height, h, normal_stress, friction, joint)
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="bodies overlap", category=RuntimeWarning)
+        sim = o.scene.build(safety=safety, quasi_static=True)
+    rec, kin, wall = _shear_run(o, sim, upper, lower, height, normal_stress, samples, joint, video)
+    summary, curve = _shear_measure(o, sim, rec, kin, normal_stress, joint, wall)
+    return LabResult("direct_shear", curve, summary, sim=sim, bodies=(upper, lower), material=material)
+
+
+def _shear_loading(material, width, height, h, normal_stress, lower_material, friction, displacement,
+                   rate_transits, settle_transits, plane) -> SimpleNamespace:
+    """The checked arguments of :func:`direct_shear` and the loading chosen from the material: first, low
+    (the lower block's Material), W, Hb (block height [m]), d_max (shear displacement [m]), scene (empty),
+    transit (H/c_p [s]), t1 (end of the normal load's ramp [s]), t_shear [s], v (shear speed [m/s]), tol [m],
+    shear_curve, mu (the interface's friction), peak_mc (NaN)."""
     first = _first(material)
     _positive("lab.direct_shear", width=width, height=height, h=h)
     if not (math.isfinite(normal_stress) and normal_stress > 0):
@@ -64,10 +82,17 @@ def direct_shear(material, width: float, height: float, h: float, normal_stress:
     t1 = settle_transits * transit
     t_shear = rate_transits * transit
     v = d_max / (0.95 * t_shear)
-    tol = 1e-6 * W
     shear_curve = Curve([0.0, t1, t1 + 0.1 * t_shear], [0.0, 0.0, 1.0], name="shear")
     mu = friction if friction is not None else min(first.friction, low.friction)
-    peak_mc = math.nan
+    return SimpleNamespace(first=first, low=low, W=W, Hb=Hb, d_max=d_max, scene=scene, transit=transit, t1=t1,
+                           t_shear=t_shear, v=v, tol=1e-6 * W, shear_curve=shear_curve, mu=mu, peak_mc=math.nan)
+
+
+def _shear_boxes(o, height, h, normal_stress, friction, joint):
+    """(upper, lower) bodies added to ``o.scene``: two blocks in contact, or with ``joint`` one block jointed
+    along y = 0 (sets ``o.mu``, ``o.peak_mc``); the lower one driven at ``o.v``, the upper one's top edge
+    held horizontally under the ramped normal traction."""
+    scene, first, low, W, Hb, tol, v = o.scene, o.first, o.low, o.W, o.Hb, o.tol, o.v
     if joint:
         if not first.can_fracture:
             raise ValueError("lab.direct_shear(joint=True): the material needs tensile_strength [Pa] and "
@@ -78,23 +103,27 @@ def direct_shear(material, width: float, height: float, h: float, normal_stress:
                              f"height/2 = {Hb:g} m must be a whole number of cells of h = {h:g} m")
         jm = first if friction is None else first.with_(friction=friction)
         ft, c, tanphi = jm.joint_properties()[:3]
-        peak_mc = c + normal_stress * tanphi
+        o.peak_mc = c + normal_stress * tanphi
         upper = scene.add_body(box, jm, name="box", fracture=lambda x, y: np.abs(y) < tol)
         lower = upper
-        scene.fix_nodes(lambda x, y: y < -tol, body=upper, velocity=(v, 0.0), curve=shear_curve)
-        mu = jm.friction
+        scene.fix_nodes(lambda x, y: y < -tol, body=upper, velocity=(v, 0.0), curve=o.shear_curve)
+        o.mu = jm.friction
     else:
         lower = scene.add_body(_mesh.rectangle(W, Hb, h, origin=(-0.5 * W, -Hb)), low, name="lower",
-                               prescribed_velocity=(v, 0.0), velocity_curve=shear_curve)
+                               prescribed_velocity=(v, 0.0), velocity_curve=o.shear_curve)
         upper = scene.add_body(_mesh.rectangle(W, Hb, h, origin=(-0.5 * W, 0.0)), first, name="upper")
         if friction is not None:
             scene.set_interaction(first, low, friction=friction)
     scene.fix_nodes(lambda x, y: y >= Hb - tol, body=upper, velocity=(0.0, None))
     scene.apply_traction(lambda x, y: y >= Hb - tol, (0.0, -normal_stress), body=upper,
-                         curve=Curve.ramp(t1, name="normal"))
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message="bodies overlap", category=RuntimeWarning)
-        sim = scene.build(safety=safety, quasi_static=True)
+                         curve=Curve.ramp(o.t1, name="normal"))
+    return upper, lower
+
+
+def _shear_run(o, sim, upper, lower, height, normal_stress, samples, joint, video):
+    """Run the shear box in ``samples`` steps: (rec, kin, wall), rec the (time, shear displacement, τ, σn,
+    dilation) per sample, kin the upper block's kinetic/strain energy per sample, wall [s]."""
+    W, Hb, tol, t1 = o.W, o.Hb, o.tol, o.t1
     rest_up = sim.model.node_rest[upper.nodes]
     top = rest_up[:, 1] >= Hb - tol
     # the nodes of each block (the one body of a joint: above / below the shear plane)
@@ -112,7 +141,7 @@ def direct_shear(material, width: float, height: float, h: float, normal_stress:
     t0 = _time.perf_counter()
     try:
         for _ in range(samples):
-            sim.run((t1 + t_shear) / samples, checks=Checks(energy=False))
+            sim.run((t1 + o.t_shear) / samples, checks=Checks(energy=False))
             tau = abs(float(sim.reaction(upper, where=held)[0])) / W
             dil = float(sim.node_displacements(upper)[top, 1].mean())
             d = float(sim.node_positions(lower)[low_sel, 0].mean() - x_low0)
@@ -125,20 +154,25 @@ def direct_shear(material, width: float, height: float, h: float, normal_stress:
     finally:
         if writer is not None:
             writer.close()
-    wall = _time.perf_counter() - t0
+    return rec, kin, _time.perf_counter() - t0
+
+
+def _shear_measure(o, sim, rec, kin, normal_stress, joint, wall):
+    """(summary, curve) of :func:`direct_shear` from its samples: the peak and residual (last fifth) shear
+    stress, the dilation, the kinetic ratio at half the peak (warns above ``MAX_KINETIC_RATIO``)."""
     t, d, tau, sn, dil = (np.array(c) for c in zip(*rec))
-    shear = t > t1
+    shear = t > o.t1
     k = int(np.argmax(np.where(shear, tau, -np.inf)))
     tail = np.flatnonzero(shear)[-max(1, shear.sum() // 5):]
     half = int(np.argmin(np.where(shear[: k + 1], np.abs(tau[: k + 1] - 0.5 * tau[k]), np.inf)))
     kinetic_ratio = float(kin[half])
-    warn_kinetic(kinetic_ratio, "lab.direct_shear")
+    warn_kinetic(kinetic_ratio, "lab.direct_shear", stacklevel=4)
     summary = dict(peak_shear=float(tau[k]), residual_shear=float(tau[tail].mean()),
                    normal_stress=float(normal_stress), friction_peak=float(tau[k] / normal_stress),
-                   friction_residual=float(tau[tail].mean() / normal_stress), friction=float(mu),
+                   friction_residual=float(tau[tail].mean() / normal_stress), friction=float(o.mu),
                    dilation=float(dil[-1] - dil[np.flatnonzero(shear)[0]]), kinetic_ratio=kinetic_ratio,
                    wall=wall, steps=sim.step_count, dt=sim.dt)
     if joint:
-        summary.update(peak_mc=float(peak_mc), broken=sim.cracks.broken_count)
+        summary.update(peak_mc=float(o.peak_mc), broken=sim.cracks.broken_count)
     curve = dict(time_s=t, shear_displacement_m=d, shear_stress_Pa=tau, normal_stress_Pa=sn, dilation_m=dil)
-    return LabResult("direct_shear", curve, summary, sim=sim, bodies=(upper, lower), material=material)
+    return summary, curve

@@ -4,6 +4,7 @@ from __future__ import annotations
 import math
 import time as _time
 import warnings
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -130,6 +131,40 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
     where the split runs), split_start ((x, y) [m] of the first joint broken in tension, mode
     I: where the split starts; NaN if none), broken, fragments, kinetic_ratio, peaked.
     """
+    o = _brazilian_options(material, diameter, h, check, load_time, safety, quasi_static, joint_penalty_factor,
+                           max_time)
+    sim, bodies, p = _brazilian_specimen(o, diameter, h, alpha_deg, strength, platen, groups, mesh, plane, joint_sets)
+    run = _brazilian_run(sim, bodies, p, diameter, samples, max_time, video)
+    result = _brazilian_result(o, sim, bodies, p, run, diameter, max_time, mesh)
+    if o.reruns:
+        kw = dict(alpha_deg=alpha_deg, load_time=o.load_time, samples=samples, safety=o.safety, platen=platen,
+                  strength=strength, groups=groups, mesh=mesh, plane=plane, max_time=max_time,
+                  joint_sets=joint_sets, quasi_static=o.quasi_static, joint_penalty_factor=o.factor)
+        result.convergence = _brazilian_check(result, material, diameter, h, o.reruns, kw)
+    return result
+
+
+def _warn_size(first, diameter: float, h: float) -> None:
+    """Warn where the disc measures more than f_t (D < 2 l_ch: the size effect of a cohesive
+    crack) or where the mesh does not resolve the cohesive zone (l_ch < 3 h: the split comes
+    early); l_ch = E G_I / f_t² (docs/guide/lab.md, "What the Brazilian strength measures")."""
+    lch = first.young * first.fracture_energy / first.tensile_strength ** 2
+    if lch < 3.0 * h:
+        warnings.warn(f"lab.brazilian: the characteristic length l_ch = E G_I/f_t² = {lch * 1e3:.3g} mm is under "
+                      f"3 elements (h = {h * 1e3:.3g} mm): the mesh does not resolve the cohesive zone and the "
+                      f"Brazilian strength comes out below f_t; use h <= l_ch/3 = {lch / 3 * 1e3:.3g} mm "
+                      "(docs/guide/lab.md)", RuntimeWarning, stacklevel=4)
+    elif diameter < 2.0 * lch:
+        warnings.warn(f"lab.brazilian: the disc (D = {diameter * 1e3:.3g} mm) is under two characteristic lengths "
+                      f"l_ch = E G_I/f_t² = {lch * 1e3:.3g} mm: the size effect of a cohesive crack makes its "
+                      "Brazilian strength exceed f_t (docs/guide/lab.md)", RuntimeWarning, stacklevel=4)
+
+
+def _brazilian_options(material, diameter, h, check, load_time, safety, quasi_static, joint_penalty_factor,
+                       max_time) -> SimpleNamespace:
+    """The checked arguments and the settings of :func:`brazilian` chosen from the material: first (the
+    material's first Material), reruns, load_time, safety, quasi_static, factor, mat (the copy the test
+    builds on), pf (joint penalty [Pa/m]), raised, elements (cells across the diameter)."""
     first = _first(material)
     _positive("lab.brazilian", diameter=diameter, h=h)
     if not first.can_fracture:
@@ -143,17 +178,31 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
     if not (math.isfinite(max_time) and max_time >= 1.0):
         raise ValueError(f"lab.brazilian: max_time must be >= 1 (loading times), got {max_time!r}")
     mat, pf, raised = lab_materials(material, factor, "lab.brazilian")
-    elements = max(2, int(round(diameter / h)))
+    _warn_size(first, diameter, h)
+    return SimpleNamespace(first=first, reruns=reruns, load_time=load_time, safety=safety, quasi_static=quasi_static,
+                           factor=factor, mat=mat, pf=pf, raised=raised,
+                           elements=max(2, int(round(diameter / h))))
+
+
+def _brazilian_specimen(o, diameter, h, alpha_deg, strength, platen, groups, mesh, plane, joint_sets):
+    """(sim, bodies, p) of the built disc between its platens (:func:`brazilian_scene`); sets ``o.alpha_deg``,
+    ``o.arc_deg`` (:func:`loading_arc`) and ``o.build`` (wall time [s] of the build)."""
     t0 = _time.perf_counter()
     disc = _mesh.disk(0.5 * diameter, h) if mesh is None else mesh
-    alpha_given = alpha_deg
-    alpha_deg, arc_deg = loading_arc(np.asarray(disc.points, dtype=np.float64), 0.5 * diameter, alpha_deg)
-    sim, bodies, p = brazilian_scene(elements=elements, load_time=load_time, D=diameter, alpha_deg=alpha_deg,
-                                     safety=safety, strength=strength, material=mat, platen=platen,
+    o.alpha_deg, o.arc_deg = loading_arc(np.asarray(disc.points, dtype=np.float64), 0.5 * diameter, alpha_deg)
+    sim, bodies, p = brazilian_scene(elements=o.elements, load_time=o.load_time, D=diameter, alpha_deg=o.alpha_deg,
+                                     safety=o.safety, strength=strength, material=o.mat, platen=platen,
                                      groups=groups, disc_mesh=disc, plane=plane,
                                      joint_sets=check_joint_sets(joint_sets, "lab.brazilian"),
-                                     quasi_static=quasi_static)
-    build = _time.perf_counter() - t0
+                                     quasi_static=o.quasi_static)
+    o.build = _time.perf_counter() - t0
+    return sim, bodies, p
+
+
+def _brazilian_run(sim, bodies, p, diameter, samples, max_time, video):
+    """Load the disc (:func:`brazilian_load`) until the split's window has passed: (rec, kin, split, wall) with
+    kin the disc's kinetic/strain energy per sample, split [time of the first central tension break] (empty
+    without one) and wall the run's wall time [s]."""
     writer, draw = video_frames(video, (-0.75 * diameter, 0.75 * diameter, -0.75 * diameter, 0.75 * diameter),
                                 (320, 320))
     kin = []
@@ -163,7 +212,7 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
         kin.append(specimen_kinetic(s, bodies[0]) / max(en["strain"], 1e-300))
         if draw is not None:
             draw(s)
-    split = []                       # the time of the first central tension break, then its sample
+    split = []                       # the time of the first central tension break
     window = SPLIT_WINDOW * diameter / p["cp"]
 
     def stop(rec):
@@ -181,52 +230,59 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
     finally:
         if writer is not None:
             writer.close()
-    wall = _time.perf_counter() - t0
+    return rec, kin, split, _time.perf_counter() - t0
+
+
+def _brazilian_result(o, sim, bodies, p, run, diameter, max_time, mesh) -> LabResult:
+    """The :class:`LabResult` of :func:`brazilian` from its run: the split's peak load, the stresses, the
+    split's start, the kinetic ratio (warns), ``peaked`` (warns when False) and the settings."""
+    rec, kin, split, wall = run
     out = brazilian_result(sim, bodies, rec, p)
     if split:                        # the split's load: the largest up to the window after the central break
-        last = int(np.searchsorted(rec["t_P"], split[0] + window, side="right"))
+        last = int(np.searchsorted(rec["t_P"], split[0] + SPLIT_WINDOW * diameter / p["cp"], side="right"))
         split.append(max(1, last))
     i = int(rec["P"][: split[1]].argmax()) if split else int(rec["P"].argmax())
     half = int(abs(rec["P"][: i + 1] - 0.5 * rec["P"][i]).argmin())
     kinetic_ratio = float(kin[max(0, half - 1)]) if kin else math.nan
-    warn_kinetic(kinetic_ratio, "lab.brazilian")
+    warn_kinetic(kinetic_ratio, "lab.brazilian", stacklevel=4)
     peaked = bool(split) or bool(rec["broken"][-1] > 0 and rec["P"][-1] < 0.3 * rec["P"].max())
     if not peaked:
         warnings.warn(f"lab.brazilian: the load had not dropped after {max_time:g} loading times: the peak is the "
-                      "last load reached, not the strength (raise max_time)", RuntimeWarning, stacklevel=2)
+                      "last load reached, not the strength (raise max_time)", RuntimeWarning, stacklevel=3)
     if split:
         out["P_max_N_per_m"] = float(rec["P"][i])
     sigma = 2.0 * out["P_max_N_per_m"] / (math.pi * diameter)
-    hf = hondros_factor(arc_deg)
+    hf = hondros_factor(o.arc_deg)
     bj = sim.cracks.broken()
     tension = np.flatnonzero(np.asarray(bj["mode"]) == "I")
     start = tuple(float(v) for v in bj["position"][tension[0]]) if len(tension) else (math.nan, math.nan)
     summary = dict(peak_stress=sigma, centre_stress=sigma * hf, peak_load=out["P_max_N_per_m"], hondros=hf,
                    central_fraction=out["central_fraction"], split_start=start, broken=out["broken_total"],
                    fragments=out["fragments"],
-                   kinetic_ratio=kinetic_ratio, peaked=peaked, load_time=float(load_time), elements=elements, wall=wall,
-                   build=build, steps=sim.step_count, dt=sim.dt, platen_speed=p["v"])
-    pm = p["platen"]
-    settings = dict(quasi_static=quasi_static_alpha(quasi_static), damping=float(first.damping),
-                    load_time=float(load_time), platen_speed=float(p["v"]), safety=float(safety), dt=float(sim.dt),
-                    joint_penalty=pf, joint_penalty_factor=pf / first.young, joint_penalty_raised=raised,
-                    platen_young=float(pm.young), platen_penalty=float(pm.contact_penalty),
-                    platen_friction=float(pm.friction), alpha_deg=float(alpha_deg), loaded_arc_deg=arc_deg,
-                    mesh="given" if mesh is not None else "disk (symmetric)", elements=elements)
+                   kinetic_ratio=kinetic_ratio, peaked=peaked, load_time=float(o.load_time), elements=o.elements,
+                   wall=wall, build=o.build, steps=sim.step_count, dt=sim.dt, platen_speed=p["v"])
+    pm, first, pf = p["platen"], o.first, o.pf
+    settings = dict(quasi_static=quasi_static_alpha(o.quasi_static), damping=float(first.damping),
+                    load_time=float(o.load_time), platen_speed=float(p["v"]), safety=float(o.safety),
+                    dt=float(sim.dt), joint_penalty=pf, joint_penalty_factor=pf / first.young,
+                    joint_penalty_raised=o.raised, platen_young=float(pm.young),
+                    platen_penalty=float(pm.contact_penalty), platen_friction=float(pm.friction),
+                    alpha_deg=float(o.alpha_deg), loaded_arc_deg=o.arc_deg,
+                    mesh="given" if mesh is not None else "disk (symmetric)", elements=o.elements)
     curve = dict(time_s=rec["t_P"], approach_m=rec["approach_P"], load_N_per_m=rec["P"],
                  load_instantaneous_N_per_m=rec["P_inst"], broken_joints=rec["broken"])
-    result = LabResult("brazilian", curve, summary, sim=sim, bodies=bodies, material=mat, settings=settings)
-    if reruns:
-        kw = dict(alpha_deg=alpha_given, load_time=load_time, samples=samples, safety=safety, platen=platen,
-                  strength=strength, groups=groups, mesh=mesh, plane=plane, max_time=max_time,
-                  joint_sets=joint_sets, quasi_static=quasi_static, joint_penalty_factor=factor)
-        if mesh is not None and "mesh" in reruns:
-            raise ValueError("lab.brazilian: check='mesh' needs the default mesh (mesh=None): a given mesh "
-                             "cannot be refined here")
-        runs = {}
-        if "rate" in reruns:
-            runs["rate"] = brazilian(material, diameter, h, **dict(kw, load_time=2.0 * load_time))
-        if "mesh" in reruns:
-            runs["mesh"] = brazilian(material, diameter, 0.5 * h, **kw)
-        result.convergence = convergence(result, runs, key="centre_stress")
-    return result
+    return LabResult("brazilian", curve, summary, sim=sim, bodies=bodies, material=o.mat, settings=settings)
+
+
+def _brazilian_check(result, material, diameter, h, reruns, kw) -> dict:
+    """``result.convergence`` of ``check=``: :func:`brazilian` rerun with the keywords ``kw`` at twice the
+    loading time ("rate") and/or half ``h`` ("mesh", refused for a given mesh)."""
+    if kw["mesh"] is not None and "mesh" in reruns:
+        raise ValueError("lab.brazilian: check='mesh' needs the default mesh (mesh=None): a given mesh "
+                         "cannot be refined here")
+    runs = {}
+    if "rate" in reruns:
+        runs["rate"] = brazilian(material, diameter, h, **dict(kw, load_time=2.0 * kw["load_time"]))
+    if "mesh" in reruns:
+        runs["mesh"] = brazilian(material, diameter, 0.5 * h, **kw)
+    return convergence(result, runs, key="centre_stress")
