@@ -220,3 +220,33 @@ def test_the_docs_table_is_the_generated_one():
         "docs/reference/arrays.md is out of date: run python docs/_ext/array_table.py"
     for a in decl.ARRAYS:
         assert f"| `{a.name}` |" in page.read_text(encoding="utf-8")
+
+
+def _kernel_leaves(kernel) -> int:
+    """Argument leaves of a launch of ``kernel``, counted from its signature: one per scalar, one
+    per argpack plus one per member, none for a template."""
+    import inspect
+    packs = {id(t): m for t, m in groups.GROUPS.values()}
+    packs[id(groups.SerialFluidGroup)] = groups.SERIAL_FLUID_MEMBERS
+    packs[id(groups.TeamGroup)] = groups.TEAM_MEMBERS
+    n = 0
+    for p in inspect.signature(kernel).parameters.values():
+        t = p.annotation
+        if id(t) in packs:
+            n += 1 + len(packs[id(t)])
+        elif not isinstance(t, type(ti.template())):
+            n += 1
+    return n
+
+
+def test_every_step_kernel_keeps_free_argument_leaves():
+    """Each step kernel keeps at least 6 of Taichi's 64 argument leaves free: room for the arrays
+    of new physics (engine.groups.LEAVES_FREE)."""
+    from taichi_fdem.engine import step
+    kernels = {"serial": step.run_steps_serial, "serial_fluid": step.run_steps_serial_fluid,
+               "parallel": step.step_parallel, "parallel_fluid": step.step_parallel_fluid,
+               "team": step.run_steps_blocks}
+    assert groups.LEAVES_FREE >= 6
+    for name, kernel in kernels.items():
+        assert _kernel_leaves(kernel) == groups.LEAVES[name], name
+        assert 64 - groups.LEAVES[name] >= 6, (name, groups.LEAVES[name])
