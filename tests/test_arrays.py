@@ -117,6 +117,7 @@ def test_an_excavation_reallocates_as_declared():
     sim.step(2)
     assert sim.remove(where=lambda x, y: x ** 2 + y ** 2 < 0.02 ** 2) > 0
     assert sim.model.sizes["bc"] and sim.model.node_free.shape == (sim.model.node_count,)
+    assert sim.state.counters.switches & groups.SWITCH_BC              # the kernels apply the constraints now
     _check_sim(sim)
     sim.step(2)
     _check_sim(sim)

@@ -17,8 +17,9 @@ handed to the allocator in :func:`taichi_fdem.sim.model.build_model` for a model
 or scratch array starts at zero unless :func:`taichi_fdem.sim.state.allocate_state` gives it a
 value).  Every array of a group costs one argument leaf in each launch that takes the group:
 Taichi 1.7 allows 64 (:data:`taichi_fdem.engine.groups.LEAVES_SERIAL` and the other counts there,
-checked at import), so a group that is at the limit takes new data as columns of an existing
-vector array.
+checked at import against 64 − :data:`~taichi_fdem.engine.groups.LEAVES_FREE`: every step kernel
+keeps a few leaves free), so a kernel that reaches that bound takes new data as columns of an
+existing vector array.
 
 Roles: ``model`` (computed once by the build, constant through a run), ``state`` (changed by
 the steps; saved by checkpoints), ``scratch`` (work arrays, never saved), ``host`` (NumPy
