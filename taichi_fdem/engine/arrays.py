@@ -213,7 +213,8 @@ ARRAYS: tuple = (
     # ---- step -------------------------------------------------------------------------------
     _a("step_real", "step", STATE, "real", ["REAL_COUNTERS"], "s, m, m/s, J/m, m/s², -",
        "real counters and the parameters the host sets (REAL_SLOTS)"),
-    _a("step_int", "step", STATE, "i32", ["INT_COUNTERS"], "-", "integer counters and the feature switches (INT_SLOTS)"),
+    _a("step_int", "step", STATE, "i32", ["INT_COUNTERS"], "-",
+       "integer counters and the feature switches (INT_SLOTS)"),
     # ---- parallel assembly ------------------------------------------------------------------
     _a("asm_force", "asm", SCRATCH, "real vec2",
        ["(FB - 1) * N + 2 * FB if blocks else (3 * E + 6 * (C if contact else 0) if slots else 1)"], "N/m, J/m",

@@ -141,7 +141,8 @@ def phase_integrate(nodes: ti.template(), step: ti.template(), local_damping: ti
 @ti.func
 def is_unstable(step: ti.template()):
     """A non-finite value, an inverted element, or a node faster than step.step_real[VLIMIT]."""
-    return step.step_int[NONFINITE] != 0 or step.step_int[INVERTED] != 0 or step.step_real[VMAX] > step.step_real[VLIMIT]
+    return (step.step_int[NONFINITE] != 0 or step.step_int[INVERTED] != 0
+            or step.step_real[VMAX] > step.step_real[VLIMIT])
 
 
 @ti.func
