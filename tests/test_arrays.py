@@ -117,6 +117,7 @@ def test_an_excavation_reallocates_as_declared():
     sim.step(2)
     assert sim.remove(where=lambda x, y: x ** 2 + y ** 2 < 0.02 ** 2) > 0
     assert sim.model.sizes["bc"] and sim.model.node_free.shape == (sim.model.node_count,)
+    assert sim.state.counters.switches & groups.SWITCH_BC              # the kernels apply the constraints now
     _check_sim(sim)
     sim.step(2)
     _check_sim(sim)
@@ -220,3 +221,33 @@ def test_the_docs_table_is_the_generated_one():
         "docs/reference/arrays.md is out of date: run python docs/_ext/array_table.py"
     for a in decl.ARRAYS:
         assert f"| `{a.name}` |" in page.read_text(encoding="utf-8")
+
+
+def _kernel_leaves(kernel) -> int:
+    """Argument leaves of a launch of ``kernel``, counted from its signature: one per scalar, one
+    per argpack plus one per member, none for a template."""
+    import inspect
+    packs = {id(t): m for t, m in groups.GROUPS.values()}
+    packs[id(groups.SerialFluidGroup)] = groups.SERIAL_FLUID_MEMBERS
+    packs[id(groups.TeamGroup)] = groups.TEAM_MEMBERS
+    n = 0
+    for p in inspect.signature(kernel).parameters.values():
+        t = p.annotation
+        if id(t) in packs:
+            n += 1 + len(packs[id(t)])
+        elif not isinstance(t, type(ti.template())):
+            n += 1
+    return n
+
+
+def test_every_step_kernel_keeps_free_argument_leaves():
+    """Each step kernel keeps at least 6 of Taichi's 64 argument leaves free: room for the arrays
+    of new physics (engine.groups.LEAVES_FREE)."""
+    from taichi_fdem.engine import step
+    kernels = {"serial": step.run_steps_serial, "serial_fluid": step.run_steps_serial_fluid,
+               "parallel": step.step_parallel, "parallel_fluid": step.step_parallel_fluid,
+               "team": step.run_steps_blocks}
+    assert groups.LEAVES_FREE >= 6
+    for name, kernel in kernels.items():
+        assert _kernel_leaves(kernel) == groups.LEAVES[name], name
+        assert 64 - groups.LEAVES[name] >= 6, (name, groups.LEAVES[name])

@@ -248,3 +248,33 @@ def test_ndarrays_inside_containers_are_stored(tmp_path):
     assert isinstance(first, ti.Ndarray) and isinstance(second, ti.Ndarray)
     np.testing.assert_array_equal(first.to_numpy(), np.arange(5.0))
     np.testing.assert_array_equal(second.to_numpy(), np.arange(5.0))
+
+
+def test_checkpoint_without_parameter_slots_loads(tmp_path):
+    """A checkpoint written before the parameter slots (step_real ended at HANDOVER, step_int at
+    RANGE; time step, buffer, speed limit, gravity and switches were arrays of the model) takes them
+    from the rebuilt model and continues as the saved run."""
+    from taichi_fdem.engine import groups
+    path, old = tmp_path / "run.ckpt", tmp_path / "old.ckpt"
+    a = block_on_floor("serial")
+    a.step(100)
+    a.save(path)
+    with np.load(path) as z:
+        data = {k: z[k] for k in z.files}
+    meta = json.loads(str(data["meta"]))
+    data["nd.step_real"] = data["nd.step_real"][: groups.HANDOVER + 1]
+    data["nd.step_int"] = data["nd.step_int"][: groups.SWITCHES]
+    meta["ndarrays"]["step_real"]["shape"] = [groups.HANDOVER + 1]
+    meta["ndarrays"]["step_int"]["shape"] = [groups.SWITCHES]
+    data["meta"] = np.array(json.dumps(meta))
+    with open(old, "wb") as fh:
+        np.savez(fh, **data)
+    b = fdem.Simulation.load(old)
+    new = fdem.Simulation.load(path)
+    np.testing.assert_array_equal(b.state.step_real.to_numpy(), new.state.step_real.to_numpy())
+    c = b.state.counters
+    assert c.dt == a.dt and c.buffer == a.model.buffer and (c.gravity_x, c.gravity_y) == pytest.approx((0.0, -9.81))
+    assert c.switches == a.state.counters.switches != 0
+    a.step(50)
+    b.step(50)
+    np.testing.assert_array_equal(a.state.node_x.to_numpy(), b.state.node_x.to_numpy())

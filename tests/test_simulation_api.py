@@ -29,7 +29,7 @@ def test_setting_dt_changes_the_integration_and_the_clock():
     sim = _falling_disk()
     dt = sim.dt
     sim.dt = dt / 2
-    assert sim.dt == dt / 2 and sim.model.dt == dt / 2 and sim.model.step_dt[None] == dt / 2
+    assert sim.dt == dt / 2 and sim.model.dt == dt / 2 and sim.state.counters.dt == dt / 2
     sim.step(100)
     assert sim.time == pytest.approx(100 * dt / 2, rel=1e-14)
     np.testing.assert_allclose(_mean_velocity(sim), [0.0, G * 100 * dt / 2], rtol=1e-10, atol=1e-14)
@@ -49,10 +49,10 @@ def test_dt_is_checked_against_the_stable_limit():
         sim.dt = "fast"
     with pytest.raises(ValueError, match="stable limit.*force_dt"):
         sim.dt = 2 * sim.model.dt_limit
-    assert sim.dt == dt and sim.model.step_dt[None] == dt            # a refused value changes nothing
+    assert sim.dt == dt and sim.state.counters.dt == dt            # a refused value changes nothing
     forced = _falling_disk(dt=0.5 * sim.model.dt_limit, force_dt=True)
     forced.dt = 2 * forced.model.dt_limit                                   # built with force_dt: accepted
-    assert forced.model.step_dt[None] == 2 * forced.model.dt_limit
+    assert forced.state.counters.dt == 2 * forced.model.dt_limit
 
 
 def test_model_values_are_read_only_and_other_names_raise():
@@ -79,7 +79,7 @@ def test_restore_last_good_restores_the_time_step():
     sim.step(8)
     assert sim.time == pytest.approx(22 * dt)
     sim.restore_last_good()
-    assert sim.step_count == 20 and sim.dt == dt and sim.model.step_dt[None] == dt
+    assert sim.step_count == 20 and sim.dt == dt and sim.state.counters.dt == dt
     assert sim.time == pytest.approx(20 * dt)
 
 

@@ -17,8 +17,9 @@ handed to the allocator in :func:`taichi_fdem.sim.model.build_model` for a model
 or scratch array starts at zero unless :func:`taichi_fdem.sim.state.allocate_state` gives it a
 value).  Every array of a group costs one argument leaf in each launch that takes the group:
 Taichi 1.7 allows 64 (:data:`taichi_fdem.engine.groups.LEAVES_SERIAL` and the other counts there,
-checked at import), so a group that is at the limit takes new data as columns of an existing
-vector array.
+checked at import against 64 − :data:`~taichi_fdem.engine.groups.LEAVES_FREE`: every step kernel
+keeps a few leaves free), so a kernel that reaches that bound takes new data as columns of an
+existing vector array.
 
 Roles: ``model`` (computed once by the build, constant through a run), ``state`` (changed by
 the steps; saved by checkpoints), ``scratch`` (work arrays, never saved), ``host`` (NumPy
@@ -37,7 +38,11 @@ ndarrays, one 0-d ndarray per counter would spend the 64-leaf argument budget of
 reads a component as a loop bound and later writes it).  The kernels index them with the
 compile-time constants of :mod:`taichi_fdem.engine.groups` (``TIME``, ``COUPLES``, ...), the host
 reads them by name through :class:`taichi_fdem.sim.arrays.Counters` (``state.counters.couples``);
-both are generated from the slot declarations.
+both are generated from the slot declarations.  The parameters the host sets for the kernels (time
+step, detection buffer, speed limit, gravity, the local damping's α, the handover damage, the
+feature switches) are slots of the same two arrays (written by
+:func:`taichi_fdem.sim.state.set_parameters`, the ``sim.dt`` setter and the excavation), not 0-d
+arrays of their own: each array of a group is one argument leaf of every launch that takes it.
 """
 from __future__ import annotations
 
@@ -159,8 +164,8 @@ ARRAYS: tuple = (
        "per neighbour pair: 0 bonded, else 1 | NB_HELD while it holds friction slip; then per fan: the mask of its "
        "missing and damaged links"),
     # ---- materials --------------------------------------------------------------------------
-    _a("mat_mu", "mats", MODEL, "real", ["M"], "Pa", "Lamé shear modulus μ of each material"),
-    _a("mat_lam", "mats", MODEL, "real", ["M"], "Pa", "Lamé λ of each material (plane strain or stress)"),
+    _a("mat_lame", "mats", MODEL, "real vec2", ["M"], "Pa",
+       "Lamé shear modulus μ and λ (plane strain or stress) of each material"),
     _a("mat_pair", "mats", MODEL, "real vec4", ["M", "M"], "Pa, Pa/m, -, Pa·s/m",
        "contact penalty p, tangential penalty k_t, friction coefficient μ, normal damping c_n of each pair"),
     # ---- contact couples --------------------------------------------------------------------
@@ -206,13 +211,10 @@ ARRAYS: tuple = (
        "time, position and fluid pressure of each joint's break (pressure −1: none recorded)"),
     _a("joint_g", "joints", STATE, "real vec4", ["J"], "J/m²", "energy released per mode"),
     # ---- step -------------------------------------------------------------------------------
-    _a("step_dt", "step", MODEL, "real", [], "s", "the time step the kernels integrate with (Simulation.dt)"),
-    _a("step_gravity", "step", MODEL, "real vec2", [], "m/s²", "gravity"),
-    _a("step_buffer", "step", MODEL, "real", [], "m", "detection buffer"),
-    _a("step_vlimit", "step", MODEL, "real", [], "m/s", "node speed above which a step stops (speed_limit)"),
-    _a("step_switches", "step", MODEL, "i32", [], "-", "runtime feature bits (engine.groups.SWITCH_DAMPING, ...)"),
-    _a("step_real", "step", STATE, "real", ["REAL_COUNTERS"], "s, m, m/s, J/m", "real counters (REAL_SLOTS)"),
-    _a("step_int", "step", STATE, "i32", ["INT_COUNTERS"], "-", "integer counters (INT_SLOTS)"),
+    _a("step_real", "step", STATE, "real", ["REAL_COUNTERS"], "s, m, m/s, J/m, m/s², -",
+       "real counters and the parameters the host sets (REAL_SLOTS)"),
+    _a("step_int", "step", STATE, "i32", ["INT_COUNTERS"], "-",
+       "integer counters and the feature switches (INT_SLOTS)"),
     # ---- parallel assembly ------------------------------------------------------------------
     _a("asm_force", "asm", SCRATCH, "real vec2",
        ["(FB - 1) * N + 2 * FB if blocks else (3 * E + 6 * (C if contact else 0) if slots else 1)"], "N/m, J/m",
@@ -290,6 +292,11 @@ REAL_SLOTS = (
     Slot("WORK_ABSORB", "J/m", "work dissipated by absorbing boundaries"),
     Slot("QS_ALPHA", "-", "a parameter set by the host: coefficient α of the local damping"),
     Slot("HANDOVER", "-", "a parameter set by the host: damage at which contact takes over a joined pair"),
+    Slot("DT", "s", "a parameter set by the host: the time step the kernels integrate with (Simulation.dt)"),
+    Slot("BUFFER", "m", "a parameter set by the host: the detection buffer"),
+    Slot("VLIMIT", "m/s", "a parameter set by the host: node speed above which a step stops (speed_limit)"),
+    Slot("GRAVITY_X", "m/s²", "a parameter set by the host: gravity, x"),
+    Slot("GRAVITY_Y", "m/s²", "a parameter set by the host: gravity, y"),
 )
 
 #: the slots of step_int, in order
@@ -306,6 +313,7 @@ INT_SLOTS = (
          MAX_FORCE_BLOCKS + 1),
     Slot("RANGE", "-", "RANGE + 2b, RANGE + 2b + 1: the nodes [lo, hi) that block b's items can write "
                        "(engine.blocks.block_node_ranges)", 2 * MAX_FORCE_BLOCKS),
+    Slot("SWITCHES", "-", "a parameter set by the host: runtime feature bits (engine.groups.SWITCH_DAMPING, ...)"),
 )
 
 

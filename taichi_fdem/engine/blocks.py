@@ -11,6 +11,7 @@ import taichi as ti
 
 from .contact import couple_certificate, couple_forces, neighbour_flag
 from .elastic import tri_forces
+from .groups import DT
 from .groups import (COST_BONDED, COST_BROKEN, COST_CERTIFIED, COST_JOINT, COST_JOINT_DAMAGED, COST_SEPARATED,
                      COST_TOUCHING, COST_TRI, MAX_FORCE_BLOCKS, RANGE, SPLIT, TEAM_CHUNK, VMAX, COUPLES)
 from .integrate import block_work_slot
@@ -112,7 +113,7 @@ def rebalance_couples(nblk, C, nodes: ti.template(), tris: ti.template(), contac
     J = 0
     if ti.static(fracture):
         J = joints.joint_nodes.shape[0]
-    growth = 2.0 * step.step_dt[None] * step.step_real[VMAX]       # D_acc's growth per step (§4.1)
+    growth = 2.0 * step.step_real[DT] * step.step_real[VMAX]       # D_acc's growth per step (§4.1)
     total = ti.cast(T * COST_TRI, ti.i64)
     if ti.static(fracture):
         for j in range(J):

@@ -10,6 +10,7 @@ the contactor nodes, so that force and moment are conserved to round-off.
 """
 import taichi as ti
 
+from .groups import DT, SWITCHES
 from .groups import INTACT, NB_HELD, NB_PAIRS, SWITCH_CDAMPING, WORK_CDAMPING, WORK_FRICTION
 from .joints import pair_carried
 from .tiutil import mat32_rows, vec2, vec3
@@ -447,8 +448,8 @@ def touching_forces(c, A, B, na, nb, a0, a1, a2, b0, b1, b2, nodes: ti.template(
     gB = ti.Matrix.zero(float, 3, 2)
     work = vec2(0.0, 0.0)
     prop = mats.mat_pair[tris.tri_mat[A], tris.tri_mat[B]]      # (p, k_t, μ_f, c_n)
-    cdamping = step.step_switches[None] & SWITCH_CDAMPING
-    dt = step.step_dt[None]
+    cdamping = step.step_int[SWITCHES] & SWITCH_CDAMPING
+    dt = step.step_real[DT]
     XA = mat32_rows(a0, a1, a2)
     XB = mat32_rows(b0, b1, b2)
     use_v = cdamping

@@ -20,6 +20,7 @@ caller grows the buffer and fills; no couple is ever dropped.
 """
 import taichi as ti
 
+from .groups import BUFFER
 from .groups import COUPLES, DACC, DET_CAND, DETECTIONS, FOUND, INTACT, NB_PAIRS, REBALANCE, RMAX
 
 from .tiutil import vec2
@@ -54,7 +55,7 @@ def prepare_circle(k, detect: ti.template(), tris: ti.template(), nodes: ti.temp
 @ti.func
 def cell_size(step: ti.template()):
     """d = 2 r_max + b: a pair within reach lies in the same or an adjacent cell."""
-    return 2.0 * step.step_real[RMAX] + step.step_buffer[None]
+    return 2.0 * step.step_real[RMAX] + step.step_real[BUFFER]
 
 
 @ti.func
@@ -161,7 +162,7 @@ def scan_partners(k, count_only: ti.template(), detect: ti.template(), contact: 
     """
     H = detect.det_bucket.shape[0]
     d = cell_size(step)
-    b = step.step_buffer[None]
+    b = step.step_real[BUFFER]
     cc = detect.det_bound[k]
     ck = vec2(cc[0], cc[1])
     rk = cc[2]

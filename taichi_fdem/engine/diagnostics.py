@@ -1,11 +1,12 @@
 """Diagnostics kernels: energies, contact overlaps and penetration depths (not on the hot path)."""
 import taichi as ti
 
-from .groups import NB_PAIRS, SWITCH_DAMPING, ContactGroup, MaterialGroup, NodeGroup, StepGroup, TriGroup
+from .groups import NB_PAIRS, SWITCH_DAMPING, SWITCHES, ContactGroup, MaterialGroup, NodeGroup, StepGroup, TriGroup
 from .tiutil import vec2
 
 from .contact import boxes_overlap
 from .elastic import tri_strain_energy
+from .integrate import gravity
 
 
 MAXV = 10   # a triangle clipped by a triangle has at most 6 vertices
@@ -95,11 +96,11 @@ def energy_terms(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, contact:
         out[i] = 0.0
     ti.loop_config(serialize=True)
     for i in range(nodes.node_x.shape[0]):
-        g = step.step_gravity[None]       # read in the loop: no vector global temporary (engine.integrate)
+        g = gravity(step)       # read in the loop: no vector global temporary (engine.integrate)
         m = nodes.node_mass[i]
         out[0] += 0.5 * m * nodes.node_v[i].norm_sqr()
         out[3] -= m * g.dot(nodes.node_x[i])
-    damp_on = step.step_switches[None] & SWITCH_DAMPING
+    damp_on = step.step_int[SWITCHES] & SWITCH_DAMPING
     ti.loop_config(serialize=True)
     for e in range(tris.tri_nodes.shape[0]):
         out[1] += tri_strain_energy(e, nodes, tris, mats, step)

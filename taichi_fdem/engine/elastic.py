@@ -7,6 +7,7 @@ scenes) and inside the serial many-step kernel (small scenes); see :mod:`taichi_
 import taichi as ti
 
 from . import fmath
+from .groups import DT, SWITCHES
 from .groups import INVERTED, SWITCH_DAMPING, SWITCH_PRESTRESS
 from .tiutil import mat2_cols, vec2
 
@@ -81,10 +82,10 @@ def tri_forces(e, nodes: ti.template(), tris: ti.template(), mats: ti.template()
         ti.atomic_max(step.step_int[INVERTED], e + 1)
     else:
         m = tris.tri_mat[e]
-        T = cauchy_elastic(F, J, mats.mat_mu[m], mats.mat_lam[m])
-        if step.step_switches[None] & SWITCH_PRESTRESS:
+        T = cauchy_elastic(F, J, mats.mat_lame[m][0], mats.mat_lame[m][1])
+        if step.step_int[SWITCHES] & SWITCH_PRESTRESS:
             T += (F @ prestress_matrix(tris.tri_prestress[e]) @ F.transpose()) / J
-        if step.step_switches[None] & SWITCH_DAMPING:        # a runtime switch: one compiled variant
+        if step.step_int[SWITCHES] & SWITCH_DAMPING:        # a runtime switch: one compiled variant
             v0, v1, v2 = nodes.node_v[n[0]], nodes.node_v[n[1]], nodes.node_v[n[2]]
             Lx = mat2_cols(v1 - v0, v2 - v0)
             L = Lx @ Fx.inverse()
@@ -94,7 +95,7 @@ def tri_forces(e, nodes: ti.template(), tris: ti.template(), mats: ti.template()
             area = 0.5 * Fx.determinant()
             # a plain read and write (+= would be atomic in a parallel loop; one thread per triangle)
             tris.tri_diss[e] = tris.tri_diss[e] + ks * (D[0, 0] ** 2 + 2.0 * D[0, 1] ** 2 + D[1, 1] ** 2) * area * \
-                step.step_dt[None]
+                step.step_real[DT]
         # n_i = (y_k − y_j, x_j − x_k), (i, j, k) cyclic: outward normal of the edge opposite i
         f0 = 0.5 * (T @ vec2(x2[1] - x1[1], x1[0] - x2[0]))
         f1 = 0.5 * (T @ vec2(x0[1] - x2[1], x2[0] - x0[0]))
@@ -122,8 +123,8 @@ def tri_strain_energy(e, nodes: ti.template(), tris: ti.template(), mats: ti.tem
     if J > 0.0 and tris.tri_intact[e] >= 0:
         m = tris.tri_mat[e]
         area0 = 0.5 / tris.tri_rest_inv[e].determinant()      # det F0⁻¹ = 1 / (2 A0)
-        W = area0 * strain_energy_density(F, J, mats.mat_mu[m], mats.mat_lam[m])
-        if step.step_switches[None] & SWITCH_PRESTRESS:
+        W = area0 * strain_energy_density(F, J, mats.mat_lame[m][0], mats.mat_lame[m][1])
+        if step.step_int[SWITCHES] & SWITCH_PRESTRESS:
             S = prestress_matrix(tris.tri_prestress[e])
             E = green_strain(F)
             W += area0 * (S[0, 0] * E[0, 0] + S[1, 1] * E[1, 1] + 2.0 * S[0, 1] * E[0, 1])

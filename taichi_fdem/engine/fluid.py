@@ -65,6 +65,7 @@ depend on the strategy beyond the order of the nodal force sums.
 """
 import taichi as ti
 
+from .groups import DT
 from .groups import NONFINITE, TIME
 from .loads import curve_value
 from .tiutil import vec2
@@ -277,7 +278,7 @@ def apply_rate_sources(t, dts, nodes: ti.template(), fl: ti.template()):
 def pressure_forces(nodes: ti.template(), step: ti.template(), fl: ti.template()):
     """Step 4: each conducting edge's nodal forces from the pressures at its ends, kept in
     fluid_edge_val; the first half of their work (module docstring)."""
-    dt = step.step_dt[None]
+    dt = step.step_real[DT]
     for e in range(fl.fluid_edge.shape[0]):
         en = fl.fluid_edge[e]
         ev = fl.fluid_edge_val[e]
@@ -357,7 +358,7 @@ def fluid_flow(nodes: ti.template(), step: ti.template(), fl: ti.template()):
     non-finite in step_int[NONFINITE])."""
     ti.loop_config(serialize=True)
     for _ in range(1):
-        dt = step.step_dt[None]
+        dt = step.step_real[DT]
         t = step.step_real[TIME]
         need = dt * fl.fluid_real[F_RATE] / FLOW_CFL
         bad = 0
@@ -400,7 +401,7 @@ def fluid_step(nodes: ti.template(), joints: ti.template(), step: ti.template(),
 @ti.func
 def book_fluid_work(nodes: ti.template(), step: ti.template(), fl: ti.template()):
     """Second half of the fluid's work on the solid over the step, with the new velocities."""
-    dt = step.step_dt[None]
+    dt = step.step_real[DT]
     for e in range(fl.fluid_edge.shape[0]):
         ev = fl.fluid_edge_val[e]
         if ev[0] > 0.0:

@@ -1,22 +1,24 @@
 """The arrays of a simulation, grouped by concern, as Taichi argpacks.
 
 A kernel takes a handful of groups instead of sixty arrays and reads ``nodes.node_x[i]``,
-``tris.tri_rest_inv[e]``, ``step.step_dt[None]``.  The members of each group, their element types,
+``tris.tri_rest_inv[e]``, ``step.step_real[DT]``.  The members of each group, their element types,
 shapes and units are declared once in :mod:`taichi_fdem.engine.arrays` (the table of
 docs/reference/arrays.md is generated from it); the member tuples below are generated from those
 declarations, in declaration order.  A member has the name of its array in the model, the state
 or the scratch (prefix-first): Taichi flattens argpack members into one namespace per kernel, so
 names are unique across groups.  Every member is a Taichi ndarray (no recompilation per scene
-size; the element type follows the precision chosen by ``fdem.init``); scalars are 0-d ndarrays,
-read and written as ``step.step_dt[None]``.
+size; the element type follows the precision chosen by ``fdem.init``); the scalars (counters
+and the parameters the host sets) are named slots of ``step_real`` and ``step_int``, read and
+written as ``step.step_real[DT]``.
 
 Budget.  Taichi 1.7 allows at most 64 argument leaves per kernel launch, and every ndarray in
 an argpack is one leaf (plus one per argpack).  The serial step kernel takes every group but the
 assembly's: :data:`LEAVES_SERIAL` counts its leaves.  Arrays of one entity and type that are
 always used together are therefore merged into a vector (circle = centre + radius, bucket = first
 + count), a quantity that can be derived is not stored (A0 from F0⁻¹), and the counters the
-kernels keep are two short arrays with named slots (:data:`taichi_fdem.engine.arrays.REAL_SLOTS`,
-:data:`~taichi_fdem.engine.arrays.INT_SLOTS`).
+kernels keep and the parameters the host sets are two short arrays with named slots
+(:data:`taichi_fdem.engine.arrays.REAL_SLOTS`, :data:`~taichi_fdem.engine.arrays.INT_SLOTS`).
+Every step kernel keeps :data:`LEAVES_FREE` leaves free for new arrays (checked at import).
 """
 import taichi as ti
 
@@ -40,7 +42,6 @@ ASSEMBLY_MEMBERS = members("asm")
 JOINT_MEMBERS = members("joints")
 STEP_MEMBERS = members("step")
 STEP_COUNTERS = ("step_real", "step_int")
-STEP_PARAMS = tuple(n for n in STEP_MEMBERS if n not in STEP_COUNTERS)
 FLUID_MEMBERS = members("fluid")
 
 NodeGroup = _group(*NODE_MEMBERS)
@@ -123,7 +124,7 @@ NB_HELD = 2
 # Stored in step.dacc to force a contact detection at the next step.
 DACC_FORCE = 1e30
 
-# bits of step.switches: runtime feature switches
+# bits of step.step_int[SWITCHES]: runtime feature switches
 SWITCH_DAMPING = 1        # viscous damping of the triangles
 SWITCH_CDAMPING = 2       # normal contact damping
 SWITCH_BC = 4             # prescribed velocities
@@ -133,11 +134,12 @@ SWITCH_PRESTRESS = 16     # initial stress of the triangles (tri_prestress, docs
 # The slots of the counters step_real and step_int (declared with their units in
 # engine.arrays.REAL_SLOTS / INT_SLOTS; the host reads them by name, sim.arrays.Counters).
 (TIME, DACC, RMAX, VMAX, WORK_FRICTION, WORK_CDAMPING, WORK_BOUNDARY, WORK_LOAD, WORK_LOCAL, WORK_ABSORB, QS_ALPHA,
- HANDOVER) = slot_numbers(REAL_SLOTS, "TIME", "DACC", "RMAX", "VMAX", "WORK_FRICTION", "WORK_CDAMPING", "WORK_BOUNDARY",
-                          "WORK_LOAD", "WORK_LOCAL", "WORK_ABSORB", "QS_ALPHA", "HANDOVER")
-(COUPLES, FOUND, NONFINITE, INVERTED, DETECTIONS, BROKEN, NB_PAIRS, REBALANCE, SPLIT, RANGE) = slot_numbers(
+ HANDOVER, DT, BUFFER, VLIMIT, GRAVITY_X, GRAVITY_Y) = slot_numbers(
+    REAL_SLOTS, "TIME", "DACC", "RMAX", "VMAX", "WORK_FRICTION", "WORK_CDAMPING", "WORK_BOUNDARY", "WORK_LOAD",
+    "WORK_LOCAL", "WORK_ABSORB", "QS_ALPHA", "HANDOVER", "DT", "BUFFER", "VLIMIT", "GRAVITY_X", "GRAVITY_Y")
+(COUPLES, FOUND, NONFINITE, INVERTED, DETECTIONS, BROKEN, NB_PAIRS, REBALANCE, SPLIT, RANGE, SWITCHES) = slot_numbers(
     INT_SLOTS, "COUPLES", "FOUND", "NONFINITE", "INVERTED", "DETECTIONS", "BROKEN", "NB_PAIRS", "REBALANCE", "SPLIT",
-    "RANGE")
+    "RANGE", "SWITCHES")
 
 
 def _leaves(*groups):
@@ -150,11 +152,14 @@ LEAVES_SERIAL = 1 + _leaves(NODE_MEMBERS, TRI_MEMBERS, MAT_MEMBERS, CONTACT_MEMB
                             STEP_MEMBERS)
 LEAVES_PARALLEL = _leaves(NODE_MEMBERS, TRI_MEMBERS, MAT_MEMBERS, CONTACT_MEMBERS, JOINT_MEMBERS, STEP_MEMBERS,
                           ASSEMBLY_MEMBERS)
-# the team launch: nsteps, nwork, detect_in and one argpack
-LEAVES_TEAM = 3 + _leaves(TEAM_MEMBERS)
+# the team launch: nsteps, nwork, flags, spin_max and one argpack
+LEAVES_TEAM = 4 + _leaves(TEAM_MEMBERS)
 # with a fluid: the serial step (nsteps and one argpack), the parallel step (its groups + the fluid's)
 LEAVES_SERIAL_FLUID = 1 + _leaves(SERIAL_FLUID_MEMBERS)
 LEAVES_PARALLEL_FLUID = LEAVES_PARALLEL + _leaves(FLUID_MEMBERS)
-assert LEAVES_SERIAL <= 64 and LEAVES_PARALLEL <= 64 and LEAVES_TEAM <= 64, (LEAVES_SERIAL, LEAVES_PARALLEL,
-                                                                             LEAVES_TEAM)
-assert LEAVES_SERIAL_FLUID <= 64 and LEAVES_PARALLEL_FLUID <= 64, (LEAVES_SERIAL_FLUID, LEAVES_PARALLEL_FLUID)
+# every step kernel keeps LEAVES_FREE of Taichi's 64 leaves free, room for the arrays of new physics
+LEAVES_MAX = 64
+LEAVES_FREE = 6
+LEAVES = {"serial": LEAVES_SERIAL, "parallel": LEAVES_PARALLEL, "team": LEAVES_TEAM,
+          "serial_fluid": LEAVES_SERIAL_FLUID, "parallel_fluid": LEAVES_PARALLEL_FLUID}
+assert all(n <= LEAVES_MAX - LEAVES_FREE for n in LEAVES.values()), LEAVES

@@ -13,12 +13,19 @@ step_real[WORK_LOCAL].
 """
 import taichi as ti
 
-from .groups import (DACC, NONFINITE, QS_ALPHA, RANGE, SWITCH_BC, SWITCH_BC_WORK, TIME, VMAX, WORK_BOUNDARY,
-                     WORK_CDAMPING, WORK_FRICTION, WORK_LOCAL)
+from .groups import (DACC, DT, GRAVITY_X, GRAVITY_Y, NONFINITE, QS_ALPHA, RANGE, SWITCH_BC, SWITCH_BC_WORK, SWITCHES,
+                     TIME, VMAX, WORK_BOUNDARY, WORK_CDAMPING, WORK_FRICTION, WORK_LOCAL)
 from .tiutil import vec2
 
 CHUNK = 16    # nodes per chunk in reductions (one atomic per chunk, not per node); small enough that
               # the chunk loop has several of Taichi's 512-iteration CPU tasks, so that it runs in parallel
+
+
+@ti.func
+def gravity(step: ti.template()):
+    """Gravity [m/s²], from its two slots of step_real (read it inside the loop that uses it: see
+    :func:`integrate_nodes`)."""
+    return ti.Vector([step.step_real[GRAVITY_X], step.step_real[GRAVITY_Y]])
 
 
 @ti.func
@@ -178,9 +185,9 @@ def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.templat
                    gathered: ti.template(), local_damping: ti.template()):
     """gathered: 0 = node_f only (serial), 1 = plus the node's slots, 2 = plus its block copies."""
     N = nodes.node_x.shape[0]
-    dt = step.step_dt[None]
-    bc = step.step_switches[None] & SWITCH_BC
-    bc_work = step.step_switches[None] & SWITCH_BC_WORK
+    dt = step.step_real[DT]
+    bc = step.step_int[SWITCHES] & SWITCH_BC
+    bc_work = step.step_int[SWITCHES] & SWITCH_BC_WORK
     alpha = 0.0
     if ti.static(local_damping):
         alpha = step.step_real[QS_ALPHA]
@@ -192,7 +199,7 @@ def _integrate_all(nodes: ti.template(), joints: ti.template(), step: ti.templat
         # is a global temporary, which Taichi 1.7 places unaligned, and SPIR-V (Vulkan) stores an
         # f64 vector at an offset of 4 mod 8 four bytes lower, over its neighbour (the loop's
         # end in a scene with a fluid; tests/test_gpu.py, fluid-f64)
-        g = step.step_gravity[None]
+        g = gravity(step)
         vmax2, bad, work, local = integrate_span(chunk * CHUNK, ti.min(N, chunk * CHUNK + CHUNK), nodes, joints, asm,
                                                  step, dt, g, bc, bc_work, alpha, gathered, local_damping)
         ti.atomic_max(step.step_real[VMAX], ti.sqrt(vmax2))
@@ -218,7 +225,7 @@ def integrate_nodes(nodes: ti.template(), step: ti.template(), local_damping: ti
     """v += Δt (f/m + g); local damping; prescribed velocities and reactions; x += Δt v; f = 0;
     v_max, D_acc, time (:func:`integrate_node` per node).
 
-    A node speed above step.step_vlimit is read as instability (see :func:`taichi_fdem.engine.step.is_unstable`).
+    A node speed above step.step_real[VLIMIT] is read as instability (see :func:`taichi_fdem.engine.step.is_unstable`).
     """
     _integrate_all(nodes, nodes, step, nodes, 0, local_damping)
 

@@ -14,6 +14,7 @@ prestressed body starts at the opening and slip of its law that carry the initia
 import taichi as ti
 
 from . import fmath
+from .groups import DT
 from .groups import BROKEN, DAMAGED, EDGE_FREE, HANDOVER, INTACT, NB_PAIRS, TIME
 from .tiutil import vec2
 
@@ -352,7 +353,7 @@ def joint_nodal_forces(j, nd, L, trac, nodes: ti.template(), joints: ti.template
     dv1 = nodes.node_v[nd[1]] - nodes.node_v[nd[2]]
     # (a plain read and write, not +=, which Taichi makes atomic in a parallel loop:
     # joint j is evaluated by one thread)
-    joints.joint_work[j] = joints.joint_work[j] + 0.5 * (g0.dot(dv0) + g1.dot(dv1)) * step.step_dt[None]
+    joints.joint_work[j] = joints.joint_work[j] + 0.5 * (g0.dot(dv0) + g1.dot(dv1)) * step.step_real[DT]
 
 
 @ti.func
@@ -424,4 +425,4 @@ def add_joint_work(j, nodes: ti.template(), tris: ti.template(), mats: ti.templa
         dv0 = nodes.node_v[nd[0]] - nodes.node_v[nd[3]]
         dv1 = nodes.node_v[nd[1]] - nodes.node_v[nd[2]]
         joints.joint_work[j] = joints.joint_work[j] + 0.5 * (g[0] * dv0[0] + g[1] * dv0[1] + g[2] * dv1[0]
-                                                             + g[3] * dv1[1]) * step.step_dt[None]
+                                                             + g[3] * dv1[1]) * step.step_real[DT]

@@ -27,6 +27,7 @@ dissipation in step_real[WORK_ABSORB] for the dashpots.
 """
 import taichi as ti
 
+from .groups import DT
 from .groups import TIME, WORK_ABSORB, WORK_LOAD
 from .tiutil import vec2
 
@@ -113,7 +114,7 @@ def apply_loads(nodes: ti.template(), step: ti.template()):
     """Add the forces of every load entry at t_n to nodes.node_f; set curve-driven prescribed
     velocities for t_n + Δt/2; book the first half of the loads' work (:func:`apply_load`)."""
     t = step.step_real[TIME]
-    dt = step.step_dt[None]
+    dt = step.step_real[DT]
     ti.loop_config(serialize=True)   # few entries: one thread, cheaper than a parallel loop's launch
     for k in range(nodes.load_nodes.shape[0]):
         apply_load(k, t, dt, nodes, step)
@@ -139,7 +140,7 @@ def book_load(k, dt, nodes: ti.template(), step: ti.template()):
 @ti.func
 def book_load_work(nodes: ti.template(), step: ti.template()):
     """Second half of the loads' work over the step, with the new velocities (see the module)."""
-    dt = step.step_dt[None]
+    dt = step.step_real[DT]
     ti.loop_config(serialize=True)   # few entries: one thread, cheaper than a parallel loop's launch
     for k in range(nodes.load_nodes.shape[0]):
         book_load(k, dt, nodes, step)

@@ -57,6 +57,7 @@ from .contact import book_contact_work, couple_forces, eval_couple
 from .detection import phase_detect_count, phase_detect_fill
 from .elastic import eval_tri_elastic, tri_forces
 from .fluid import book_fluid_work, fluid_step
+from .groups import BUFFER, VLIMIT
 from .groups import (ABORT_BIT, BLOCK_STRIDE, COUPLES, DACC, DETECTIONS, DUE_BIT, TIMEOUT_BIT, FOUND, INVERTED, NB_PAIRS, NONFINITE,  # noqa: F401
                      REBALANCE, REBALANCE_STEPS, RMAX, UNSTABLE_BIT, VMAX, AssemblyGroup, ContactGroup, DetectGroup,
                      FluidGroup, JointGroup, MaterialGroup, NodeGroup, SerialFluidGroup, StepGroup, TeamGroup, TriGroup)
@@ -139,8 +140,9 @@ def phase_integrate(nodes: ti.template(), step: ti.template(), local_damping: ti
 
 @ti.func
 def is_unstable(step: ti.template()):
-    """A non-finite value, an inverted element, or a node faster than step.step_vlimit."""
-    return step.step_int[NONFINITE] != 0 or step.step_int[INVERTED] != 0 or step.step_real[VMAX] > step.step_vlimit[None]
+    """A non-finite value, an inverted element, or a node faster than step.step_real[VLIMIT]."""
+    return (step.step_int[NONFINITE] != 0 or step.step_int[INVERTED] != 0
+            or step.step_real[VMAX] > step.step_real[VLIMIT])
 
 
 @ti.func
@@ -148,7 +150,7 @@ def status_code(step: ti.template()):
     """bit 0: contact detection is due; bit 1: the step produced a non-finite value, an inverted
     element or a speed above the limit."""
     code = 0
-    if step.step_real[DACC] >= step.step_buffer[None]:
+    if step.step_real[DACC] >= step.step_real[BUFFER]:
         code |= 1
     if is_unstable(step):
         code |= 2
@@ -280,7 +282,7 @@ def serial_steps(nsteps, G: ti.template(), feat: ti.template()):
     for _ in range(nsteps):
         stop = 0
         if ti.static(feat.contact):
-            if G.step.step_real[DACC] >= G.step.step_buffer[None]:
+            if G.step.step_real[DACC] >= G.step.step_real[BUFFER]:
                 phase_detect_count(G.nodes, G.tris, G.contact, G.detect, G.step)
                 if G.step.step_int[FOUND] > G.contact.couple_a.shape[0]:
                     stop = 1                    # the host grows the buffer to step_int[FOUND]

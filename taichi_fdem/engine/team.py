@@ -22,9 +22,9 @@ import taichi as ti
 
 from .blocks import block_forces, chunk_count, chunk_nodes, item_counts, rebalance_blocks
 from .detection import phase_detect_count, phase_detect_fill
-from .groups import (COUPLES, DACC, FOUND, INVERTED, NONFINITE, QS_ALPHA, REBALANCE, REBALANCE_STEPS, SWITCH_BC,
-                     SWITCH_BC_WORK, SYNC_LINE, TIME, VMAX, WORK_BOUNDARY, WORK_LOCAL)
-from .integrate import asm_blocks, book_block_work, integrate_span
+from .groups import (BUFFER, COUPLES, DACC, DT, FOUND, INVERTED, NONFINITE, QS_ALPHA, REBALANCE, REBALANCE_STEPS,
+                     SWITCH_BC, SWITCH_BC_WORK, SWITCHES, SYNC_LINE, TIME, VLIMIT, VMAX, WORK_BOUNDARY, WORK_LOCAL)
+from .integrate import asm_blocks, book_block_work, gravity, integrate_span
 from .joints import add_joint_work
 from .loads import apply_load, book_load
 
@@ -79,7 +79,7 @@ def step_start(detect_in, step: ti.template(), feat: ti.template()):
     if step.step_int[REBALANCE] <= 0:
         kind = PRE
     if ti.static(feat.contact):
-        if detect_in != 0 and step.step_real[DACC] >= step.step_buffer[None]:
+        if detect_in != 0 and step.step_real[DACC] >= step.step_real[BUFFER]:
             kind = PRE
     return kind
 
@@ -92,7 +92,7 @@ def run_pre(nblk, T, J, C, detect_in, G: ti.template(), feat: ti.template()):
     fits = True
     couples = C
     if ti.static(feat.contact):
-        if detect_in != 0 and G.step.step_real[DACC] >= G.step.step_buffer[None]:
+        if detect_in != 0 and G.step.step_real[DACC] >= G.step.step_real[BUFFER]:
             phase_detect_count(G.nodes, G.tris, G.contact, G.detect, G.step)
             if G.step.step_int[FOUND] <= G.contact.couple_a.shape[0]:
                 phase_detect_fill(G.tris, G.contact, G.detect, G.step, feat.friction)
@@ -114,9 +114,9 @@ def run_integ(u, nblk, nch, nodes: ti.template(), joints: ti.template(), step: t
     if ti.static(feat.local_damping):
         alpha = step.step_real[QS_ALPHA]
     lo, hi = chunk_nodes(u, nch, nodes.node_x.shape[0])
-    vmax2, bad, work, local = integrate_span(lo, hi, nodes, joints, asm, step, step.step_dt[None],
-                                             step.step_gravity[None], step.step_switches[None] & SWITCH_BC,
-                                             step.step_switches[None] & SWITCH_BC_WORK, alpha, 2,
+    vmax2, bad, work, local = integrate_span(lo, hi, nodes, joints, asm, step, step.step_real[DT],
+                                             gravity(step), step.step_int[SWITCHES] & SWITCH_BC,
+                                             step.step_int[SWITCHES] & SWITCH_BC_WORK, alpha, 2,
                                              feat.local_damping)
     asm.asm_part[3 * u] = vmax2
     asm.asm_part[3 * u + 1] = work
@@ -138,7 +138,7 @@ def run_unit(kind, u, nblk, nch, detect_in, G: ti.template(), feat: ti.template(
         if ti.static(feat.loads):
             if u == 0:
                 for q in range(G.nodes.load_nodes.shape[0]):
-                    apply_load(q, G.step.step_real[TIME], G.step.step_dt[None], G.nodes, G.step)
+                    apply_load(q, G.step.step_real[TIME], G.step.step_real[DT], G.nodes, G.step)
     elif kind == INTEG:
         run_integ(u, nblk, nch, G.nodes, G.joints, G.step, G.asm, feat)
     else:
@@ -163,8 +163,8 @@ def end_integ(nblk, nch, detect_in, nodes: ti.template(), step: ti.template(), a
     same for any team), the blocks' contact work and the loads' work booked, time and D_acc
     advanced, and the code set (bit 0 detection due, bit 1 unstable)."""
     N = nodes.node_x.shape[0]
-    dt = step.step_dt[None]
-    bc_work = step.step_switches[None] & SWITCH_BC_WORK
+    dt = step.step_real[DT]
+    bc_work = step.step_int[SWITCHES] & SWITCH_BC_WORK
     vm2 = 0.0
     bad = step.step_int[NONFINITE]
     for c in range(nch):
@@ -186,9 +186,9 @@ def end_integ(nblk, nch, detect_in, nodes: ti.template(), step: ti.template(), a
     step.step_int[REBALANCE] -= 1
     asm.asm_sync[SYNC_STEPS] += 1
     if ti.static(feat.contact):
-        if detect_in == 0 and step.step_real[DACC] >= step.step_buffer[None]:
+        if detect_in == 0 and step.step_real[DACC] >= step.step_real[BUFFER]:
             asm.asm_sync[SYNC_CODE] |= 1
-    if bad != 0 or step.step_int[INVERTED] != 0 or vmax > step.step_vlimit[None]:
+    if bad != 0 or step.step_int[INVERTED] != 0 or vmax > step.step_real[VLIMIT]:
         asm.asm_sync[SYNC_CODE] |= 2
 
 

@@ -47,9 +47,9 @@ import taichi as ti
 
 from .. import backend
 from ..engine.arrays import STATE, declared
-from ..engine.groups import DAMAGED, EDGE_FREE, INT_COUNTERS, INTACT, REBALANCE
+from ..engine.groups import DAMAGED, EDGE_FREE, INT_COUNTERS, INTACT, REAL_COUNTERS, REBALANCE
 from ..sim.arrays import allocate
-from ..sim.state import install_neighbour_pairs, nb_on_size, state_sizes
+from ..sim.state import install_neighbour_pairs, nb_on_size, set_parameters, state_sizes
 
 __all__ = ["save", "load", "CheckpointError", "FORMAT", "FORMAT_VERSION"]
 
@@ -374,8 +374,8 @@ def _restore_arrays(path: str, data: dict, st) -> None:
 
 def _upgrade_state(sim, build: dict) -> None:
     """Bring the restored state of ``sim`` written by an older layout to the current one: the
-    tri_intact bits of the joined pairs, the integer counters, the fans' link masks and the
-    neighbour pairs, each when the checkpoint (its ``build`` settings or array shapes) predates it."""
+    tri_intact bits of the joined pairs, the counters and parameter slots, the fans' link masks and
+    the neighbour pairs, each when the checkpoint (its ``build`` settings or array shapes) predates it."""
     st = sim.state
     if "joined_pairs" not in build and sim.model.fracture:
         # a checkpoint from before the tri_intact bits (1 intact, 0 damaged): no edge carried,
@@ -384,13 +384,23 @@ def _upgrade_state(sim, build: dict) -> None:
         frac = sim.model.tri_fracturing
         v = np.where(v >= 1, v | (7 * EDGE_FREE), np.where(frac & (v == 0), INTACT | (7 * EDGE_FREE) | DAMAGED, v))
         st.tri_intact.from_numpy(v.astype(np.int32))
+    old_params = st.step_int.shape[0] < INT_COUNTERS or st.step_real.shape[0] < REAL_COUNTERS
     if st.step_int.shape[0] < INT_COUNTERS:
-        # a checkpoint from before the block assembly's couple ranges or node ranges: they are
-        # computed anew at the next step
+        # a checkpoint from before the block assembly's couple ranges or node ranges (computed anew
+        # at the next step), or before the switches' slot
         ints = np.zeros(INT_COUNTERS, np.int32)
         ints[: st.step_int.shape[0]] = st.step_int.to_numpy()
         ints[REBALANCE] = 0
         allocate(st, STATE, state_sizes(sim.model, st), {"step_int": ints}, names=("step_int",))
+    if st.step_real.shape[0] < REAL_COUNTERS:
+        # a checkpoint from before the parameter slots of step_real
+        reals = np.zeros(REAL_COUNTERS, st.step_real.to_numpy().dtype)
+        reals[: st.step_real.shape[0]] = st.step_real.to_numpy()
+        allocate(st, STATE, state_sizes(sim.model, st), {"step_real": reals}, names=("step_real",))
+    if old_params:
+        # the parameter slots the checkpoint lacks: from the rebuilt model (the saved time step, buffer
+        # and speed limit)
+        set_parameters(sim.model, st)
     if st.tri_nb_on.shape[0] != nb_on_size(sim.model):
         # a checkpoint from before the fans' link masks: re-derived by the restore
         allocate(st, STATE, state_sizes(sim.model, st), names=("tri_nb_on",))

@@ -173,7 +173,7 @@ def _resolve_kernel(img: ti.types.ndarray(), out: ti.types.ndarray(), s: ti.i32)
 @ti.kernel
 def _tri_scalar_kernel(x: ti.types.ndarray(), v: ti.types.ndarray(), x0: ti.types.ndarray(),
                        tri: ti.types.ndarray(), rest_inv: ti.types.ndarray(), tri_mat: ti.types.ndarray(),
-                       mat_mu: ti.types.ndarray(), mat_lam: ti.types.ndarray(), mode: ti.i32,
+                       mat_lame: ti.types.ndarray(), mode: ti.i32,
                        out: ti.types.ndarray()):
     """Per-triangle scalar for colouring, ``out[e]``:
 
@@ -184,13 +184,12 @@ def _tri_scalar_kernel(x: ti.types.ndarray(), v: ti.types.ndarray(), x0: ti.type
     Stresses follow elastic.cauchy_elastic; an inverted triangle (J <= 0) gives NaN.
     """
     for e in range(tri.shape[0]):
-        out[e] = _tri_scalar(x, v, x0, tri, rest_inv, tri_mat, mat_mu, mat_lam, mode, e)
+        out[e] = _tri_scalar(x, v, x0, tri, rest_inv, tri_mat, mat_lame, mode, e)
 
 
 @ti.func
 def _tri_scalar(x: ti.template(), v: ti.template(), x0: ti.template(), tri: ti.template(),
-                rest_inv: ti.template(), tri_mat: ti.template(), mat_mu: ti.template(),
-                mat_lam: ti.template(), mode, e):
+                rest_inv: ti.template(), tri_mat: ti.template(), mat_lame: ti.template(), mode, e):
     """The colouring scalar of triangle e (see _tri_scalar_kernel)."""
     n = tri[e]
     val = 0.0
@@ -204,13 +203,13 @@ def _tri_scalar(x: ti.template(), v: ti.template(), x0: ti.template(), tri: ti.t
             Fx, F, J = deformation(x[n[0]], x[n[1]], x[n[2]], rest_inv[e])
             if J > 0.0:
                 m = tri_mat[e]
-                T = cauchy_elastic(F, J, mat_mu[m], mat_lam[m])
+                T = cauchy_elastic(F, J, mat_lame[m][0], mat_lame[m][1])
                 sxx, syy, sxy = T[0, 0], T[1, 1], 0.5 * (T[0, 1] + T[1, 0])
                 if mode == 2 or mode == 5:
                     szz = 0.0
                     if mode == 5:       # plane strain: the out-of-plane stress of Hooke's law
-                        lam = mat_lam[m]
-                        szz = lam / (2.0 * lam + mat_mu[m]) * (sxx + syy)
+                        lam = mat_lame[m][1]
+                        szz = lam / (2.0 * lam + mat_lame[m][0]) * (sxx + syy)
                     val = ti.sqrt(ti.max(0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2)
                                          + 3.0 * sxy * sxy, 0.0))
                 else:
@@ -262,12 +261,12 @@ def _clear_u8_kernel(img: ti.types.ndarray(), bg: _vec3f):
 @ti.kernel
 def _sim_scalar_kernel(x: ti.types.ndarray(), v: ti.types.ndarray(), x0: ti.types.ndarray(),
                        tri: ti.types.ndarray(), rest_inv: ti.types.ndarray(), tri_mat: ti.types.ndarray(),
-                       mat_mu: ti.types.ndarray(), mat_lam: ti.types.ndarray(), mode: ti.i32,
+                       mat_lame: ti.types.ndarray(), mode: ti.i32,
                        scal: ti.types.ndarray(), info: ti.types.ndarray()):
     """Per-triangle scalars into scal (see _tri_scalar_kernel) and, in one launch, their finite
     range: info[0] = min, info[1] = max, info[2] = number of finite values."""
     for e in range(tri.shape[0]):
-        scal[e] = _tri_scalar(x, v, x0, tri, rest_inv, tri_mat, mat_mu, mat_lam, mode, e)
+        scal[e] = _tri_scalar(x, v, x0, tri, rest_inv, tri_mat, mat_lame, mode, e)
     lo = 0.0
     hi = 0.0
     cnt = 0

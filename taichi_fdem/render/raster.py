@@ -3,7 +3,7 @@ simulation coloured by body, material, stress, speed, displacement or damage, in
 image with the Taichi kernels of :mod:`~taichi_fdem.render.kernels` (no window, no OpenGL).
 
 The simulation is only read, duck-typed (``node_x``, ``node_v``, ``tri_nodes``, ``tri_rest_inv``,
-``tri_mat``, ``mat_mu``, ``mat_lam``, ``bodies``, ``time``, ``step_count``, ...): this module does
+``tri_mat``, ``mat_lame``, ``bodies``, ``time``, ``step_count``, ...): this module does
 not import :mod:`taichi_fdem.sim.simulation`.
 """
 import math
@@ -410,7 +410,7 @@ class RendererImage(_Overlays):
             out = ti.ndarray(dtype=sim.state.node_x.dtype, shape=(sim.model.tri_count,))
             consts["scalars"] = out
         _tri_scalar_kernel(sim.state.node_x, sim.state.node_v, x0, sim.model.tri_nodes, sim.model.tri_rest_inv, sim.model.tri_mat,
-                           sim.model.mat_mu, sim.model.mat_lam, int(kid), out)
+                           sim.model.mat_lame, int(kid), out)
         return out.to_numpy().astype(np.float64)
 
     @staticmethod
@@ -474,7 +474,7 @@ class RendererImage(_Overlays):
             info[:] = (0.0, 1.0, sim.model.tri_count)
             return scal, info
         _sim_scalar_kernel(sim.state.node_x, sim.state.node_v, x0, sim.model.tri_nodes, sim.model.tri_rest_inv, sim.model.tri_mat,
-                           sim.model.mat_mu, sim.model.mat_lam, int(kid), scal, info)
+                           sim.model.mat_lame, int(kid), scal, info)
         return scal, info
 
     def _follow_box(self, sim):

@@ -9,7 +9,7 @@ import numpy as np
 from .. import backend
 from ..engine.arrays import MODEL, STATE
 from ..engine.groups import DACC_FORCE, SWITCH_BC
-from .arrays import allocate, host_write
+from .arrays import allocate
 from .state import state_sizes
 
 __all__ = ["remove", "apply_removal"]
@@ -66,7 +66,7 @@ def apply_removal(sim) -> None:
         md.has_bc = md.sizes["bc"] = True
         allocate(md, MODEL, md.sizes, {"node_free": np.ones((n, 2), real)}, names=("node_free",))
         allocate(st, STATE, state_sizes(md, st), names=("node_vbc", "node_react"))
-        host_write(md.step_switches, None, int(md.step_switches[None]) | SWITCH_BC)
+        st.counters.switches = st.counters.switches | SWITCH_BC
     free = md.node_free.to_numpy()
     free[orphans] = 0.0
     md.node_free.from_numpy(free)

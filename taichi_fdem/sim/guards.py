@@ -18,7 +18,6 @@ from .. import backend
 from ..engine.diagnostics import couple_penetrations, overlap_areas
 from ..engine.groups import INVERTED, NONFINITE, VMAX
 from .fluid import fluid_failure
-from .model import host_write
 
 
 class SimulationError(RuntimeError):
@@ -111,7 +110,7 @@ def restore(sim, snap: dict) -> None:
     sim.step_count = snap["step_count"]
     sim._clock = snap["clock"]
     sim.model.dt = snap["dt"]
-    host_write(sim.model.step_dt, None, snap["dt"])
+    sim.state.counters.dt = snap["dt"]
     sim._after_restore()
 
 

@@ -28,7 +28,6 @@ from . import fluid as fluid_net, timestep
 from .arrays import Counters, allocate, check_host, counter, host_write, set_counter
 from ..engine.arrays import MODEL, SCRATCH, STATE, declared
 from .topology import bonds
-from ..engine.groups import SWITCH_BC, SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING, SWITCH_PRESTRESS
 from ..engine.joints import HANDOVER_DAMAGE
 from ..engine.loads import LOAD_ABSORB, LOAD_FORCE, LOAD_PRESSURE, LOAD_TRACTION, LOAD_VELOCITY
 
@@ -148,6 +147,8 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     origin, joint_tris4, joint_cols, fans = bonds(md, X, tris, tri_mat, area0, pair, body_flags, tri_body, ctri,
                                                   (joint_nodes, joint_tris, joint_prop, joint_len), sn_tau)
 
+    md.gravity = (float(scene.gravity[0]), float(scene.gravity[1]))     # m/s² (state.set_parameters)
+
     # ---- the Taichi arrays of the model (engine.arrays; one-row placeholders for unused features)
     values = {
         "node_mass": mass, "node_free": free if md.has_bc else np.ones((1, 2)),
@@ -156,13 +157,9 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
         "tri_nodes": tris, "tri_rest_inv": rest_inv, "tri_mat": tri_mat, "tri_body": tri_body,
         "tri_visc": _tri_viscosity(materials, tri_mat, area0, beta_t, rho) if md.damping else np.zeros(1),
         "tri_origin": origin, "tri_prestress": prestress if md.prestress else np.zeros((1, 3)), "tri_fans": fans,
-        "mat_mu": [m.shear_modulus for m in materials], "mat_lam": [m.lambda_y(scene.plane) for m in materials],
+        "mat_lame": [(m.shear_modulus, m.lambda_y(scene.plane)) for m in materials],
         "mat_pair": pair, "contact_tri": ctri if md.contact else np.zeros(1), "body_flags": body_flags,
         "joint_nodes": joint_nodes, "joint_tris": joint_tris4, "joint_prop": np.concatenate(joint_cols, axis=1),
-        "step_dt": md.dt, "step_gravity": [float(g) for g in scene.gravity], "step_buffer": md.buffer,
-        "step_vlimit": md.speed_limit,
-        "step_switches": SWITCH_DAMPING * md.damping + SWITCH_CDAMPING * md.contact_damping + SWITCH_BC * md.has_bc
-        + SWITCH_BC_WORK * md.has_bc_work + SWITCH_PRESTRESS * md.prestress,
         **fluid_values}
     md.sizes = _model_sizes(md, values, len(materials), len(groups))
     allocate(md, MODEL, md.sizes, values)

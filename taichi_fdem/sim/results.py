@@ -81,8 +81,8 @@ class SimulationResults:
         Fx = np.stack([x[t[:, 1]] - x[t[:, 0]], x[t[:, 2]] - x[t[:, 0]]], axis=2)
         F = Fx @ self.model.tri_rest_inv.to_numpy().astype(np.float64)
         J = np.linalg.det(F)
-        mu = self.model.mat_mu.to_numpy()[self.model.tri_mat_np][:, None, None]
-        lam = self.model.mat_lam.to_numpy()[self.model.tri_mat_np][:, None, None]
+        lame = self.model.mat_lame.to_numpy()[self.model.tri_mat_np]
+        mu, lam = lame[:, 0, None, None], lame[:, 1, None, None]
         I = np.eye(2)
         T = (mu / J[:, None, None]) * (F @ F.transpose(0, 2, 1) - I) + lam * (J - 1.0 / J)[:, None, None] * I
         S0 = self.model.tri_prestress_np

@@ -1,5 +1,5 @@
 """The time step, the clock and the model values of a :class:`~taichi_fdem.sim.simulation.Simulation`
-(a mixin): ``sim.dt`` (a validated setter that also updates the kernels' ``step_dt``),
+(a mixin): ``sim.dt`` (a validated setter that also updates the kernels' ``step_real[DT]``),
 ``sim.time``, and read-only properties for the commonly read model values; assigning a name of
 the model or the state on the simulation raises instead of changing nothing."""
 from __future__ import annotations
@@ -7,7 +7,6 @@ from __future__ import annotations
 import math
 import warnings
 
-from .model import host_write
 
 __all__ = ["ModelValues", "MOVED"]
 
@@ -71,7 +70,7 @@ class ModelValues:
                              f"dt < {1.0 / md.dashpot_rate:.4g} s")
         object.__setattr__(self, "_clock", (self.time, self.step_count))
         md.dt = dt
-        host_write(md.step_dt, None, dt)
+        self.state.counters.dt = dt               # step_real[DT], through host_write
 
     def __getattr__(self, name):
         # the names of version 0.1.0 that moved to sim.cracks, sim.fluid, sim.loads, sim.solver

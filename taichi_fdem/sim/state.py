@@ -13,7 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..engine.arrays import SCRATCH, STATE
-from ..engine.groups import (ASSEMBLY_MEMBERS, DACC_FORCE, FORCE_BLOCKS, GROUPS, SERIAL_FLUID_MEMBERS, TEAM_CHUNK,
+from ..engine.groups import (ASSEMBLY_MEMBERS, DACC_FORCE, FORCE_BLOCKS, GROUPS, SERIAL_FLUID_MEMBERS, SWITCH_BC,
+                             SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING, SWITCH_PRESTRESS, TEAM_CHUNK,
                              TEAM_MEMBERS, SerialFluidGroup, TeamGroup)
 from .arrays import allocate
 from .fluid import fluid_state_values
@@ -47,12 +48,27 @@ def allocate_state(md: Model) -> State:
         "joint_zmax": np.ones((md.sizes["J"], 3)),      # z(dmax), z(0) = 1
         "joint_fs": md.joint_fs0, **fluid_state_values(md)})
     install_neighbour_pairs(md, st)
+    set_parameters(md, st)
     c = st.counters
-    c.qs_alpha = md.qs_alpha
-    c.handover = md.handover_damage
     if md.contact:
         c.dacc = DACC_FORCE                             # detect at the first step
     return st
+
+
+def set_parameters(md: Model, st: State) -> None:
+    """Write the parameters the kernels read from the model into their slots of the state's
+    ``step_real`` and ``step_int`` (engine.arrays.REAL_SLOTS, INT_SLOTS): time step, detection
+    buffer, speed limit, gravity, the local damping's α, the handover damage and the feature
+    switches (engine.groups.SWITCH_DAMPING, ...)."""
+    c = st.counters
+    c.dt = md.dt
+    c.buffer = md.buffer
+    c.vlimit = md.speed_limit
+    c.gravity_x, c.gravity_y = md.gravity
+    c.qs_alpha = md.qs_alpha
+    c.handover = md.handover_damage
+    c.switches = (SWITCH_DAMPING * md.damping + SWITCH_CDAMPING * md.contact_damping + SWITCH_BC * md.has_bc
+                  + SWITCH_BC_WORK * md.has_bc_work + SWITCH_PRESTRESS * md.prestress)
 
 
 def install_neighbour_pairs(md: Model, st: State) -> None:
