@@ -267,7 +267,7 @@ def test_mesh_check_of_a_compression_test_reruns_on_a_refined_mesh():
 
 def test_brazilian_warns_where_the_disc_cannot_measure_ft():
     """l_ch under 3 elements (the cohesive zone unresolved) and a disc under two l_ch (the size
-    effect) are each warned of before the test runs, at the caller's line."""
+    effect) are each warned of at the caller's line, ahead of any simulation."""
     def options(m):                                  # stands for lab.brazilian (one frame)
         return fdem.lab.tensile._brazilian_options(m, 0.05, 0.0025, None, None, None, None, None, 3.0)
 
