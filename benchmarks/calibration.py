@@ -99,13 +99,10 @@ def run(problems, methods, seed=0, workers=1, log=print) -> list:
 
 
 def table(rows) -> str:
-    out = ["| problem | method | budget | evaluations run | to 2 % | to 5 % | error of the best |",
-           "|:--|:--|--:|--:|--:|--:|:--|"]
-    for r in rows:
-        err = ", ".join(f"{k} {v * 100:+.2f} %" for k, v in r["best_error"].items())
-        out.append(f"| {r['problem']} | {r['method']} | {r['budget']} | {r['evaluations']} | "
-                   f"{r['to_2pc'] or '—'} | {r['to_5pc'] or '—'} | {err} |")
-    return "\n".join(out)
+    """Markdown of the comparison (benchmarks/report.py renders the same table in results.md)."""
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    from report import calibration_table
+    return calibration_table(rows)
 
 
 def main(argv=None) -> int:
