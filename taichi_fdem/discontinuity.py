@@ -33,7 +33,8 @@ import numpy as np
 from .material import Material, check_finite
 from .mesh.split import split_mesh
 
-__all__ = ["Weibull", "NormalStrength", "split_body", "bedding_weight", "bedding_strength", "BEDDING_WINDOW"]
+__all__ = ["Weibull", "NormalStrength", "split_body", "bedding_weight", "bedding_strength", "bedding_planes",
+           "BEDDING_WINDOW"]
 
 #: Default angular window θ_w [degrees] of the strength of the bedding: a joint at θ ≥ θ_w to the
 #: bedding keeps the material's strength, one parallel to it (θ = 0) has the bedding's, linearly
@@ -194,6 +195,58 @@ def _apply_bedding(prop: np.ndarray, rows: np.ndarray, body, mt) -> None:
     ang = bedding_angles(bedding, cent[np.concatenate([ta, tb])])
     theta = joint_bedding_theta(pts, u[rows], v[rows], ang[: len(ta)], ang[len(ta):])
     prop[rows] = bedding_strength(prop[rows], bedding, theta)
+
+
+def _spaced_bedding(body, where: str):
+    """(material, Bedding) of ``body``'s bedding with a ``spacing``, or None.  ValueError when
+    its material groups have different spaced beddings or the angle is not a constant."""
+    mats = body.materials[: body.group_count]
+    beds = [getattr(mt, "bedding", None) for mt in mats]
+    spaced = [(mt, b) for mt, b in zip(mats, beds) if b is not None and getattr(b, "spacing", None) is not None]
+    if not spaced:
+        return None
+    if len(mats) > 1 and any(b != spaced[0][1] for b in beds):
+        raise ValueError(f"{where}: Bedding(spacing=...) on a body of several material groups needs the same "
+                         "Bedding in every group; give the planes with Scene.add_joint_set and "
+                         "fdem.mesh.bedding_lines instead")
+    mt, bed = spaced[0]
+    if callable(bed.angle):
+        raise ValueError(f"{where}: Bedding(spacing=...) needs a constant angle (planes of a varying dip are "
+                         "not straight): give the planes with Scene.add_joint_set instead")
+    return mt, bed
+
+
+def bedding_planes(body, where: str):
+    """The weak bedding planes of ``body`` (docs/guide/anisotropy.md, "Weak bedding planes"):
+    (lines, material) with the planes' :class:`~taichi_fdem.mesh.Segments` through the body
+    (:func:`~taichi_fdem.mesh.bedding_lines` at the bedding's angle and ``spacing``, one through
+    the origin) and a copy of the body's material whose joint parameters are the bedding's
+    (:func:`bedding_strength` at θ = 0); None when its material has no ``Bedding(spacing=...)``
+    or no plane crosses the body.  ValueError when the mesh's edges do not follow the planes."""
+    found = _spaced_bedding(body, where)
+    if found is None:
+        return None
+    mt, bed = found
+    from .mesh.bedding import bedding_lines
+    lines = bedding_lines(body.source_mesh, float(bed.angle), float(bed.spacing))
+    if lines is None:
+        return None
+    mask = resolve(body, lines, where)
+    pts = np.asarray(body.source_mesh.points, np.float64)
+    u, v = body.edge_table[0], body.edge_table[1]
+    covered = float(np.hypot(*(pts[v[mask]] - pts[u[mask]]).T).sum())
+    if covered < (1.0 - 1e-6) * lines.length:
+        raise ValueError(f"{where}: the mesh's edges do not follow the bedding planes (Bedding(spacing="
+                         f"{bed.spacing!r})): {covered:.4g} m of {lines.length:.4g} m of planes lie along mesh edges; "
+                         "mesh the body with them: fdem.mesh.polygon(outline, h, lines=[fdem.mesh.bedding_lines("
+                         f"outline, {bed.angle!r}, {bed.spacing!r})])")
+    b = bedding_strength(np.array([mt.joint_properties()], np.float64), bed, np.zeros(1))[0]
+    changes = dict(tensile_strength=float(b[0]), cohesion=float(b[1]), friction_angle=math.degrees(math.atan(b[2])),
+                   fracture_energy=float(b[3]), fracture_energy_shear=float(b[4]),
+                   name=f"{mt.name or 'material'} (bedding)")
+    if hasattr(mt, "bedding"):
+        changes["bedding"] = None
+    return lines, mt.with_(**changes)
 
 
 def _material_label(body, mt, group: int) -> str:
