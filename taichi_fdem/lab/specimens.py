@@ -2,6 +2,7 @@
 verification cases of :mod:`taichi_fdem.verification.rock` that run them)."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -108,3 +109,64 @@ def jointed_specimen_mesh(width: float, height: float, h: float) -> TriMesh:
                 tris.append((a[i], b[k + 1], b[k]))
                 k += 1
     return TriMesh(pts, np.array(tris, dtype=np.int32))
+
+
+def bedded_material(material, bedding_angle, where: str):
+    """``material`` (a Material or a dict of them) with its bedding turned so that the bedding
+    planes make ``bedding_angle`` [degrees] with the loading direction (the y axis): 0 loads
+    parallel to the bedding, 90 across it (Tavallali & Vervoort 2010), i.e. a dip of
+    90° − ``bedding_angle`` from the x axis.  None returns ``material`` unchanged.  ValueError when
+    the angle is not a finite number or no material has a ``Bedding``."""
+    if bedding_angle is None:
+        return material
+    if isinstance(bedding_angle, bool) or not (isinstance(bedding_angle, (int, float)) and math.isfinite(bedding_angle)):
+        raise ValueError(f"{where}: bedding_angle must be a finite angle [degrees] or None, got {bedding_angle!r}")
+    mats = list(material.values()) if isinstance(material, dict) else [material]
+    if not any(getattr(m, "bedding", None) is not None for m in mats):
+        raise ValueError(f"{where}: bedding_angle={bedding_angle!r} needs a material with a bedding: "
+                         "fdem.Material(..., bedding=fdem.Bedding(...))")
+    dip = 90.0 - float(bedding_angle)
+
+    def turn(m):
+        b = getattr(m, "bedding", None)
+        return m if b is None else m.with_(bedding=dataclasses.replace(b, angle=dip))
+    return {k: turn(m) for k, m in material.items()} if isinstance(material, dict) else turn(material)
+
+
+def spaced_bedding(material):
+    """The first ``Bedding`` with a ``spacing`` among ``material`` (a Material or a dict), or None."""
+    mats = list(material.values()) if isinstance(material, dict) else [material]
+    for m in mats:
+        b = getattr(m, "bedding", None)
+        if b is not None and getattr(b, "spacing", None) is not None:
+            return b
+    return None
+
+
+def _with_planes(vertices: np.ndarray, h: float, bedding) -> TriMesh:
+    """The polygon ``vertices`` meshed at ``h`` with the bedding planes of ``bedding`` (its angle
+    and spacing, one plane through the origin) as embedded lines."""
+    if callable(bedding.angle):
+        raise ValueError("lab: Bedding(spacing=...) needs a constant angle (or give bedding_angle=)")
+    lines = mesh.bedding_lines(vertices, float(bedding.angle), float(bedding.spacing))
+    return mesh.polygon(vertices, h, lines=[lines] if lines is not None else None)
+
+
+def bedded_rectangle(width: float, height: float, h: float, bedding) -> TriMesh:
+    """A ``width`` × ``height`` specimen centred on the origin, meshed at ``h`` with its bedding
+    planes (``bedding.spacing`` apart at ``bedding.angle``, one through the centre) as mesh edges."""
+    X, Y = 0.5 * width, 0.5 * height
+    return _with_planes(np.array([[-X, -Y], [X, -Y], [X, Y], [-X, Y]]), h, bedding)
+
+
+def bedded_disc(radius: float, h: float, alpha_deg: float, bedding) -> TriMesh:
+    """A disc of ``radius`` centred on the origin with its caps flat over ±``alpha_deg`` from the
+    y axis (|y| ≤ R cos α, boundary nodes at about ``h`` on the arcs, one at each end of a flat),
+    meshed at ``h`` with its bedding planes as mesh edges (the Brazilian disc of a spaced bedding)."""
+    a = math.radians(alpha_deg)
+    span = math.pi - 2.0 * a                                   # each side arc, from −(90° − α) to 90° − α
+    n = max(2, int(math.ceil(span * radius / h)))
+    t = -0.5 * span + span * np.arange(n + 1) / n
+    right = np.column_stack([radius * np.cos(t), radius * np.sin(t)])
+    left = -right
+    return _with_planes(np.concatenate([right, left]), h, bedding)
