@@ -12,8 +12,8 @@ from .. import mesh as _mesh
 from ..material import Material
 from ..scene import Curve
 from ..sim.recorders import Checks, History
-from .specimens import (axial_record, bedded_material, bedded_rectangle, check_joint_sets, jointed_specimen_mesh,
-                        mohr_coulomb_peak, platen_scene, spaced_bedding)
+from .specimens import (axial_record, bedded_material, bedded_rectangle, check_joint_sets, jaeger_peak,
+                        jointed_specimen_mesh, mohr_coulomb_peak, platen_scene, spaced_bedding)
 from ..scene import quasi_static_alpha
 from .results import (COMPRESSION_JOINT_PENALTY_FACTOR, LabResult, check_keyword, check_rate, convergence, elastic_constants,
                       lab_materials, specimen_kinetic, warn_kinetic)
@@ -61,7 +61,8 @@ def compression(material, width: float, height: float, h: float, confinement: fl
     transits) at a nominal strain rate that reaches the expected peak strain in
     ``rate_transits`` transits, until ``max_strain`` or until the axial stress has dropped below
     ``stop_drop`` × its peak.  The expected peak: Mohr–Coulomb of the joints' c, φ over E/2
-    (the joints' compliance) with fracture; without, ``max_strain`` (default 1e-3) / 2.5.
+    (the joints' compliance) with fracture, or Jaeger's slip on the weak bedding planes of a
+    spaced bedding where lower; without fracture, ``max_strain`` (default 1e-3) / 2.5.
 
     ``material``: a Material, or a dict of Materials with ``groups`` (one label per triangle of
     ``mesh``).  ``fracture``: passed to ``Scene.add_body`` (default: True when the material
@@ -97,8 +98,9 @@ def compression(material, width: float, height: float, h: float, confinement: fl
     summary peak_stress [Pa], peak_strain, young [Pa], poisson (tangent at 50 % of the peak,
     corrected for the plane condition, see :func:`~taichi_fdem.lab.results.elastic_constants`),
     young_initial, poisson_initial (the same over 5–30 % of the peak),
-    plane_modulus E', plane_poisson ν', confinement, peak_mc (joints' Mohr–Coulomb), broken,
-    bedding_angle (NaN without).
+    plane_modulus E', plane_poisson ν', confinement, peak_mc (joints' Mohr–Coulomb), peak_jaeger
+    (slip on the weak bedding planes, :func:`~taichi_fdem.lab.specimens.jaeger_peak`; NaN without a
+    spaced bedding), broken, bedding_angle (NaN without).
     """
     o = _compression_options(material, width, height, h, confinement, fracture, mesh, rate_transits,
                              penalty_factor, check, f"lab.{test}", bedding_angle)
@@ -166,17 +168,32 @@ def _compression_options(material, width, height, h, confinement, fracture, mesh
                            first=first, pf=pf, raised=raised, mesh=mesh)
 
 
+def _planes_properties(material, bedding) -> tuple:
+    """The joint properties (f_t, c, tan φ, G_I, G_II, p_f) of ``material``'s weak bedding planes."""
+    from ..discontinuity import bedding_strength
+    return tuple(bedding_strength(np.array([material.joint_properties()]), bedding, np.zeros(1))[0])
+
+
 def _compression_loading(o, height, confinement, plane, max_strain, settle_transits, rate_transits):
     """The loading chosen from the material and the specimen, set on ``o``: transit (H/c_p [s]), peak_mc
-    (joints' Mohr–Coulomb peak [Pa], NaN without fracture), eps_peak (expected peak strain), max_strain,
+    (joints' Mohr–Coulomb peak [Pa], NaN without fracture), peak_jaeger (slip on the weak bedding planes
+    of a spaced bedding, :func:`jaeger_peak`, NaN without; the expected peak is the lower of the two),
+    eps_peak (expected peak strain), max_strain,
     settle (transits), t1 (end of the confinement's settling [s]), rate (nominal strain rate [1/s])."""
     first = o.first
     cp = first.p_wave_speed(plane)
     o.transit = height / cp
+    o.peak_jaeger = math.nan
     if o.fracture:
         c = first.cohesion if first.cohesion is not None else first.tensile_strength
         o.peak_mc = mohr_coulomb_peak(confinement, c, first.friction_angle)
-        o.eps_peak = o.peak_mc / (0.5 * first.young)
+        expected = o.peak_mc
+        bed = spaced_bedding(o.material)
+        if bed is not None and not callable(bed.angle):      # slip on the weak planes (σ1 along y)
+            _, cw, tw, _, _, _ = _planes_properties(first, bed)
+            o.peak_jaeger = jaeger_peak(confinement, cw, math.degrees(math.atan(tw)), float(bed.angle))
+            expected = min(expected, o.peak_jaeger)
+        o.eps_peak = expected / (0.5 * first.young)
         o.max_strain = 2.5 * o.eps_peak if max_strain is None else max_strain
     else:
         o.peak_mc = math.nan
@@ -263,7 +280,8 @@ def _compression_measure(o, sim, rec, kin, confinement, plane, rate_transits, wa
     warn_kinetic(kinetic_ratio, o.where, stacklevel=4)
     summary = dict(peak_stress=float(sig[k]), peak_strain=float(eps[k]), young=young, poisson=poisson,
                    young_initial=young0, poisson_initial=poisson0, plane_modulus=e_p, plane_poisson=nu_p,
-                   confinement=float(confinement), peak_mc=o.peak_mc, broken=sim.cracks.broken_count,
+                   confinement=float(confinement), peak_mc=o.peak_mc, peak_jaeger=o.peak_jaeger,
+                   broken=sim.cracks.broken_count,
                    kinetic_ratio=kinetic_ratio, rate_transits=float(rate_transits), strain_rate=float(o.rate),
                    wall=wall, build=o.build, steps=sim.step_count, dt=sim.dt)
     curve = dict(time_s=times, axial_strain=eps, axial_stress_Pa=sig, lateral_strain=lat)

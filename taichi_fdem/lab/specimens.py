@@ -32,8 +32,8 @@ def platen_scene(specimen_mesh: TriMesh, material: Material, platen_material: Ma
     The platens (as wide as 1.6 × the specimen, 1/10 of its height thick) have prescribed
     velocities ±v with v = ``strain_rate`` × H/2 [m/s] (nominal axial strain rate [1/s]), started
     by a linear ``Curve`` ramp over ``t_ramp`` seconds.  Contact between specimen and platens
-    uses ``platen_material`` (default: the specimen's material with no friction: frictionless
-    platens, a uniform uniaxial stress).  ``material`` may be a dict of Materials with ``groups``
+    uses ``platen_material`` (default: the specimen's material with no friction and no bedding:
+    frictionless platens, a uniform uniaxial stress).  ``material`` may be a dict of Materials with ``groups``
     (one label per triangle).  ``joint_sets``: (name, selector, Material) triples added to the
     specimen with :meth:`Scene.add_joint_set` (e.g. ``("grain_boundaries", "interfaces", weak)``).
     Returns (scene, specimen, top platen, bottom platen).
@@ -41,7 +41,11 @@ def platen_scene(specimen_mesh: TriMesh, material: Material, platen_material: Ma
     x0, y0, x1, y1 = specimen_mesh.bounding_box()
     W, H = x1 - x0, y1 - y0
     mats = list(material.values()) if isinstance(material, dict) else [material]
-    pm = platen_material or mats[0].with_(friction=0.0, name="platen")
+    pm = platen_material
+    if pm is None:                   # the specimen's material, frictionless, isotropic (no bedding)
+        pm = mats[0].with_(friction=0.0, name="platen")
+        if getattr(pm, "bedding", None) is not None:
+            pm = pm.with_(bedding=None)
     scene = Scene(gravity=gravity, plane=plane)
     spec = scene.add_body(specimen_mesh, material, fracture=fracture, name="specimen", groups=groups)
     for name, selector, m in check_joint_sets(joint_sets, "lab"):
@@ -78,6 +82,22 @@ def mohr_coulomb_peak(sigma3: float, cohesion: float, phi_deg: float) -> float:
     (docs/theory/loads.md §12.6): σ1 = σ3 (1 + sin φ)/(1 − sin φ) + 2 c cos φ/(1 − sin φ)."""
     s = math.sin(math.radians(phi_deg))
     return sigma3 * (1 + s) / (1 - s) + 2 * cohesion * math.cos(math.radians(phi_deg)) / (1 - s)
+
+
+def jaeger_peak(sigma3: float, cohesion: float, phi_deg: float, beta_deg: float) -> float:
+    """σ1 at slip [Pa, compression positive] on a plane of weakness of cohesion c [Pa] and friction
+    angle φ [degrees] whose normal makes β [degrees] with σ1, at confinement σ3 (Jaeger 1960;
+    docs/theory/anisotropy.md, "Jaeger's plane of weakness"):
+    σ1 − σ3 = 2 (c + σ3 tan φ) / ((1 − tan φ cot β) sin 2β); inf where the plane cannot slip
+    (β ≤ φ or β ≥ 90°)."""
+    b = math.radians(beta_deg % 180.0)
+    if b > 0.5 * math.pi:
+        b = math.pi - b                                # a plane's normal is a line: β and 180° − β alike
+    t = math.tan(math.radians(phi_deg))
+    if b <= 0.0 or b >= 0.5 * math.pi - 1e-12:
+        return math.inf
+    k = (1.0 - t / math.tan(b)) * math.sin(2.0 * b)
+    return math.inf if k <= 0.0 else sigma3 + 2.0 * (cohesion + sigma3 * t) / k
 
 
 def jointed_specimen_mesh(width: float, height: float, h: float) -> TriMesh:
