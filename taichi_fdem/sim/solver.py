@@ -130,7 +130,8 @@ class Solver:
         """The compile-time features of this simulation's step kernels."""
         md = self._sim.model
         return kernels.Features(bool(md.contact), bool(md.friction), bool(md.fracture), bool(md.loads),
-                                bool(md.local_damping), self._many_blocks(), bool(md.fluid))
+                                bool(md.local_damping), self._many_blocks(), bool(md.fluid), bool(md.bedding),
+                                bool(md.heat))
 
     def _many_blocks(self) -> bool:
         return False
