@@ -157,16 +157,10 @@ def _window(bedding) -> float:
 
 
 def bedding_angles(bedding, centroids: np.ndarray) -> np.ndarray:
-    """The bedding's dip [degrees from the x axis] at each of ``centroids`` (m, 2) [m]: its
-    ``angle``, a number or a callable f(x, y) of the placed coordinates."""
+    """The bedding's dip [degrees from the x axis] at each of ``centroids`` (m, 2) [m]
+    (``Bedding.angles``: its ``angle``, a number or a callable f(x, y) of the placed coordinates)."""
     c = np.asarray(centroids, dtype=np.float64)
-    a = bedding.angle
-    if callable(a):
-        v = np.broadcast_to(np.asarray(a(c[:, 0], c[:, 1]), dtype=np.float64), (len(c),))
-        if not np.isfinite(v).all():
-            raise ValueError("Bedding: angle(x, y) returned a non-finite value")
-        return np.array(v)
-    return np.full(len(c), float(a))
+    return np.asarray(bedding.angles(c[:, 0], c[:, 1]), dtype=np.float64)
 
 
 def joint_bedding_theta(points, u, v, angle_a, angle_b) -> np.ndarray:

@@ -98,7 +98,14 @@ class Bedding:
     expansion_normal : float or None
         Linear thermal expansion across the bedding α2 [1/K] (None: ``Material.expansion``).
     spacing : float or None
-        Distance [m] between weak bedding planes, > 0 (None: no bedding planes).
+        Distance [m] between weak bedding planes, > 0 (None: no bedding planes): the mesh's edges
+        along the planes (one through the origin) form the joint set "bedding" with exactly the
+        bedding's strength (docs/guide/anisotropy.md, "Weak bedding planes").
+    strength_window : float or None
+        θ_w [degrees], in (0, 90]: a joint at θ to the bedding has the strength
+        s_m + (s_b − s_m) max(0, 1 − θ/θ_w) between the Material's s_m and the bedding's s_b
+        (docs/theory/anisotropy.md, "Strength of the bedding"); None: 15°
+        (``discontinuity.BEDDING_WINDOW``); 90 interpolates linearly over all angles.
 
     The five elastic constants must be positive definite (Lempriere 1968): E1, E2, G2 > 0,
     −1 < ν1 < 1 and 1 − ν1 − 2 ν21² E1/E2 > 0; :class:`Material` refuses a set that violates
@@ -116,9 +123,15 @@ class Bedding:
     fracture_energy_shear: float | None = None
     expansion_normal: float | None = None
     spacing: float | None = None
+    strength_window: float | None = None
 
     def __post_init__(self):
         where = "Bedding"
+        if self.strength_window is not None:
+            w = check_finite("strength_window", self.strength_window, where)
+            if not 0.0 < w <= 90.0:
+                raise ValueError(f"{where}: strength_window must be in (0, 90] degrees, got {self.strength_window}")
+            object.__setattr__(self, "strength_window", w)
         if not callable(self.angle):
             object.__setattr__(self, "angle", check_finite("angle", self.angle, where))
         object.__setattr__(self, "young_normal", _check_positive("young_normal", self.young_normal, where, "Pa"))
