@@ -321,6 +321,9 @@ handover_damage       —       ucs, triaxial: ``Scene.build(handover_damage=)``
 penalty_factor        —       ucs, triaxial: joint penalty / E where the material leaves it unset [200]
 joint_penalty_factor  —       brazilian: joint penalty / E where the material leaves it unset [50]
 alpha_deg             °       brazilian: half-angle of the flattened loading arc [10]
+bedding_angle         °       ucs, triaxial, brazilian: angle between the bedding planes and the loading
+                              direction, 0 = parallel, 90 = across (``bedding_angle=``; the material
+                              needs a bedding) [none]
 max_time              —       brazilian: longest run, in loading times [3]
 displacement          m       direct_shear: shear displacement [5 % of the width]
 friction              —       direct_shear: friction of the interface [the materials']

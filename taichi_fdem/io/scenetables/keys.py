@@ -220,6 +220,7 @@ LAB_KEYS = {
     "penalty_factor": _Key("float", None, lo=0.0, lo_open=True, hi=1e6),
     "joint_penalty_factor": _Key("float", None, lo=0.0, lo_open=True, hi=1e6),
     "alpha_deg": _Key("float", None, lo=0.0, hi=45.0),
+    "bedding_angle": _Key("float", None, unit="°", lo=-360.0, hi=360.0),
     "max_time": _Key("float", None, lo=0.0, lo_open=True, hi=1e6),
     "displacement": _POS("m", hi=_LEN),
     "friction": _F(lo=0.0, hi=1e6),
@@ -241,13 +242,13 @@ LAB_KEYS = {
 #: keys of each lab test: (required, optional) besides test, material, h, samples, plane, csv, video
 _GRAINS = ("grain_size", "grain_seed", "minerals", "materials", "relax", "joint_sets")
 _COMPRESSION = ("rate_transits", "check", "quasi_static", "safety", "settle_transits", "max_strain", "stop_drop",
-                "handover_damage", "penalty_factor", "platen", "fracture", "history") + _GRAINS
+                "handover_damage", "penalty_factor", "platen", "fracture", "history", "bedding_angle") + _GRAINS
 LAB_TEST_KEYS = {
     "ucs": (("width", "height"), _COMPRESSION),
     "triaxial": (("width", "height", "confinement"), _COMPRESSION),
     "brazilian": (("diameter",), ("load_time", "check", "quasi_static", "safety", "alpha_deg", "max_time",
                                   "joint_penalty_factor", "platen", "weibull_modulus", "strength_cov",
-                                  "strength_seed") + _GRAINS),
+                                  "strength_seed", "bedding_angle") + _GRAINS),
     "direct_shear": (("width", "height", "normal_stress"), ("rate_transits", "joint", "settle_transits", "safety",
                                                             "displacement", "friction", "lower_material")),
 }

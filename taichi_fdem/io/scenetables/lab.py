@@ -56,6 +56,11 @@ def _lab_table(ck, data: dict, materials: dict) -> dict:
     if lab["grain_size"] is not None and lab["check"] in ("mesh", "both"):
         raise ck.error(("lab", "check"), "check = \"mesh\" refines the test's own mesh: a grain specimen cannot be "
                        "refined here (use \"rate\")")
+    if lab["bedding_angle"] is not None:
+        names = [lab["material"]] if lab["material"] is not None else list(lab["materials"].values())
+        if not any(getattr(materials[n], "bedding", None) is not None for n in names):
+            raise ck.error(("lab", "bedding_angle"), "bedding_angle needs a material with a bedding "
+                           f"([materials.{names[0]}.bedding])")
     if lab["joint_sets"] is not None:
         lab["joint_sets"] = _joint_set_list(ck, lab["joint_sets"], ("lab", "joint_sets"), materials, None,
                                             LAB_JOINT_SET_KEYS)
