@@ -157,3 +157,85 @@ def test_jaeger_formula():
     b = np.linspace(26, 89, 500)
     v = [jaeger_peak(5e6, 4e6, 25.0, x) for x in b]
     assert b[int(np.argmin(v))] == pytest.approx(45 + 12.5, abs=0.2)     # the weakest plane: β = 45° + φ/2
+
+
+# ---------------------------------------------------------------------------- Jaeger's plane of weakness
+S3 = 5e6
+#: a 40 mm × 120 mm specimen (planes up to β = 71.5° cross it from side to side), planes every 10 mm
+JAEGER = dict(width=0.04, height=0.12, h=0.01, confinement=S3)
+
+
+def jaeger_rock():
+    """Weak planes of large G_II: they slip along their whole length before they soften
+    (docs/theory/anisotropy_strength.md, "Jaeger's plane of weakness")."""
+    return rock(angle=0.0, spacing=0.01, fracture_energy_shear=5000.0)
+
+
+@pytest.mark.parametrize("beta", [45.0, 57.5, 65.0])
+def test_triaxial_strength_follows_jaeger_over_the_slip_range(beta):
+    """σ1 − σ3 at the peak within 10 % of Jaeger's 2(c_w + σ3 tan φ_w)/((1 − tan φ_w cot β) sin 2β),
+    β the angle between σ1 and the planes' normal (bedding_angle = 90° − β)."""
+    w = JAEGER
+    r = fdem.lab.triaxial(jaeger_rock(), w["width"], w["height"], w["h"], S3, bedding_angle=90.0 - beta,
+                          max_strain=1.5 * (jaeger_peak(S3, 4e6, 25.0, beta)) / (0.5 * E))
+    expected = jaeger_peak(S3, 4e6, 25.0, beta)
+    assert r.peak_jaeger == pytest.approx(expected)
+    assert r.bedding_angle == 90.0 - beta
+    assert abs((r.peak_stress - S3) / (expected - S3) - 1.0) < 0.10, (beta, r.peak_stress, expected)
+
+
+def test_triaxial_strength_outside_the_slip_range_is_the_intact_rock():
+    """β = 0 (planes across σ1): no slip; the specimen fails through the matrix near the
+    matrix joints' Mohr–Coulomb peak, several times the weakest plane's strength."""
+    w = JAEGER
+    r = fdem.lab.triaxial(jaeger_rock(), w["width"], w["height"], w["h"], S3, bedding_angle=90.0)
+    assert r.peak_jaeger == math.inf
+    assert 0.8 < r.peak_stress / r.peak_mc < 1.05, r.summary
+    assert r.peak_stress - S3 > 3.0 * (jaeger_peak(S3, 4e6, 25.0, 57.5) - S3)
+
+
+# ---------------------------------------------------------------------------- the anisotropic Brazilian disc
+E1, E2, NU1, NU21, G2 = 20e9, 10e9, 0.2, 0.15, 5e9
+
+
+def claesson_bohloli(theta, plane="strain"):
+    """σ_t(0, 0) / (2P/πDt) of Claesson & Bohloli (2002) at θ [°] between the load and the bedding
+    (docs/theory/anisotropy_strength.md), with the plane-strain reduced compliances."""
+    s11, s22, s12 = 1 / E1, 1 / E2, -NU21 / E2
+    if plane == "strain":                      # the out-of-plane axis lies in the bedding
+        s13, s23, s33 = -NU1 / E1, -NU21 / E2, 1 / E1
+        s11, s22, s12 = s11 - s13 ** 2 / s33, s22 - s23 ** 2 / s33, s12 - s13 * s23 / s33
+    e, ep = 1 / s11, 1 / s22
+    b = math.sqrt(e * ep) * (1 / (2 * G2) - (-s12 * ep) / ep)
+    t = math.radians(theta)
+    return (ep / e) ** (math.cos(2 * t) / 4) - math.cos(4 * t) / 4 * (b - 1)
+
+
+def centre_tension(theta):
+    """Mean σ_xx of the triangles within R/10 of the centre of an elastic disc (D = 0.1 m, h = D/40)
+    loaded by a radial pressure over ±10° arcs about the y axis, at rest, over 2P/(πD)."""
+    R, p, arc = 0.05, 10e6, math.radians(10.0)
+    bed = None if theta is None else fdem.Bedding(angle=90.0 - theta, young_normal=E2, poisson_normal=NU21,
+                                                  shear_modulus=G2)
+    scene = fdem.Scene()
+    disc = scene.add_body(fdem.mesh.disk(R, 0.0025), fdem.Material(density=2600.0, young=E1, poisson=NU1,
+                                                                     bedding=bed))
+    scene.apply_pressure(lambda x, y: np.arctan2(np.abs(x), np.abs(y)) <= arc + 1e-9, p, body=disc,
+                         curve=fdem.Curve.ramp(2e-4))
+    sim = scene.build(quasi_static=True)
+    sim.run(1e-3)
+    c = sim.model.node_rest[sim.model.tri_nodes_np].mean(axis=1)
+    near = np.hypot(c[:, 0], c[:, 1]) < 0.1 * R
+    x = sim.model.node_rest[disc.nodes]
+    on = (np.hypot(x[:, 0], x[:, 1]) > R * (1 - 1e-9)) & (np.arctan2(np.abs(x[:, 0]), np.abs(x[:, 1])) <= arc + 1e-9)
+    load = p * 0.5 * np.ptp(x[on, 0])          # the radial pressure's resultant: p × the loaded chord
+    return sim.stresses()[near, 0, 0].mean() / (2 * load / (math.pi * 2 * R))
+
+
+def test_anisotropic_brazilian_centre_stress_follows_claesson_and_bohloli():
+    """At θ = 0°, 45°, 90° between the load and the bedding, the centre tension over that of the
+    isotropic disc of the same mesh within 5 % of Claesson & Bohloli's approximate formula."""
+    iso = centre_tension(None)
+    for theta in (0.0, 45.0, 90.0):
+        ratio = centre_tension(theta) / iso
+        assert abs(ratio / claesson_bohloli(theta) - 1.0) < 0.05, (theta, ratio, claesson_bohloli(theta))
