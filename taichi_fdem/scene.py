@@ -342,7 +342,7 @@ class Scene:
             random factor on the tensile strength and cohesion of this body's joints (§13.3).
 
         A material with a ``Bedding``: its joints' strength depends on their angle to the bedding
-        (docs/theory/anisotropy.md, "Strength of the bedding"); with ``Bedding(spacing=s)`` the
+        (docs/theory/anisotropy_strength.md, "Strength of the bedding"); with ``Bedding(spacing=s)`` the
         mesh's edges along the bedding planes every ``s`` [m] (one through the origin) become a
         joint set "bedding" with exactly the bedding's strength: build the mesh with them
         (``fdem.mesh.polygon(outline, h, lines=[fdem.mesh.bedding_lines(outline, angle, s)])``),

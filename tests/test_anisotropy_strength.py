@@ -1,4 +1,4 @@
-"""Strength of the bedding (docs/theory/anisotropy.md): the joint strength law by the angle to the
+"""Strength of the bedding (docs/theory/anisotropy_strength.md): the joint strength law by the angle to the
 bedding, weak bedding planes, lab tests at a bedding angle, Jaeger's plane of weakness, the
 anisotropic Brazilian disc and a fluid-driven fracture in bedded rock."""
 import math
@@ -239,3 +239,66 @@ def test_anisotropic_brazilian_centre_stress_follows_claesson_and_bohloli():
     for theta in (0.0, 45.0, 90.0):
         ratio = centre_tension(theta) / iso
         assert abs(ratio / claesson_bohloli(theta) - 1.0) < 0.05, (theta, ratio, claesson_bohloli(theta))
+
+
+# ---------------------------------------------------------------------------- lab tests: results and files
+def test_brazilian_at_a_bedding_angle_reports_it_and_its_cracks():
+    """A disc with weak bedding planes at 30° to the load: the planes are a joint set of the disc,
+    the result reports the angle and holds the crack pattern."""
+    m = rock(angle=0.0, spacing=0.01)
+    r = fdem.lab.brazilian(m, 0.05, 0.0025, bedding_angle=30.0, load_time=30.0, samples=60)
+    assert r.bedding_angle == 30.0 and r.settings["bedding_angle"] == 30.0
+    assert r.settings["mesh"] == "disc along the bedding planes"
+    assert r.sim.model.joint_set_names == ["default", "bedding"]
+    cracks = r.sim.cracks.broken()
+    assert len(cracks["index"]) == r.broken > 0 and cracks["position"].shape == (r.broken, 2)
+    assert m.bedding.angle == 0.0                                  # the material given is not changed
+
+
+def test_scene_file_bedding_angle_needs_a_bedded_material(tmp_path):
+    from taichi_fdem.io import scenefile
+    from taichi_fdem.io.scenefile import SceneFileError
+    path = tmp_path / "lab.toml"
+    path.write_text('[materials.rock]\ndensity = 2600.0\nyoung = 20e9\npoisson = 0.2\n\n[lab]\ntest = "ucs"\n'
+                    'material = "rock"\nwidth = 0.05\nheight = 0.1\nh = 0.0125\nbedding_angle = 30.0\n')
+    with pytest.raises(SceneFileError, match="bedding_angle needs a material with a bedding"):
+        scenefile.load(str(path))
+
+
+# ---------------------------------------------------------------------------- a fluid-driven fracture
+def hydraulic_fracture_direction(bedded: bool) -> float:
+    """Direction [° from x, 0..180] of the principal axis of the broken joints' midpoints of a fluid
+    fed at the centre of a 0.12 m notch along x (the largest compression σ_xx = 1 MPa, σ_yy = 0.3 MPa)
+    in a 0.4 m block whose weak bedding dips at 45°."""
+    bed = fdem.Bedding(angle=45.0, young_normal=10e9, poisson_normal=0.25, shear_modulus=4e9,
+                       tensile_strength=1e5, cohesion=3e5) if bedded else None
+    rock_ = fdem.Material(density=2700.0, young=10e9, poisson=0.25, tensile_strength=3e5, cohesion=9e5,
+                          fracture_energy=1.0, bedding=bed)
+    scene = fdem.Scene(gravity=(0.0, 0.0))
+    block = scene.add_body(fdem.mesh.rectangle(0.4, 0.4, 0.02), rock_, fracture=True,
+                           cracks=lambda x, y: (np.abs(y) < 1e-9) & (np.abs(x) < 0.06))
+    scene.initial_stress(-1e6, -3e5, body=block)
+    scene.apply_pressure(lambda x, y: np.abs(x) > 0.2 - 1e-9, 1e6, body=block)
+    scene.apply_pressure(lambda x, y: np.abs(y) > 0.2 - 1e-9, 3e5, body=block)
+    scene.set_fluid(fdem.Fluid(bulk_modulus=1e8), aperture_min=1e-5)
+    scene.inject(lambda x, y: (np.abs(x) < 1e-9) & (np.abs(y) < 1e-9), rate=2e-2)
+    sim = scene.build(strategy="serial")
+    sim.step(2000)
+    broken = sim.cracks.joint_damage() >= 1.0
+    assert broken.sum() > 20
+    jn = sim.model.joint_nodes.to_numpy()[: sim.model.joint_count]
+    x = sim.model.node_rest
+    mid = 0.5 * (x[jn[broken, 0]] + x[jn[broken, 1]])
+    c = mid - mid.mean(axis=0)
+    _, v = np.linalg.eigh(c.T @ c)
+    return math.degrees(math.atan2(v[1, -1], v[0, -1])) % 180.0
+
+
+def test_hydraulic_fracture_in_bedded_rock_turns_toward_the_bedding():
+    """The fracture of the isotropic rock runs along the notch and σ_max; with weak bedding at 45°
+    its broken joints line up closer to the bedding."""
+    def off_bedding(a):
+        return abs((a - 45.0 + 90.0) % 180.0 - 90.0)
+    iso, bedded = hydraulic_fracture_direction(False), hydraulic_fracture_direction(True)
+    assert off_bedding(bedded) < off_bedding(iso) - 15.0, (iso, bedded)
+    assert off_bedding(bedded) < 15.0

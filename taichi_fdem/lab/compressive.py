@@ -86,7 +86,7 @@ def compression(material, width: float, height: float, h: float, confinement: fl
     (the y axis, σ1): 0 loads parallel to the bedding, 90 across it (the convention of Tavallali
     & Vervoort 2010); the material's ``Bedding`` is turned to a dip of 90° − ``bedding_angle``
     from the x axis (ValueError without a Bedding).  With ``Bedding(spacing=s)`` the default
-    mesh follows the bedding planes every ``s`` (one through the centre; docs/guide/anisotropy.md).
+    mesh follows the bedding planes every ``s`` (one through the centre; docs/guide/anisotropy_strength.md).
     Jaeger's angle β between σ1 and the planes' normal is 90° − ``bedding_angle``.
 
     Quasi-static: ``rate_transits`` < ``lab.results.MIN_TRANSITS`` raises ValueError; the
