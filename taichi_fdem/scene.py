@@ -340,13 +340,7 @@ class Scene:
             with other materials the usual pair rule.
         strength : ``fdem.Weibull(m, seed=)`` or ``fdem.NormalStrength(cov, seed=)``: a per-joint
             random factor on the tensile strength and cohesion of this body's joints (§13.3).
-
-        A material with a ``Bedding``: its joints' strength depends on their angle to the bedding
-        (docs/theory/anisotropy_strength.md, "Strength of the bedding"); with ``Bedding(spacing=s)`` the
-        mesh's edges along the bedding planes every ``s`` [m] (one through the origin) become a
-        joint set "bedding" with exactly the bedding's strength: build the mesh with them
-        (``fdem.mesh.polygon(outline, h, lines=[fdem.mesh.bedding_lines(outline, angle, s)])``),
-        else ValueError.
+            A material's ``Bedding``: its joints' strength by their angle to it, weak planes (docs/guide/anisotropy_strength.md).
         """
         where = f"Scene.add_body({name or 'body ' + str(len(self.bodies))})"
         if not isinstance(mesh, TriMesh):
@@ -380,14 +374,15 @@ class Scene:
             raise ValueError(f"{where}: fracture= selects no interior edge of the mesh")
         split_body(body, self.joint_sets, where)
         self.bodies.append(body)
-        self._renumber()
         self._add_bedding_planes(body, where)
         return body
 
     def _add_bedding_planes(self, body, where: str) -> None:
-        """The weak bedding planes of ``body``'s ``Bedding(spacing=...)``: a joint set "bedding"
-        (or "bedding (<body name>)" after the first) with exactly the bedding's strength, spread by
-        the body's ``strength`` (discontinuity.bedding_planes)."""
+        """Renumber the bodies, then add the weak bedding planes of ``body``'s ``Bedding(spacing=s)``: the
+        mesh's edges along the planes every ``s`` [m] (one through the origin; ValueError when the mesh has no
+        edges there) become a joint set "bedding" (or "bedding (<body name>)" after the first) with exactly
+        the bedding's strength, spread by the body's ``strength`` (discontinuity.bedding_planes)."""
+        self._renumber()
         planes = bedding_planes(body, where)
         if planes is None:
             return

@@ -82,12 +82,9 @@ def compression(material, width: float, height: float, h: float, confinement: fl
     (``rate_transits`` × 2) and/or half ``h`` with the same settings, and put the relative
     change of ``peak_stress`` in ``result.convergence``.
 
-    ``bedding_angle`` [degrees]: the angle between the bedding planes and the loading direction
-    (the y axis, σ1): 0 loads parallel to the bedding, 90 across it (the convention of Tavallali
-    & Vervoort 2010); the material's ``Bedding`` is turned to a dip of 90° − ``bedding_angle``
-    from the x axis (ValueError without a Bedding).  With ``Bedding(spacing=s)`` the default
-    mesh follows the bedding planes every ``s`` (one through the centre; docs/guide/anisotropy_strength.md).
-    Jaeger's angle β between σ1 and the planes' normal is 90° − ``bedding_angle``.
+    ``bedding_angle`` [°]: the angle between the bedding planes and σ1 (0 parallel, 90 across; needs a
+    ``Bedding``, turned to a dip of 90° − it; Jaeger's β = 90° − it); a spaced bedding's default
+    specimen follows its planes (docs/guide/anisotropy_strength.md).
 
     Quasi-static: ``rate_transits`` < ``lab.results.MIN_TRANSITS`` raises ValueError; the
     specimen's kinetic/strain energy at half the peak is in the summary (``kinetic_ratio``) and
@@ -110,16 +107,8 @@ def compression(material, width: float, height: float, h: float, confinement: fl
     rec, kin, wall = _compression_run(o, sim, spec, top, bot, width, height, confinement, samples, stop_drop,
                                       history, frame, video)
     summary, curve = _compression_measure(o, sim, rec, kin, confinement, plane, rate_transits, wall)
-    summary["bedding_angle"] = math.nan if bedding_angle is None else float(bedding_angle)
-    first, pf = o.first, o.pf
-    settings = dict(quasi_static=quasi_static_alpha(quasi_static), damping=float(first.damping),
-                    rate_transits=float(rate_transits), strain_rate=float(o.rate), safety=float(safety),
-                    dt=float(sim.dt), joint_penalty=pf,
-                    joint_penalty_factor=pf / first.young if o.fracture else math.nan,
-                    joint_penalty_raised=o.raised, platen_friction=float(top.material.friction),
-                    platen_penalty=float(top.material.contact_penalty), settle_transits=float(o.settle))
     result = LabResult(test, curve, summary, sim=sim, bodies=(spec, top, bot), material=o.material,
-                       settings=settings)
+                       settings=_compression_settings(o, sim, top, quasi_static, rate_transits, safety))
     if o.reruns:
         # the mesh given (None: the rerun at h/2 builds its own default mesh)
         kw = dict(plane=plane, fracture=o.fracture, mesh=mesh, groups=groups, platen=platen,
@@ -137,6 +126,16 @@ def compression(material, width: float, height: float, h: float, confinement: fl
     return result
 
 
+def _compression_settings(o, sim, top, quasi_static, rate_transits, safety) -> dict:
+    """``result.settings`` of :func:`compression`: what the test chose for a quasi-static run."""
+    first, pf = o.first, o.pf
+    return dict(quasi_static=quasi_static_alpha(quasi_static), damping=float(first.damping),
+                rate_transits=float(rate_transits), strain_rate=float(o.rate), safety=float(safety),
+                dt=float(sim.dt), joint_penalty=pf, joint_penalty_factor=pf / first.young if o.fracture else math.nan,
+                joint_penalty_raised=o.raised, platen_friction=float(top.material.friction),
+                platen_penalty=float(top.material.contact_penalty), settle_transits=float(o.settle))
+
+
 def _compression_options(material, width, height, h, confinement, fracture, mesh, rate_transits, penalty_factor,
                          check, where, bedding_angle=None) -> SimpleNamespace:
     """The checked arguments of :func:`compression` and the specimen's materials: where, reruns, fracture,
@@ -146,6 +145,7 @@ def _compression_options(material, width, height, h, confinement, fracture, mesh
     _first(material)
     material = bedded_material(material, bedding_angle, where)
     first = _first(material)
+    bedding_angle = math.nan if bedding_angle is None else float(bedding_angle)
     _positive(where, width=width, height=height, h=h)
     if not (math.isfinite(confinement) and confinement >= 0):
         raise ValueError(f"{where}: confinement must be a pressure >= 0 Pa (compression positive), got {confinement}")
@@ -165,7 +165,7 @@ def _compression_options(material, width, height, h, confinement, fracture, mesh
     elif mesh is None:
         mesh = jointed_specimen_mesh(width, height, h) if fracture else _mesh.rectangle(width, height, h)
     return SimpleNamespace(where=where, reruns=reruns, fracture=fracture, factor=factor, material=material,
-                           first=first, pf=pf, raised=raised, mesh=mesh)
+                           first=first, pf=pf, raised=raised, mesh=mesh, bedding_angle=bedding_angle)
 
 
 def _planes_properties(material, bedding) -> tuple:
@@ -281,7 +281,7 @@ def _compression_measure(o, sim, rec, kin, confinement, plane, rate_transits, wa
     summary = dict(peak_stress=float(sig[k]), peak_strain=float(eps[k]), young=young, poisson=poisson,
                    young_initial=young0, poisson_initial=poisson0, plane_modulus=e_p, plane_poisson=nu_p,
                    confinement=float(confinement), peak_mc=o.peak_mc, peak_jaeger=o.peak_jaeger,
-                   broken=sim.cracks.broken_count,
+                   broken=sim.cracks.broken_count, bedding_angle=o.bedding_angle,
                    kinetic_ratio=kinetic_ratio, rate_transits=float(rate_transits), strain_rate=float(o.rate),
                    wall=wall, build=o.build, steps=sim.step_count, dt=sim.dt)
     curve = dict(time_s=times, axial_strain=eps, axial_stress_Pa=sig, lateral_strain=lat)

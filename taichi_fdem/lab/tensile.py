@@ -66,8 +66,7 @@ def loading_arc(points, radius: float, alpha_deg: float | None):
 def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = None, load_time: float | None = None,
               samples: int = 240, safety: float | None = None, platen=None, strength=None, groups=None, mesh=None,
               plane: str = "strain", max_time: float = 3.0, joint_sets=(), video: str | None = None,
-              quasi_static=None, joint_penalty_factor: float | None = None, check=None,
-              bedding_angle: float | None = None) -> LabResult:
+              quasi_static=None, joint_penalty_factor: float | None = None, check=None, bedding_angle=None) -> LabResult:
     """Brazilian test of a disc of ``diameter`` D [m], mesh size ``h`` [m], every interior edge
     a cohesive joint, between two platens closing at ±v.
 
@@ -119,13 +118,7 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
     ``max_time`` × the loading time (``peaked`` False, with a RuntimeWarning: the peak is then
     the last load reached, not the strength).
 
-    ``bedding_angle`` [degrees]: the angle between the bedding planes and the loading direction
-    (the diameter the platens load, the y axis): 0 loads parallel to the bedding, 90 across it
-    (the convention of Tavallali & Vervoort 2010); the material's ``Bedding`` is turned to a dip of
-    90° − ``bedding_angle`` from the x axis (ValueError without a Bedding); reported in
-    ``.bedding_angle`` and ``settings``.  With ``Bedding(spacing=s)`` the default disc is meshed
-    along the bedding planes every ``s`` (one through the centre), its caps flat over ±α.  The
-    crack pattern: ``result.sim.cracks.broken()`` (positions, modes, times of the broken joints).
+    ``bedding_angle`` [°]: bedding to loaded diameter, 0 parallel, 90 across (docs/guide/anisotropy_strength.md).
 
     Similarity: the result depends on the dimensionless groups f_t/E, l_ch/D = E G_I/(f_t² D),
     c/f_t, φ, G_II/G_I, ν, p_f/E, the platens' E and penalty over the disc's E, h/D, α, β and
@@ -138,22 +131,17 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
     broken_joints.  Summary: peak_stress [Pa], centre_stress [Pa], peak_load [N/m], hondros,
     central_fraction (share of the joints broken by shortly after the peak within ``|x|`` < 0.15 D:
     where the split runs), split_start ((x, y) [m] of the first joint broken in tension, mode
-    I: where the split starts; NaN if none), broken, fragments, kinetic_ratio, peaked, bedding_angle
-    (NaN without).
+    I: where the split starts; NaN if none), broken, fragments, kinetic_ratio, peaked, bedding_angle.
     """
-    material = bedded_material(material, bedding_angle, "lab.brazilian")
     o = _brazilian_options(material, diameter, h, check, load_time, safety, quasi_static, joint_penalty_factor,
-                           max_time)
+                           max_time, bedding_angle)
     sim, bodies, p = _brazilian_specimen(o, diameter, h, alpha_deg, strength, platen, groups, mesh, plane, joint_sets)
     run = _brazilian_run(sim, bodies, p, diameter, samples, max_time, video)
     result = _brazilian_result(o, sim, bodies, p, run, diameter, max_time, mesh)
-    result.summary["bedding_angle"] = result.settings["bedding_angle"] = \
-        math.nan if bedding_angle is None else float(bedding_angle)
-    if o.reruns:
-        kw = dict(alpha_deg=alpha_deg, load_time=o.load_time, samples=samples, safety=o.safety, platen=platen,
-                  strength=strength, groups=groups, mesh=mesh, plane=plane, max_time=max_time,
-                  joint_sets=joint_sets, quasi_static=o.quasi_static, joint_penalty_factor=o.factor)
-        result.convergence = _brazilian_check(result, material, diameter, h, o.reruns, kw)
+    result.convergence = _brazilian_check(result, material, diameter, h, o.reruns, dict(   # {} without reruns
+        alpha_deg=alpha_deg, load_time=o.load_time, samples=samples, safety=o.safety, platen=platen, strength=strength,
+        groups=groups, mesh=mesh, plane=plane, max_time=max_time, joint_sets=joint_sets, quasi_static=o.quasi_static,
+        joint_penalty_factor=o.factor, bedding_angle=bedding_angle))
     return result
 
 
@@ -174,10 +162,13 @@ def _warn_size(first, diameter: float, h: float) -> None:
 
 
 def _brazilian_options(material, diameter, h, check, load_time, safety, quasi_static, joint_penalty_factor,
-                       max_time) -> SimpleNamespace:
+                       max_time, bedding_angle=None) -> SimpleNamespace:
     """The checked arguments and the settings of :func:`brazilian` chosen from the material: first (the
     material's first Material), reruns, load_time, safety, quasi_static, factor, mat (the copy the test
-    builds on), pf (joint penalty [Pa/m]), raised, elements (cells across the diameter)."""
+    builds on, its bedding turned to ``bedding_angle``), pf (joint penalty [Pa/m]), raised, elements (cells
+    across the diameter), bedding_angle (NaN without)."""
+    _first(material)
+    material = bedded_material(material, bedding_angle, "lab.brazilian")
     first = _first(material)
     _positive("lab.brazilian", diameter=diameter, h=h)
     if not first.can_fracture:
@@ -194,7 +185,8 @@ def _brazilian_options(material, diameter, h, check, load_time, safety, quasi_st
     _warn_size(first, diameter, h)
     return SimpleNamespace(first=first, reruns=reruns, load_time=load_time, safety=safety, quasi_static=quasi_static,
                            factor=factor, mat=mat, pf=pf, raised=raised,
-                           elements=max(2, int(round(diameter / h))))
+                           elements=max(2, int(round(diameter / h))),
+                           bedding_angle=math.nan if bedding_angle is None else float(bedding_angle))
 
 
 def _brazilian_specimen(o, diameter, h, alpha_deg, strength, platen, groups, mesh, plane, joint_sets):
@@ -279,7 +271,8 @@ def _brazilian_result(o, sim, bodies, p, run, diameter, max_time, mesh) -> LabRe
                    central_fraction=out["central_fraction"], split_start=start, broken=out["broken_total"],
                    fragments=out["fragments"],
                    kinetic_ratio=kinetic_ratio, peaked=peaked, load_time=float(o.load_time), elements=o.elements,
-                   wall=wall, build=o.build, steps=sim.step_count, dt=sim.dt, platen_speed=p["v"])
+                   wall=wall, build=o.build, steps=sim.step_count, dt=sim.dt, platen_speed=p["v"],
+                   bedding_angle=o.bedding_angle)
     pm, first, pf = p["platen"], o.first, o.pf
     settings = dict(quasi_static=quasi_static_alpha(o.quasi_static), damping=float(first.damping),
                     load_time=float(o.load_time), platen_speed=float(p["v"]), safety=float(o.safety),
@@ -287,7 +280,7 @@ def _brazilian_result(o, sim, bodies, p, run, diameter, max_time, mesh) -> LabRe
                     joint_penalty_raised=o.raised, platen_young=float(pm.young),
                     platen_penalty=float(pm.contact_penalty), platen_friction=float(pm.friction),
                     alpha_deg=float(o.alpha_deg), loaded_arc_deg=o.arc_deg,
-                    mesh=o.mesh_kind, elements=o.elements)
+                    mesh=o.mesh_kind, elements=o.elements, bedding_angle=o.bedding_angle)
     curve = dict(time_s=rec["t_P"], approach_m=rec["approach_P"], load_N_per_m=rec["P"],
                  load_instantaneous_N_per_m=rec["P_inst"], broken_joints=rec["broken"])
     return LabResult("brazilian", curve, summary, sim=sim, bodies=bodies, material=o.mat, settings=settings)
