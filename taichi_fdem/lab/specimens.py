@@ -163,13 +163,34 @@ def spaced_bedding(material):
     return None
 
 
-def _with_planes(vertices: np.ndarray, h: float, bedding) -> TriMesh:
+def _with_planes(vertices: np.ndarray, h: float, bedding, fixed=None) -> TriMesh:
     """The polygon ``vertices`` meshed at ``h`` with the bedding planes of ``bedding`` (its angle
-    and spacing, one plane through the origin) as embedded lines."""
+    and spacing, one plane through the origin) as embedded lines.  The points where the planes meet
+    the outline become vertices of it, and the vertices not ``fixed`` (default: all fixed) closer
+    than h/2 to one of them are dropped, so that no boundary piece is much shorter than h (no
+    sliver triangles where a plane meets the boundary)."""
     if callable(bedding.angle):
         raise ValueError("lab: Bedding(spacing=...) needs a constant angle (or give bedding_angle=)")
-    lines = mesh.bedding_lines(vertices, float(bedding.angle), float(bedding.spacing))
-    return mesh.polygon(vertices, h, lines=[lines] if lines is not None else None)
+    angle, spacing = float(bedding.angle), float(bedding.spacing)
+    lines = mesh.bedding_lines(vertices, angle, spacing)
+    if lines is None:
+        return mesh.polygon(vertices, h)
+    v = np.asarray(vertices, np.float64)
+    fixed = np.ones(len(v), bool) if fixed is None else np.asarray(fixed, bool)
+    ends = lines.segments.reshape(-1, 2)
+    tol = 1e-9 * float(np.ptp(v, axis=0).max())
+    out = []
+    for i in range(len(v)):
+        a, b = v[i], v[(i + 1) % len(v)]
+        if fixed[i] or np.hypot(*(ends - a).T).min() >= 0.5 * h:
+            out.append(a)
+        d = b - a
+        s = (ends - a) @ d / (d @ d)
+        off = np.abs((ends[:, 0] - a[0]) * d[1] - (ends[:, 1] - a[1]) * d[0]) / math.sqrt(d @ d)
+        on = (off <= tol) & (s * math.sqrt(d @ d) > tol) & ((1.0 - s) * math.sqrt(d @ d) > tol)
+        out.extend(ends[on][np.argsort(s[on])])
+    outline = np.array(out)
+    return mesh.polygon(outline, h, lines=[mesh.bedding_lines(outline, angle, spacing)])
 
 
 def bedded_rectangle(width: float, height: float, h: float, bedding) -> TriMesh:
@@ -188,5 +209,6 @@ def bedded_disc(radius: float, h: float, alpha_deg: float, bedding) -> TriMesh:
     n = max(2, int(math.ceil(span * radius / h)))
     t = -0.5 * span + span * np.arange(n + 1) / n
     right = np.column_stack([radius * np.cos(t), radius * np.sin(t)])
-    left = -right
-    return _with_planes(np.concatenate([right, left]), h, bedding)
+    fixed = np.zeros(n + 1, bool)
+    fixed[[0, -1]] = True                                      # the ends of the flats stay
+    return _with_planes(np.concatenate([right, -right]), h, bedding, np.concatenate([fixed, fixed]))
