@@ -2,6 +2,7 @@
 bedding, weak bedding planes, lab tests at a bedding angle, Jaeger's plane of weakness, the
 anisotropic Brazilian disc and a fluid-driven fracture in bedded rock."""
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -243,16 +244,31 @@ def test_anisotropic_brazilian_centre_stress_follows_claesson_and_bohloli():
 
 # ---------------------------------------------------------------------------- lab tests: results and files
 def test_brazilian_at_a_bedding_angle_reports_it_and_its_cracks():
-    """A disc with weak bedding planes at 30° to the load: the planes are a joint set of the disc,
-    the result reports the angle and holds the crack pattern."""
-    m = rock(angle=0.0, spacing=0.01)
-    r = fdem.lab.brazilian(m, 0.05, 0.0025, bedding_angle=30.0, load_time=30.0, samples=60)
+    """A disc whose joints along the bedding are weak, the bedding at 30° to the load: the result
+    reports the angle and holds the crack pattern; the material given keeps its bedding."""
+    m = rock(angle=0.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        r = fdem.lab.brazilian(m, 0.05, 0.005, bedding_angle=30.0, load_time=20.0, samples=40, max_time=1.5)
     assert r.bedding_angle == 30.0 and r.settings["bedding_angle"] == 30.0
-    assert r.settings["mesh"] == "disc along the bedding planes"
-    assert r.sim.model.joint_set_names == ["default", "bedding"]
+    assert r.material.bedding.angle == 60.0 and m.bedding.angle == 0.0    # a dip of 90° − 30° from x
     cracks = r.sim.cracks.broken()
     assert len(cracks["index"]) == r.broken > 0 and cracks["position"].shape == (r.broken, 2)
-    assert m.bedding.angle == 0.0                                  # the material given is not changed
+
+
+def test_specimens_of_a_spaced_bedding_follow_its_planes():
+    """The default specimens of a spaced bedding (a rectangle; a disc with flat caps) have the
+    planes along their edges, whose joints form the set "bedding"."""
+    from taichi_fdem.lab.specimens import bedded_disc, bedded_rectangle
+    bed = rock(angle=60.0, spacing=0.01).bedding
+    for mesh in (bedded_rectangle(0.04, 0.12, 0.01, bed), bedded_disc(0.025, 0.005, 10.0, bed)):
+        sc = fdem.Scene()
+        body = sc.add_body(mesh, rock(angle=60.0, spacing=0.01), fracture=True)
+        on = body.joint_set == 1
+        assert sc.joint_set_names == ["default", "bedding"] and on.sum() > 5
+        assert np.allclose(joint_angles(body, 60.0)[on], 0.0, atol=1e-4)
+    x = bedded_disc(0.025, 0.005, 10.0, bed).points
+    assert np.abs(x[:, 1]).max() == pytest.approx(0.025 * math.cos(math.radians(10.0)))
 
 
 def test_scene_file_bedding_angle_needs_a_bedded_material(tmp_path):
