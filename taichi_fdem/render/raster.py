@@ -17,7 +17,7 @@ from taichi_fdem import backend
 
 from ._util import (_check_color, _check_pos_int, _check_range, _check_real, _check_view, _is_ndarray,
                     _np_dtype, _to_np)
-from .colors import COLOR_MODES, COLORMAPS, SOLID_UNDER_FLUID, _check_color_by, body_colors, colormap
+from .colors import COLOR_MODES, COLORMAPS, SOLID_UNDER_FLUID, _check_color_by, bedding_colors, body_colors, colormap
 from .kernels import (_bbox_kernel, _centroid_kernel, _clear_kernel, _clear_u8_kernel, _colormap_kernel,
                       _cracks_u8_kernel, _drawn_tris_kernel, _fluid_u8_kernel, _raster_kernel, _raster_u8_kernel,
                       _resolve_kernel, _sim_scalar_kernel, _to_pixels_kernel, _tri_damage_kernel, _tri_scalar_kernel,
@@ -69,7 +69,9 @@ class RendererImage(_Overlays):
         conducting edge of the fracture network, its two faces ``crack_width`` pixels wide and
         the opening between them, coloured by the fluid pressure [Pa] (``cmap``, interpolated
         linearly between the edge's two network nodes); the automatic range is that of the
-        conducting nodes' pressures.
+        conducting nodes' pressures.  ``"bedding"`` (scenes with a bedded material,
+        ``fdem.Bedding``): a hue per bedding angle modulo 180° (0° red, 60° green, 120° blue;
+        :func:`~taichi_fdem.render.colors.bedding_colors`), isotropic triangles grey.
     vmin, vmax : float or None
         Colour range of the scalar modes, in the quantity's unit.  ``None`` (default)
         = automatic, the finite min / max of the current frame (so colours are not comparable
@@ -395,7 +397,7 @@ class RendererImage(_Overlays):
         (m/s, m or Pa; NaN for inverted triangles), computed by a Taichi kernel."""
         mode = _check_color_by(self.color_by if color_by is None else color_by)
         kid = _plane_mode(COLOR_MODES[mode][0], sim)
-        if kid is None:
+        if kid is None or kid == -3:
             raise ValueError(f"tri_scalars: color_by={mode!r} is not a scalar mode")
         if kid == -2:
             raise ValueError("tri_scalars: 'fluid_pressure' colours the fracture network, not the triangles "
@@ -564,12 +566,17 @@ class RendererImage(_Overlays):
         kid, title = COLOR_MODES[mode]
         bar = None
         fluid_rng = None
-        if kid is None or kid == -2:
+        if kid is None or kid in (-2, -3):
             key = "colors_" + mode
             colors = consts.get(key)
             if colors is None:
                 if kid == -2:
                     cols = np.broadcast_to(np.asarray(SOLID_UNDER_FLUID, np.float32), (sim.model.tri_count, 3))
+                elif kid == -3:
+                    if not getattr(sim.model, "bedding", False):
+                        raise ValueError("render_sim: color_by='bedding' needs a scene with a bedded material "
+                                         "(fdem.Material(..., bedding=fdem.Bedding(...)))")
+                    cols = bedding_colors(sim.model.tri_bedding)
                 else:
                     cols = body_colors(sim.model.tri_body_np if mode == "body" else sim.model.tri_mat_np)
                 colors = ti.Vector.ndarray(3, ti.f32, shape=(sim.model.tri_count,))
