@@ -342,6 +342,14 @@ class Material:
         (:func:`taichi_fdem.elasticity.stiffness_2d`; isotropic: the isotropic stiffness)."""
         return elasticity.stiffness_2d(*self.ti_constants, plane)
 
+    @property
+    def out_of_plane_ratios(self) -> tuple:
+        """(k₁, k₂) of the plane-strain out-of-plane stress σ_zz = k₁ σ₁ + k₂ σ₂ (σ₁, σ₂ along and
+        across the bedding): (ν1, ν21 E1/E2); isotropic (ν, ν)."""
+        if self.bedding is None:
+            return self.poisson, self.poisson
+        return self.poisson, self.bedding.poisson_normal * self.young / self.bedding.young_normal
+
     def thermal_expansion_2d(self, plane: str) -> tuple:
         """(α1*, α2*) [1/K], the effective expansion of the plane problem in the bedding frame
         (:func:`taichi_fdem.elasticity.thermal_strain_2d`; isotropic plane strain: α(1 + ν))."""

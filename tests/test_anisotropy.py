@@ -354,3 +354,116 @@ def test_the_forces_are_the_gradient_of_the_strain_energy(thermal):
         sim.state.node_x.from_numpy(x0 + sign * h * d)
         w.append(sim.energies()["strain"] / sim.thickness)
     assert (w[0] - w[1]) / (2 * h) == pytest.approx(-(f * d).sum(), rel=1e-7)
+
+
+# ---- outputs and scene files ---------------------------------------------------------------------
+def _loaded_bedded_sim(plane="strain"):
+    scene = fdem.Scene(plane=plane, gravity=(0.0, 0.0))
+    body = scene.add_body(fdem.mesh.rectangle(1.0, 0.5, h=0.25, origin=(0.0, 0.0)), _bedded(30.0))
+    scene.add_body(fdem.mesh.rectangle(0.5, 0.5, h=0.25, origin=(2.0, 0.0)),
+                   fdem.Material(density=1000.0, young=E1, poisson=NU1))
+    sim = scene.build(strategy="serial")
+    x = sim.state.node_x.to_numpy()
+    x[body.nodes] = x[body.nodes] @ np.array([[1.001, 0.0003], [0.0, 0.9995]]).T
+    sim.state.node_x.from_numpy(x)
+    return sim, body
+
+
+def test_render_modes_of_a_bedded_scene():
+    """color_by="bedding" colours each triangle by its bedding angle (isotropic ones grey); the
+    stress modes of a bedded scene follow the bedded law (from sim.stresses())."""
+    from taichi_fdem import render
+    from taichi_fdem.render.colors import ISOTROPIC_COLOR, bedding_colors
+    sim, body = _loaded_bedded_sim()
+    cols = bedding_colors(sim.model.tri_bedding)
+    assert np.allclose(cols[body.triangles], cols[body.triangles][0])          # one angle, one colour
+    assert np.allclose(cols[body.triangles.stop:], ISOTROPIC_COLOR)
+    red = bedding_colors(np.array([[1.0, 0.0], [-1.0, 0.0], [0.5, 0.5 * math.sqrt(3.0)]]))
+    assert np.allclose(red[0], red[1]) and red[0].argmax() == 0 and red[2].argmax() == 1     # 0° ≡ 180°; 60° green
+    r = render.RendererImage(48, 32, color_by="bedding")
+    img = r.render_sim(sim)
+    assert img.shape == (32, 48, 3)
+    T = sim.stresses()
+    sxx, syy, sxy = T[:, 0, 0], T[:, 1, 1], T[:, 0, 1]
+    pmax = 0.5 * (sxx + syy) + np.sqrt(0.25 * (sxx - syy) ** 2 + sxy ** 2)
+    np.testing.assert_allclose(r.tri_scalars(sim, "max_principal"), pmax, rtol=1e-12, atol=1e-9)
+    r.render_sim(sim, color_by="von_mises")
+    plain = fdem.Scene()
+    plain.add_body(fdem.mesh.rectangle(1.0, 0.5, h=0.25), fdem.Material())
+    with pytest.raises(ValueError, match="bedding"):
+        r.render_sim(plain.build(), color_by="bedding")
+
+
+def test_vtu_bedding_field_and_out_of_plane_stress():
+    from taichi_fdem.io.vtu import frame_fields
+    sim, body = _loaded_bedded_sim()
+    cells = frame_fields(sim)["cell_data"]
+    d = cells["bedding"]
+    assert d.shape == (sim.model.tri_count, 3)
+    np.testing.assert_allclose(np.linalg.norm(d[body.triangles], axis=1), 1.0, rtol=1e-12)
+    assert np.all(d[body.triangles.stop:] == 0.0)
+    ang = np.degrees(np.arctan2(d[body.triangles, 1], d[body.triangles, 0]))
+    np.testing.assert_allclose(ang, 30.0, atol=0.1)                             # turned a little by F
+    # σ_zz of a bedded triangle: ε_zz = 0 of the TI compliance with its in-plane stresses
+    T = sim.stresses()[body.triangles][0]
+    c, s = math.cos(math.radians(30.0)), math.sin(math.radians(30.0))
+    R = np.array([[c, s], [-s, c]])
+    Tb = R @ T @ R.T
+    S = elasticity.compliance_3d(E1, NU1, E2, NU21, G2)
+    szz = -(S[2, 0] * Tb[0, 0] + S[2, 1] * Tb[1, 1]) / S[2, 2]
+    sxx, syy, sxy = T[0, 0], T[1, 1], T[0, 1]
+    vm = math.sqrt(0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2) + 3 * sxy ** 2)
+    assert cells["von_mises"][body.triangles][0] == pytest.approx(vm, rel=1e-10)
+    iso = elasticity.out_of_plane_stress(np.array([[[2.0, 0.5], [0.5, -1.0]]]), np.zeros((1, 2)),
+                                         np.array([[0.3, 0.3]]))
+    assert iso[0] == pytest.approx(0.3 * (2.0 - 1.0))
+
+
+BEDDED_FILE = """
+[scene]
+gravity = [0.0, 0.0]
+
+[materials.shale]
+density = 2500.0
+young = 20e9
+poisson = 0.2
+
+[materials.shale.bedding]
+angle = {angle}
+young_normal = 8e9
+poisson_normal = {nu21}
+shear_modulus = 4e9
+{extra}
+
+[[bodies]]
+material = "shale"
+shape = "rectangle"
+width = 0.1
+height = 0.05
+h = 0.025
+
+[solver]
+duration = 1e-5
+"""
+
+
+def test_scene_file_bedding_table(tmp_path):
+    from taichi_fdem.io import scenefile
+    from taichi_fdem.io.toml_check import SceneFileError
+
+    def load(text):
+        path = tmp_path / "bedded.toml"
+        path.write_text(text, encoding="utf-8")
+        return scenefile.load(path)
+
+    spec = load(BEDDED_FILE.format(angle=30.0, nu21=0.15, extra="spacing = 0.01"))
+    sim, _ = spec.build()
+    mat = sim.model.materials[0]
+    assert mat.bedding == fdem.Bedding(30.0, 8e9, 0.15, 4e9, spacing=0.01)
+    np.testing.assert_allclose(sim.model.tri_bedding_np, 30.0)
+    with pytest.raises(SceneFileError, match="cannot be written in a scene file"):
+        load(BEDDED_FILE.format(angle='"fold"', nu21=0.15, extra=""))
+    with pytest.raises(SceneFileError, match="1 - nu1 - 2 nu21"):
+        load(BEDDED_FILE.format(angle=0.0, nu21=0.9, extra=""))
+    with pytest.raises(SceneFileError, match="did you mean 'spacing'"):
+        load(BEDDED_FILE.format(angle=0.0, nu21=0.15, extra="spacin = 0.01"))

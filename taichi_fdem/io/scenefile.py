@@ -63,8 +63,7 @@ like                   —       a NAME of ``[materials]`` whose values this one
 A material may hold a ``bedding`` sub-table: transversely isotropic elasticity, ``young`` and
 ``poisson`` then being E1 and ν1 in the bedding plane (docs/guide/anisotropy.md).
 
-``[materials.NAME.bedding]`` (``fdem.Bedding``; the angle is a number: a bedding angle that varies
-with position, a callable ``angle(x, y)``, needs the Python API)
+``[materials.NAME.bedding]`` (``fdem.Bedding``; a callable angle(x, y) needs the Python API)
 
 =====================  ======  ===============================================================
 angle                  °       dip of the bedding from the x axis, counter-clockwise

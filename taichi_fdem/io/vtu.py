@@ -47,6 +47,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from ..elasticity import out_of_plane_stress
 from ..sim.recorders import Recorder
 
 __all__ = ["ExporterVtu", "VTU", "frame_fields", "write_cracks_vtu", "write_ae_vtu"]
@@ -60,19 +61,6 @@ def _pad3(v: np.ndarray) -> np.ndarray:
     out = np.zeros((len(v), 3), dtype=np.float64)
     out[:, :2] = v
     return out
-
-
-def _bedded_szz(sim, cs, sxx, syy, sxy, szz) -> np.ndarray:
-    """σ_zz [Pa] of plane strain with the bedded triangles' law: ν1 σ_1 + ν21 (E1/E2) σ_2 (σ_1, σ_2
-    the normal stresses along and across the bedding, ε_zz = 0 of the TI compliance)."""
-    mats = sim.model.materials
-    k = np.array([[m.poisson, m.bedding.poisson_normal * m.young / m.bedding.young_normal] if m.bedding else
-                  [0.0, 0.0] for m in mats])[np.asarray(sim.model.tri_mat_np)]
-    c, s = cs[:, 0], cs[:, 1]
-    s1 = c * c * sxx + 2 * c * s * sxy + s * s * syy
-    s2 = s * s * sxx - 2 * c * s * sxy + c * c * syy
-    on = np.any(cs != 0.0, axis=1)
-    return np.where(on, k[:, 0] * s1 + k[:, 1] * s2, szz)
 
 
 def frame_fields(sim) -> dict:
@@ -98,7 +86,8 @@ def frame_fields(sim) -> dict:
         nu = np.array([m.poisson for m in sim.model.materials])[np.asarray(sim.model.tri_mat_np)]
         szz = nu * (sxx + syy)
         if bedding:
-            szz = _bedded_szz(sim, cs, sxx, syy, sxy, szz)
+            k = np.array([m.out_of_plane_ratios for m in sim.model.materials])[np.asarray(sim.model.tri_mat_np)]
+            szz = out_of_plane_stress(T, cs, k)
     von_mises = np.sqrt(np.maximum(0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2)
                                    + 3.0 * sxy * sxy, 0.0))
 

@@ -14,6 +14,7 @@ import numpy as np
 import taichi as ti
 
 from taichi_fdem import backend
+from taichi_fdem.elasticity import out_of_plane_stress
 
 from ._util import (_check_color, _check_pos_int, _check_range, _check_real, _check_view, _is_ndarray,
                     _np_dtype, _to_np)
@@ -25,6 +26,37 @@ from .kernels import (_bbox_kernel, _centroid_kernel, _clear_kernel, _clear_u8_k
 from .labels import _Overlays
 
 __all__ = ["RendererImage"]
+
+
+def _host_stress(kid, sim) -> bool:
+    """Whether the stress scalars of mode kid come from ``sim.stresses()`` on the host: scenes with
+    bedded triangles or thermal strains, whose laws the raster kernel does not hold."""
+    md = getattr(sim, "model", None)
+    return kid in (2, 3, 4, 5) and bool(getattr(md, "bedding", False) or getattr(md, "heat", False))
+
+
+def _host_stress_scalars(sim, kid) -> np.ndarray:
+    """The stress scalars of mode kid (see kernels._tri_scalar_kernel) from ``sim.stresses()``,
+    σ_zz of plane strain from the triangles' laws (:func:`taichi_fdem.elasticity.out_of_plane_stress`);
+    NaN for inverted triangles."""
+    md = sim.model
+    T = np.asarray(sim.stresses(), dtype=np.float64)
+    sxx, syy, sxy = T[:, 0, 0], T[:, 1, 1], 0.5 * (T[:, 0, 1] + T[:, 1, 0])
+    if kid in (2, 5):
+        szz = np.zeros_like(sxx)
+        if kid == 5:
+            k = np.array([m.out_of_plane_ratios for m in md.materials])[np.asarray(md.tri_mat_np)]
+            cs = md.tri_bedding.to_numpy() if md.bedding else np.zeros((md.tri_count, 2))
+            szz = out_of_plane_stress(T, cs, k)
+        val = np.sqrt(np.maximum(0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2) + 3.0 * sxy * sxy, 0.0))
+    else:
+        c, r = 0.5 * (sxx + syy), np.sqrt(0.25 * (sxx - syy) ** 2 + sxy * sxy)
+        val = c + r if kid == 3 else c - r
+    x = sim.state.node_x.to_numpy().astype(np.float64)
+    t = md.tri_nodes_np
+    e1, e2 = x[t[:, 1]] - x[t[:, 0]], x[t[:, 2]] - x[t[:, 0]]
+    val[e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0] <= 0.0] = np.nan
+    return val
 
 
 def _plane_mode(kid, sim):
@@ -404,6 +436,8 @@ class RendererImage(_Overlays):
                              "(sim.fluid.pressures() gives the network's pressures)")
         if kid < 0:      # "damage"
             return np.asarray(sim.cracks.tri_damage(), dtype=np.float64)
+        if _host_stress(kid, sim):
+            return _host_stress_scalars(sim, kid)
         backend.ensure_init()
         consts = self._sim_consts(sim)
         x0 = self._rest_positions(sim, consts)
@@ -474,6 +508,12 @@ class RendererImage(_Overlays):
             else:
                 scal.fill(0)
             info[:] = (0.0, 1.0, sim.model.tri_count)
+            return scal, info
+        if _host_stress(kid, sim):
+            vals = _host_stress_scalars(sim, kid)
+            scal.from_numpy(vals.astype(_np_dtype(scal.dtype)))
+            fin = vals[np.isfinite(vals)]
+            info[:] = (fin.min(), fin.max(), len(fin)) if len(fin) else (0.0, 0.0, 0)
             return scal, info
         _sim_scalar_kernel(sim.state.node_x, sim.state.node_v, x0, sim.model.tri_nodes, sim.model.tri_rest_inv, sim.model.tri_mat,
                            sim.model.mat_lame, int(kid), scal, info)
