@@ -188,8 +188,8 @@ class Material:
         :meth:`Scene.set_interaction <taichi_fdem.scene.Scene.set_interaction>` says otherwise.
     damping : float
         Viscous damping β in [0, 1], as a fraction of critical damping of the highest
-        element mode: k_s = 2 h β √(E ρ) (docs/theory/elements.md §3.4).  0 (default) for wave
-        and impact problems, 0.1–1 for quasi-static runs.
+        element mode: k_s = 2 h β √(E ρ) (docs/theory/elements.md §3.4; with ``bedding``, E the
+        larger of E1 and E2).  0 (default) for wave and impact problems, 0.1–1 for quasi-static runs.
     penalty : float or None
         Normal contact penalty p [Pa].  Default ``10 · young``: by the book's estimate
         (p. 79–80) the penetration is then about 1/10 of the element's own elastic

@@ -467,3 +467,20 @@ def test_scene_file_bedding_table(tmp_path):
         load(BEDDED_FILE.format(angle=0.0, nu21=0.9, extra=""))
     with pytest.raises(SceneFileError, match="did you mean 'spacing'"):
         load(BEDDED_FILE.format(angle=0.0, nu21=0.15, extra="spacin = 0.01"))
+
+
+def test_a_checkpoint_keeps_a_folded_layer(tmp_path):
+    """A scene whose bedding angle is a lambda saves and loads: the restored run continues with
+    the same bits."""
+    sim = _bedded_scene(thermal=True).build(strategy="serial")
+    th = np.zeros((sim.model.tri_count, 3))
+    th[:, 2] = 2e-4
+    sim.state.tri_thermal.from_numpy(th)
+    sim.step(50)
+    sim.save(tmp_path / "c")
+    back = fdem.Simulation.load(tmp_path / "c")
+    np.testing.assert_array_equal(back.model.tri_bedding.to_numpy(), sim.model.tri_bedding.to_numpy())
+    np.testing.assert_array_equal(back.state.tri_thermal.to_numpy(), th)
+    sim.step(50)
+    back.step(50)
+    np.testing.assert_array_equal(back.node_positions(), sim.node_positions())
