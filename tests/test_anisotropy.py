@@ -171,6 +171,11 @@ def test_a_folded_layer_has_the_callable_angle_at_each_centroid():
     np.testing.assert_allclose(sim.model.tri_bedding_np[body.triangles], fold(c[body.triangles, 0],
                                                                                 c[body.triangles, 1]), atol=1e-12)
     assert np.all(cs[other.triangles] == 0.0)           # isotropic triangles: (0, 0)
+    assert sim.solver.features().bedding and not sim.solver.features().heat
+    plain = fdem.Scene()
+    plain.add_body(fdem.mesh.rectangle(1.0, 0.5, h=0.25), iso)
+    feat = plain.build().solver.features()              # an isotropic scene compiles neither law
+    assert not feat.bedding and not feat.heat
     aniso = sim.model.mat_aniso.to_numpy()
     np.testing.assert_allclose(sorted(map(tuple, aniso)), sorted([mat.stiffness_2d("strain"),
                                                                    iso.stiffness_2d("strain")]), rtol=1e-12)
@@ -314,12 +319,14 @@ def test_energy_balance_of_a_bedded_body(thermal):
 
 def test_serial_and_parallel_agree_bit_for_bit_with_bedding():
     """One force block adds the items in the serial order: the same bits as the serial strategy;
-    two blocks agree to round-off."""
+    two blocks and the slot assembly agree to round-off."""
     scene = _bedded_scene(thermal=True)
     runs = {}
-    for strategy, blocks in (("serial", None), ("parallel", 1), ("parallel", 2)):
+    for strategy, blocks in (("serial", None), ("parallel", 1), ("parallel", 2), ("parallel", "slots")):
         sim = scene.build(strategy=strategy)
-        if blocks:
+        if blocks == "slots":
+            sim.solver.assembly = "slots"
+        elif blocks:
             sim.solver.assembly = "blocks"
             sim.solver.force_blocks = blocks
         th = np.zeros((sim.model.tri_count, 3))
@@ -330,7 +337,8 @@ def test_serial_and_parallel_agree_bit_for_bit_with_bedding():
     for a, b in zip(runs[("serial", None)], runs[("parallel", 1)]):
         np.testing.assert_array_equal(a, b)
     x = runs[("serial", None)][0]
-    assert np.abs(runs[("parallel", 2)][0] - x).max() <= 1e-12 * np.abs(x).max()
+    for key in (("parallel", 2), ("parallel", "slots")):
+        assert np.abs(runs[key][0] - x).max() <= 1e-12 * np.abs(x).max(), key
 
 
 @pytest.mark.parametrize("thermal", [False, True])

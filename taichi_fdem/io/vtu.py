@@ -33,7 +33,7 @@ cell data
     ``strain``: Green–Lagrange strain E = ½(FᵀF − I) (dimensionless) as 3 tensor components (E_xx, E_yy, E_xy) — not engineering shear; it equals the small strain
     sym(∇u) to first order; ``body_id`` and ``material_id`` (int32); ``damage`` in [0, 1]
     (``sim.cracks.tri_damage()``: zeros for bodies without joints); in scenes with a bedded material
-    (``fdem.Bedding``), ``bedding``: the current unit direction F a / |F a| of each triangle's
+    (``fdem.Bedding``), ``bedding``: the current unit direction F a / ‖F a‖ of each triangle's
     bedding a = (cos θ, sin θ), 3 components (z = 0), zero for triangles of isotropic materials.
     Triangles removed by an excavation (``sim.remove``) are not written.
 
@@ -106,7 +106,7 @@ def frame_fields(sim) -> dict:
              "body_id": np.asarray(sim.model.tri_body_np, dtype=np.int32),
              "material_id": np.asarray(sim.model.tri_mat_np, dtype=np.int32),
              "damage": damage}
-    if bedding:                                # the current direction of the bedding, F a / |F a|
+    if bedding:                                # the current direction of the bedding, F a / ‖F a‖
         d = (F @ cs[:, :, None])[:, :, 0]
         n = np.linalg.norm(d, axis=1)
         cells["bedding"] = _pad3(np.where(n[:, None] > 0, d / np.where(n > 0, n, 1.0)[:, None], 0.0))
