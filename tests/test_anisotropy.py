@@ -171,6 +171,11 @@ def test_a_folded_layer_has_the_callable_angle_at_each_centroid():
     np.testing.assert_allclose(sim.model.tri_bedding_np[body.triangles], fold(c[body.triangles, 0],
                                                                                 c[body.triangles, 1]), atol=1e-12)
     assert np.all(cs[other.triangles] == 0.0)           # isotropic triangles: (0, 0)
+    assert sim.solver.features().bedding and not sim.solver.features().heat
+    plain = fdem.Scene()
+    plain.add_body(fdem.mesh.rectangle(1.0, 0.5, h=0.25), iso)
+    feat = plain.build().solver.features()              # an isotropic scene compiles neither law
+    assert not feat.bedding and not feat.heat
     aniso = sim.model.mat_aniso.to_numpy()
     np.testing.assert_allclose(sorted(map(tuple, aniso)), sorted([mat.stiffness_2d("strain"),
                                                                    iso.stiffness_2d("strain")]), rtol=1e-12)
@@ -314,12 +319,14 @@ def test_energy_balance_of_a_bedded_body(thermal):
 
 def test_serial_and_parallel_agree_bit_for_bit_with_bedding():
     """One force block adds the items in the serial order: the same bits as the serial strategy;
-    two blocks agree to round-off."""
+    two blocks and the slot assembly agree to round-off."""
     scene = _bedded_scene(thermal=True)
     runs = {}
-    for strategy, blocks in (("serial", None), ("parallel", 1), ("parallel", 2)):
+    for strategy, blocks in (("serial", None), ("parallel", 1), ("parallel", 2), ("parallel", "slots")):
         sim = scene.build(strategy=strategy)
-        if blocks:
+        if blocks == "slots":
+            sim.solver.assembly = "slots"
+        elif blocks:
             sim.solver.assembly = "blocks"
             sim.solver.force_blocks = blocks
         th = np.zeros((sim.model.tri_count, 3))
@@ -330,7 +337,8 @@ def test_serial_and_parallel_agree_bit_for_bit_with_bedding():
     for a, b in zip(runs[("serial", None)], runs[("parallel", 1)]):
         np.testing.assert_array_equal(a, b)
     x = runs[("serial", None)][0]
-    assert np.abs(runs[("parallel", 2)][0] - x).max() <= 1e-12 * np.abs(x).max()
+    for key in (("parallel", 2), ("parallel", "slots")):
+        assert np.abs(runs[key][0] - x).max() <= 1e-12 * np.abs(x).max(), key
 
 
 @pytest.mark.parametrize("thermal", [False, True])
@@ -354,3 +362,133 @@ def test_the_forces_are_the_gradient_of_the_strain_energy(thermal):
         sim.state.node_x.from_numpy(x0 + sign * h * d)
         w.append(sim.energies()["strain"] / sim.thickness)
     assert (w[0] - w[1]) / (2 * h) == pytest.approx(-(f * d).sum(), rel=1e-7)
+
+
+# ---- outputs and scene files ---------------------------------------------------------------------
+def _loaded_bedded_sim(plane="strain"):
+    scene = fdem.Scene(plane=plane, gravity=(0.0, 0.0))
+    body = scene.add_body(fdem.mesh.rectangle(1.0, 0.5, h=0.25, origin=(0.0, 0.0)), _bedded(30.0))
+    scene.add_body(fdem.mesh.rectangle(0.5, 0.5, h=0.25, origin=(2.0, 0.0)),
+                   fdem.Material(density=1000.0, young=E1, poisson=NU1))
+    sim = scene.build(strategy="serial")
+    x = sim.state.node_x.to_numpy()
+    x[body.nodes] = x[body.nodes] @ np.array([[1.001, 0.0003], [0.0, 0.9995]]).T
+    sim.state.node_x.from_numpy(x)
+    return sim, body
+
+
+def test_render_modes_of_a_bedded_scene():
+    """color_by="bedding" colours each triangle by its bedding angle (isotropic ones grey); the
+    stress modes of a bedded scene follow the bedded law (from sim.stresses())."""
+    from taichi_fdem import render
+    from taichi_fdem.render.colors import ISOTROPIC_COLOR, bedding_colors
+    sim, body = _loaded_bedded_sim()
+    cols = bedding_colors(sim.model.tri_bedding)
+    assert np.allclose(cols[body.triangles], cols[body.triangles][0])          # one angle, one colour
+    assert np.allclose(cols[body.triangles.stop:], ISOTROPIC_COLOR)
+    red = bedding_colors(np.array([[1.0, 0.0], [-1.0, 0.0], [0.5, 0.5 * math.sqrt(3.0)]]))
+    assert np.allclose(red[0], red[1]) and red[0].argmax() == 0 and red[2].argmax() == 1     # 0° ≡ 180°; 60° green
+    r = render.RendererImage(48, 32, color_by="bedding")
+    img = r.render_sim(sim)
+    assert img.shape == (32, 48, 3)
+    T = sim.stresses()
+    sxx, syy, sxy = T[:, 0, 0], T[:, 1, 1], T[:, 0, 1]
+    pmax = 0.5 * (sxx + syy) + np.sqrt(0.25 * (sxx - syy) ** 2 + sxy ** 2)
+    np.testing.assert_allclose(r.tri_scalars(sim, "max_principal"), pmax, rtol=1e-12, atol=1e-9)
+    r.render_sim(sim, color_by="von_mises")
+    plain = fdem.Scene()
+    plain.add_body(fdem.mesh.rectangle(1.0, 0.5, h=0.25), fdem.Material())
+    with pytest.raises(ValueError, match="bedding"):
+        r.render_sim(plain.build(), color_by="bedding")
+
+
+def test_vtu_bedding_field_and_out_of_plane_stress():
+    from taichi_fdem.io.vtu import frame_fields
+    sim, body = _loaded_bedded_sim()
+    cells = frame_fields(sim)["cell_data"]
+    d = cells["bedding"]
+    assert d.shape == (sim.model.tri_count, 3)
+    np.testing.assert_allclose(np.linalg.norm(d[body.triangles], axis=1), 1.0, rtol=1e-12)
+    assert np.all(d[body.triangles.stop:] == 0.0)
+    ang = np.degrees(np.arctan2(d[body.triangles, 1], d[body.triangles, 0]))
+    np.testing.assert_allclose(ang, 30.0, atol=0.1)                             # turned a little by F
+    # σ_zz of a bedded triangle: ε_zz = 0 of the TI compliance with its in-plane stresses
+    T = sim.stresses()[body.triangles][0]
+    c, s = math.cos(math.radians(30.0)), math.sin(math.radians(30.0))
+    R = np.array([[c, s], [-s, c]])
+    Tb = R @ T @ R.T
+    S = elasticity.compliance_3d(E1, NU1, E2, NU21, G2)
+    szz = -(S[2, 0] * Tb[0, 0] + S[2, 1] * Tb[1, 1]) / S[2, 2]
+    sxx, syy, sxy = T[0, 0], T[1, 1], T[0, 1]
+    vm = math.sqrt(0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2) + 3 * sxy ** 2)
+    assert cells["von_mises"][body.triangles][0] == pytest.approx(vm, rel=1e-10)
+    iso = elasticity.out_of_plane_stress(np.array([[[2.0, 0.5], [0.5, -1.0]]]), np.zeros((1, 2)),
+                                         np.array([[0.3, 0.3]]))
+    assert iso[0] == pytest.approx(0.3 * (2.0 - 1.0))
+
+
+BEDDED_FILE = """
+[scene]
+gravity = [0.0, 0.0]
+
+[materials.shale]
+density = 2500.0
+young = 20e9
+poisson = 0.2
+
+[materials.shale.bedding]
+angle = {angle}
+young_normal = 8e9
+poisson_normal = {nu21}
+shear_modulus = 4e9
+{extra}
+
+[[bodies]]
+material = "shale"
+shape = "rectangle"
+width = 0.1
+height = 0.05
+h = 0.025
+
+[solver]
+duration = 1e-5
+"""
+
+
+def test_scene_file_bedding_table(tmp_path):
+    from taichi_fdem.io import scenefile
+    from taichi_fdem.io.toml_check import SceneFileError
+
+    def load(text):
+        path = tmp_path / "bedded.toml"
+        path.write_text(text, encoding="utf-8")
+        return scenefile.load(path)
+
+    spec = load(BEDDED_FILE.format(angle=30.0, nu21=0.15, extra="spacing = 0.01"))
+    sim, _ = spec.build()
+    mat = sim.model.materials[0]
+    assert mat.bedding == fdem.Bedding(30.0, 8e9, 0.15, 4e9, spacing=0.01)
+    np.testing.assert_allclose(sim.model.tri_bedding_np, 30.0)
+    with pytest.raises(SceneFileError, match="cannot be written in a scene file"):
+        load(BEDDED_FILE.format(angle='"fold"', nu21=0.15, extra=""))
+    with pytest.raises(SceneFileError, match="1 - nu1 - 2 nu21"):
+        load(BEDDED_FILE.format(angle=0.0, nu21=0.9, extra=""))
+    with pytest.raises(SceneFileError, match="did you mean 'spacing'"):
+        load(BEDDED_FILE.format(angle=0.0, nu21=0.15, extra="spacin = 0.01"))
+
+
+def test_a_checkpoint_keeps_a_folded_layer(tmp_path):
+    """A scene whose bedding angle is a lambda saves and loads: the restored run continues with
+    the same bits."""
+    sim = _bedded_scene(thermal=True).build(strategy="serial")
+    th = np.zeros((sim.model.tri_count, 3))
+    th[:, 2] = 2e-4
+    sim.state.tri_thermal.from_numpy(th)
+    sim.step(50)
+    sim.save(tmp_path / "c")
+    back = fdem.Simulation.load(tmp_path / "c")
+    np.testing.assert_array_equal(back.model.tri_bedding.to_numpy(), sim.model.tri_bedding.to_numpy())
+    np.testing.assert_array_equal(back.state.tri_thermal.to_numpy(), th)
+    sim.step(50)
+    back.step(50)
+    np.testing.assert_array_equal(back.node_positions(), sim.node_positions())
