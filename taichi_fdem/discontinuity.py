@@ -16,7 +16,7 @@ The factor multiplies the joint's tensile strength f_t and cohesion c (one facto
 weak joint is weak in tension and in shear); the fracture energies G_I, G_II stay fixed unless
 ``scale_energy=True`` (then they scale with the same factor).
 
-Strength of the bedding (docs/theory/anisotropy_strength.md, "Strength of the bedding"): a material with a
+Strength of the bedding (docs/theory/anisotropy.md, "Strength of the bedding"): a material with a
 ``Bedding`` gives each of its joints f_t, c, φ, G_I, G_II interpolated between the bedding's
 values (a joint parallel to the bedding) and the material's (a joint at θ ≥ θ_w to it) by the
 weight w(θ) = max(0, 1 − θ/θ_w) of the angle θ between the joint's rest direction and the bedding
@@ -117,7 +117,7 @@ def _apply_strength(prop: np.ndarray, rows: np.ndarray, strength, seed_key) -> N
 
 def bedding_weight(theta_deg, window_deg: float = BEDDING_WINDOW) -> np.ndarray:
     """The weight w(θ) = max(0, 1 − θ/θ_w) of the bedding's strength in a joint at θ [degrees, 0..90]
-    to the bedding (docs/theory/anisotropy_strength.md, "Strength of the bedding"): 1 parallel to it, 0 from
+    to the bedding (docs/theory/anisotropy.md, "Strength of the bedding"): 1 parallel to it, 0 from
     the window θ_w [degrees] on; monotone in between."""
     theta = np.abs(np.asarray(theta_deg, dtype=np.float64))
     return np.clip(1.0 - theta / float(window_deg), 0.0, 1.0)
@@ -211,7 +211,7 @@ def _spaced_bedding(body, where: str):
 
 
 def bedding_planes(body, where: str):
-    """The weak bedding planes of ``body`` (docs/guide/anisotropy_strength.md, "Weak bedding planes"):
+    """The weak bedding planes of ``body`` (docs/guide/anisotropy.md, "Weak bedding planes"):
     (lines, material) with the planes' :class:`~taichi_fdem.mesh.Segments` through the body
     (:func:`~taichi_fdem.mesh.bedding_lines` at the bedding's angle and ``spacing``, one through
     the origin) and a copy of the body's material whose joint parameters are the bedding's

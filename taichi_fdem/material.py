@@ -100,11 +100,11 @@ class Bedding:
     spacing : float or None
         Distance [m] between weak bedding planes, > 0 (None: no bedding planes): the mesh's edges
         along the planes (one through the origin) form the joint set "bedding" with exactly the
-        bedding's strength (docs/guide/anisotropy_strength.md, "Weak bedding planes").
+        bedding's strength (docs/guide/anisotropy.md, "Weak bedding planes").
     strength_window : float or None
         θ_w [degrees], in (0, 90]: a joint at θ to the bedding has the strength
         s_m + (s_b − s_m) max(0, 1 − θ/θ_w) between the Material's s_m and the bedding's s_b
-        (docs/theory/anisotropy_strength.md, "Strength of the bedding"); None: 15°
+        (docs/theory/anisotropy.md, "Strength of the bedding"); None: 15°
         (``discontinuity.BEDDING_WINDOW``); 90 interpolates linearly over all angles.
 
     The five elastic constants must be positive definite (Lempriere 1968): E1, E2, G2 > 0,

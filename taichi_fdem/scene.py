@@ -340,7 +340,7 @@ class Scene:
             with other materials the usual pair rule.
         strength : ``fdem.Weibull(m, seed=)`` or ``fdem.NormalStrength(cov, seed=)``: a per-joint
             random factor on the tensile strength and cohesion of this body's joints (§13.3).
-            A material's ``Bedding``: its joints' strength by their angle to it, weak planes (docs/guide/anisotropy_strength.md).
+            A material's ``Bedding``: its joints' strength by their angle to it, weak planes (docs/guide/anisotropy.md).
         """
         where = f"Scene.add_body({name or 'body ' + str(len(self.bodies))})"
         if not isinstance(mesh, TriMesh):

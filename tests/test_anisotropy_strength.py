@@ -1,4 +1,4 @@
-"""Strength of the bedding (docs/theory/anisotropy_strength.md): the joint strength law by the angle to the
+"""Strength of the bedding (docs/theory/anisotropy.md): the joint strength law by the angle to the
 bedding, weak bedding planes, lab tests at a bedding angle, Jaeger's plane of weakness, the
 anisotropic Brazilian disc and a fluid-driven fracture in bedded rock."""
 import math
@@ -168,7 +168,7 @@ JAEGER = dict(width=0.04, height=0.12, h=0.01, confinement=S3)
 
 def jaeger_rock():
     """Weak planes of large G_II: they slip along their whole length before they soften
-    (docs/theory/anisotropy_strength.md, "Jaeger's plane of weakness")."""
+    (docs/theory/anisotropy.md, "Jaeger's plane of weakness")."""
     return rock(angle=0.0, spacing=0.01, fracture_energy_shear=5000.0)
 
 
@@ -201,7 +201,7 @@ E1, E2, NU1, NU21, G2 = 20e9, 10e9, 0.2, 0.15, 5e9
 
 def claesson_bohloli(theta, plane="strain"):
     """σ_t(0, 0) / (2P/πDt) of Claesson & Bohloli (2002) at θ [°] between the load and the bedding
-    (docs/theory/anisotropy_strength.md), with the plane-strain reduced compliances."""
+    (docs/theory/anisotropy.md), with the plane-strain reduced compliances."""
     s11, s22, s12 = 1 / E1, 1 / E2, -NU21 / E2
     if plane == "strain":                      # the out-of-plane axis lies in the bedding
         s13, s23, s33 = -NU1 / E1, -NU21 / E2, 1 / E1

@@ -84,7 +84,7 @@ def compression(material, width: float, height: float, h: float, confinement: fl
 
     ``bedding_angle`` [°]: the angle between the bedding planes and σ1 (0 parallel, 90 across; needs a
     ``Bedding``, turned to a dip of 90° − it; Jaeger's β = 90° − it); a spaced bedding's default
-    specimen follows its planes (docs/guide/anisotropy_strength.md).
+    specimen follows its planes (docs/guide/anisotropy.md).
 
     Quasi-static: ``rate_transits`` < ``lab.results.MIN_TRANSITS`` raises ValueError; the
     specimen's kinetic/strain energy at half the peak is in the summary (``kinetic_ratio``) and

@@ -87,7 +87,7 @@ def mohr_coulomb_peak(sigma3: float, cohesion: float, phi_deg: float) -> float:
 def jaeger_peak(sigma3: float, cohesion: float, phi_deg: float, beta_deg: float) -> float:
     """σ1 at slip [Pa, compression positive] on a plane of weakness of cohesion c [Pa] and friction
     angle φ [degrees] whose normal makes β [degrees] with σ1, at confinement σ3 (Jaeger 1960;
-    docs/theory/anisotropy_strength.md, "Jaeger's plane of weakness"):
+    docs/theory/anisotropy.md, "Jaeger's plane of weakness"):
     σ1 − σ3 = 2 (c + σ3 tan φ) / ((1 − tan φ cot β) sin 2β); inf where the plane cannot slip
     (β ≤ φ or β ≥ 90°)."""
     b = math.radians(beta_deg % 180.0)

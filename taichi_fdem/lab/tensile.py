@@ -118,7 +118,7 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
     ``max_time`` × the loading time (``peaked`` False, with a RuntimeWarning: the peak is then
     the last load reached, not the strength).
 
-    ``bedding_angle`` [°]: bedding to loaded diameter, 0 parallel, 90 across (docs/guide/anisotropy_strength.md).
+    ``bedding_angle`` [°]: bedding to loaded diameter, 0 parallel, 90 across (docs/guide/anisotropy.md).
 
     Similarity: the result depends on the dimensionless groups f_t/E, l_ch/D = E G_I/(f_t² D),
     c/f_t, φ, G_II/G_I, ν, p_f/E, the platens' E and penalty over the disc's E, h/D, α, β and

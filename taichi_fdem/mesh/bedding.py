@@ -4,7 +4,7 @@
 :class:`~taichi_fdem.mesh.Segments` clipped to a region (a box, a polygon or the outline of a
 :class:`~taichi_fdem.mesh.TriMesh`), ready to be embedded in a mesh
 (``fdem.mesh.polygon(outline, h, lines=[bedding_lines(outline, angle, spacing)])``) so that the
-mesh edges follow them (docs/guide/anisotropy_strength.md, "Weak bedding planes").
+mesh edges follow them (docs/guide/anisotropy.md, "Weak bedding planes").
 """
 from __future__ import annotations
 
