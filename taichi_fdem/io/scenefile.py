@@ -61,7 +61,9 @@ like                   —       a NAME of ``[materials]`` whose values this one
 =====================  ======  ===============================================================
 
 A material may hold a ``bedding`` sub-table: transversely isotropic elasticity, ``young`` and
-``poisson`` then being E1 and ν1 in the bedding plane (docs/guide/anisotropy.md).
+``poisson`` then being E1 and ν1 in the bedding plane (docs/guide/anisotropy.md).  A polygon body
+of a material with a bedding ``spacing`` is meshed along its bedding planes
+(``fdem.mesh.bedding_lines`` of its vertices), which become the joint set "bedding".
 
 ``[materials.NAME.bedding]`` (``fdem.Bedding``; a callable angle(x, y) needs the Python API)
 

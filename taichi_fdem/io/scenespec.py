@@ -238,11 +238,22 @@ class SceneSpec:
                 return mesh.rectangle(b["width"], b["height"], b["h"], pattern=b["pattern"])
             if shape == "annulus":
                 return mesh.annulus(b["r_inner"], b["r_outer"], b["h"], layout=b["layout"])
-            lines = [mesh.Polyline(line) for line in (b.get("cracks") or []) + _fracture_lines(b)] or None
-            return mesh.polygon(b["vertices"], h=b["h"], lines=lines, engine=b.get("engine") or "builtin")
+            lines = [mesh.Polyline(line) for line in (b.get("cracks") or []) + _fracture_lines(b)]
+            lines += self._bedding_planes(b)
+            return mesh.polygon(b["vertices"], h=b["h"], lines=lines or None, engine=b.get("engine") or "builtin")
         except (ValueError, TypeError, OSError) as exc:
             raise self._body_error(i, "file" if shape == "file" else "shape",
                                    f"body {b['name']!r}: cannot make its {shape} mesh: {exc}") from None
+
+    def _bedding_planes(self, b) -> list:
+        """[the bedding planes through a polygon body] when its material has ``Bedding(spacing=...)``
+        (``fdem.mesh.bedding_lines`` of its vertices: the mesh follows them), else []."""
+        from .. import mesh
+        bed = getattr(self.materials.get(b.get("material")), "bedding", None) if b.get("material") else None
+        if bed is None or bed.spacing is None:
+            return []
+        planes = mesh.bedding_lines(b["vertices"], bed.angle, bed.spacing)
+        return [] if planes is None else [planes]
 
     def _error(self, path: tuple, message: str) -> SceneFileError:
         if self._checker is None:
