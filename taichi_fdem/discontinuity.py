@@ -221,6 +221,9 @@ def bedding_planes(body, where: str):
     if found is None:
         return None
     mt, bed = found
+    if not mt.can_fracture:
+        raise ValueError(f"{where}: Bedding(spacing=...) makes the bedding planes cohesive joints: the material needs "
+                         "tensile_strength [Pa] and fracture_energy [J/m²]")
     from .mesh.bedding import bedding_lines
     lines = bedding_lines(body.source_mesh, float(bed.angle), float(bed.spacing))
     if lines is None:

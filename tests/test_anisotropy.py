@@ -464,10 +464,10 @@ def test_scene_file_bedding_table(tmp_path):
         path.write_text(text, encoding="utf-8")
         return scenefile.load(path)
 
-    spec = load(BEDDED_FILE.format(angle=30.0, nu21=0.15, extra="spacing = 0.01"))
+    spec = load(BEDDED_FILE.format(angle=30.0, nu21=0.15, extra="tensile_strength = 2e6"))
     sim, _ = spec.build()
     mat = sim.model.materials[0]
-    assert mat.bedding == fdem.Bedding(30.0, 8e9, 0.15, 4e9, spacing=0.01)
+    assert mat.bedding == fdem.Bedding(30.0, 8e9, 0.15, 4e9, tensile_strength=2e6)
     np.testing.assert_allclose(sim.model.tri_bedding_np, 30.0)
     with pytest.raises(SceneFileError, match="cannot be written in a scene file"):
         load(BEDDED_FILE.format(angle='"fold"', nu21=0.15, extra=""))

@@ -136,6 +136,9 @@ def test_spaced_bedding_makes_a_joint_set_with_exactly_the_bedding_strength():
     # a mesh that does not follow the planes is refused
     with pytest.raises(ValueError, match="do not follow the bedding planes"):
         fdem.Scene().add_body(fdem.mesh.polygon(verts, 0.01), m, fracture=True)
+    elastic = fdem.Material(density=2600.0, young=E, poisson=NU, bedding=fdem.Bedding(30.0, spacing=0.02, **ISO))
+    with pytest.raises(ValueError, match="the material needs tensile_strength"):
+        fdem.Scene().add_body(mesh, elastic)
     with pytest.raises(ValueError, match="constant angle"):
         fdem.Scene().add_body(mesh, rock(angle=lambda x, y: 0 * x, spacing=0.02), fracture=True)
 
