@@ -24,7 +24,7 @@ import warnings
 import numpy as np
 import taichi as ti
 
-from . import fluid as fluid_net, timestep
+from . import fluid as fluid_net, heat, timestep
 from .arrays import Counters, allocate, check_host, counter, host_write, set_counter
 from ..engine.arrays import MODEL, SCRATCH, STATE, declared
 from .topology import bonds
@@ -131,6 +131,8 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     load_nodes, load_vals, md.dashpot_rate = _load_table(scene, bodies, X, mass, md.dt, curves, free, vbc_raw, vcurve)
     md.load_count = len(load_nodes)
     fluid_values = fluid_net.install_fluid(md, scene, net, curves)   # (its curves join the table first)
+    heat_values = heat.build_heat(md, scene, X, tris, materials, tri_mat, area0, altitude,
+                                  (joint_nodes, joint_tris, joint_len), curves)
     md.loads = md.load_count > 0
     md.curves = curves.list
     md.curve_slices = curves.slices
@@ -160,7 +162,7 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
         "mat_lame": [(m.shear_modulus, m.lambda_y(scene.plane)) for m in materials],
         "mat_pair": pair, "contact_tri": ctri if md.contact else np.zeros(1), "body_flags": body_flags,
         "joint_nodes": joint_nodes, "joint_tris": joint_tris4, "joint_prop": np.concatenate(joint_cols, axis=1),
-        **fluid_values}
+        **fluid_values, **heat_values}
     md.sizes = _model_sizes(md, values, len(materials), len(groups))
     allocate(md, MODEL, md.sizes, values)
     check_host(md, md.sizes)
@@ -344,7 +346,8 @@ def _model_sizes(md, values: dict, materials: int, groups: int) -> dict:
             "W": max(md.fluid_node_count, 1), "NC": len(md.fluid_copies), "I": len(values["fluid_index"]),
             "R": len(md.fluid_real0), "bc": md.has_bc, "damping": md.damping, "prestress": md.prestress,
             "joint_prestress": md.joint_prestress, "contact": md.contact, "friction": md.friction,
-            "fracture": md.fracture, "fluid": md.fluid}
+            "fracture": md.fracture, "fluid": md.fluid, "heat": md.heat, "HA": max(md.heat_adj_count, 1),
+            "HR": max(md.heat_row_count, 1)}
 
 
 def _tri_viscosity(materials, tri_mat, area0, beta_t, rho) -> np.ndarray:
