@@ -32,6 +32,8 @@ COLOR_MODES = {
     "damage": (-1, "damage"),       # sim.cracks.tri_damage() (joint model), range [0, 1]
     # the network edges coloured by the fluid pressure over a grey solid (scenes with a fluid)
     "fluid_pressure": (-2, "fluid  pressure [Pa]"),
+    # the mean of the nodes' temperatures of each triangle (scenes with heat: sim.temperatures())
+    "temperature": (-3, "temperature"),
 }
 #: fill colour of the solid under the fluid network in the "fluid_pressure" mode (RGB in [0, 1])
 SOLID_UNDER_FLUID = (0.86, 0.86, 0.86)

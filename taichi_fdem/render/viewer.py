@@ -247,9 +247,10 @@ class Viewer:
 
     def cycle_color(self) -> str:
         """Switch the renderer to the next colour mode (order of ``COLOR_MODES``; ``"fluid_pressure"``
-        only in a scene with a fluid); returns it."""
+        only in a scene with a fluid, ``"temperature"`` only in a scene with heat); returns it."""
         fluid = bool(getattr(getattr(self.sim, "model", None), "fluid", False))
-        modes = [m for m in COLOR_MODES if fluid or m != "fluid_pressure"]
+        heat = bool(getattr(getattr(self.sim, "model", None), "heat", False))
+        modes = [m for m in COLOR_MODES if (fluid or m != "fluid_pressure") and (heat or m != "temperature")]
         i = modes.index(self.renderer.color_by) if self.renderer.color_by in modes else -1
         self.renderer.color_by = modes[(i + 1) % len(modes)]
         return self.renderer.color_by
