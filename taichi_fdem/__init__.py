@@ -41,13 +41,13 @@ from . import mesh
 from .backend import init
 from .discontinuity import NormalStrength, Weibull
 from .sim.guards import SimulationError
-from .material import Fluid, Material
+from .material import Bedding, Fluid, Material
 from .scene import Body, Curve, Scene
 from .sim.simulation import Simulation
 from .sim.recorders import Callback, Checks, CrackEvents, History
 
 __version__ = "0.1.0"
-__all__ = ["init", "mesh", "render", "export", "checkpoint", "scenefile", "sweep", "lab", "Material", "Fluid", "Scene", "Body", "Curve",
+__all__ = ["init", "mesh", "render", "export", "checkpoint", "scenefile", "sweep", "lab", "Material", "Bedding", "Fluid", "Scene", "Body", "Curve",
            "Weibull", "NormalStrength", "Simulation", "SimulationError", "Video", "History", "CrackEvents", "Callback", "Checks",
            "calibrate", "__version__"]
 

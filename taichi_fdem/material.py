@@ -1,9 +1,14 @@
-"""Materials: bulk elastic properties, viscous damping and contact properties (SI units)."""
+"""Materials: bulk elastic properties, bedding (transverse isotropy), viscous damping, thermal and
+contact properties (SI units)."""
 from __future__ import annotations
 
 import math
 import warnings
 from dataclasses import dataclass, replace
+
+import numpy as np
+
+from . import elasticity
 
 
 def check_finite(name: str, value, where: str) -> float:
@@ -53,6 +58,117 @@ REAL_RANGE = {
 COHESION_WARN_RATIO = 1.0
 
 
+def _check_positive(name: str, value, where: str, unit: str) -> float:
+    """``float(value)`` after :func:`check_finite`; ValueError unless > 0."""
+    v = check_finite(name, value, where)
+    if v <= 0:
+        raise ValueError(f"{where}: {name} must be > 0 {unit}, got {value!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class Bedding:
+    """The bedding of a transversely isotropic (TI) material (docs/theory/anisotropy.md,
+    docs/guide/anisotropy.md): the plane of isotropy is the bedding plane, which contains the
+    out-of-plane axis.  ``Material.young`` and ``Material.poisson`` are E1 and ν1 in the bedding
+    plane; the bedding adds the constants across it.
+
+    Parameters
+    ----------
+    angle : float or callable
+        Dip of the bedding from the x axis [degrees], counter-clockwise; or a callable
+        ``f(x, y) -> degrees`` (NumPy-vectorised over arrays of the rest coordinates [m]),
+        evaluated at each triangle's centroid at build (a folded layer).
+    young_normal : float
+        E2 [Pa], > 0: Young's modulus across the bedding.
+    poisson_normal : float
+        ν21 (Amadei's convention): the strain in the bedding plane per strain across it, under a
+        stress across it, so the compliance term is S₁₂ = −ν21/E2; the other ratio is
+        ν12 = ν21·E1/E2 (reciprocity ν12/E1 = ν21/E2).
+    shear_modulus : float
+        G2 [Pa], > 0: the shear modulus of planes normal to the bedding.
+
+    Other Parameters
+    ----------------
+    tensile_strength, cohesion, fracture_energy, fracture_energy_shear : float or None
+        Strength of joints parallel to the bedding: f_t [Pa], c [Pa], G_I [J/m²], G_II [J/m²],
+        each > 0 (None: the Material's value).
+    friction_angle : float or None
+        φ_i of joints parallel to the bedding [degrees], in [0, 90) (None: the Material's value).
+    expansion_normal : float or None
+        Linear thermal expansion across the bedding α2 [1/K] (None: ``Material.expansion``).
+    spacing : float or None
+        Distance [m] between weak bedding planes, > 0 (None: no bedding planes).
+
+    The five elastic constants must be positive definite (Lempriere 1968): E1, E2, G2 > 0,
+    −1 < ν1 < 1 and 1 − ν1 − 2 ν21² E1/E2 > 0; :class:`Material` refuses a set that violates
+    one, naming the bound.
+    """
+
+    angle: object
+    young_normal: float
+    poisson_normal: float
+    shear_modulus: float
+    tensile_strength: float | None = None
+    cohesion: float | None = None
+    friction_angle: float | None = None
+    fracture_energy: float | None = None
+    fracture_energy_shear: float | None = None
+    expansion_normal: float | None = None
+    spacing: float | None = None
+
+    def __post_init__(self):
+        where = "Bedding"
+        if not callable(self.angle):
+            object.__setattr__(self, "angle", check_finite("angle", self.angle, where))
+        object.__setattr__(self, "young_normal", _check_positive("young_normal", self.young_normal, where, "Pa"))
+        object.__setattr__(self, "poisson_normal", check_finite("poisson_normal", self.poisson_normal, where))
+        object.__setattr__(self, "shear_modulus", _check_positive("shear_modulus", self.shear_modulus, where, "Pa"))
+        for key, unit in (("tensile_strength", "Pa"), ("cohesion", "Pa"), ("fracture_energy", "J/m²"),
+                          ("fracture_energy_shear", "J/m²"), ("spacing", "m")):
+            v = getattr(self, key)
+            if v is not None:
+                object.__setattr__(self, key, _check_positive(key, v, where, unit))
+        if self.friction_angle is not None:
+            object.__setattr__(self, "friction_angle", check_finite("friction_angle", self.friction_angle, where))
+            if not 0.0 <= self.friction_angle < 90.0:
+                raise ValueError(f"{where}: friction_angle must be in [0, 90) degrees, got {self.friction_angle}")
+        if self.expansion_normal is not None:
+            object.__setattr__(self, "expansion_normal",
+                               check_finite("expansion_normal", self.expansion_normal, where))
+        for key in ("young_normal", "shear_modulus", "tensile_strength", "cohesion", "fracture_energy",
+                    "fracture_energy_shear"):
+            lo, hi, unit = BOUNDS["young" if key in ("young_normal", "shear_modulus") else key]
+            v = getattr(self, key)
+            if v is not None and not lo <= v <= hi:
+                raise ValueError(f"{where}: {key}={v:g} {unit} is outside the accepted range [{lo:g}, {hi:g}] "
+                                 f"{unit} (SI units; a typo?)")
+
+    def angles(self, x, y) -> np.ndarray:
+        """The bedding angle [degrees] at the points (x, y) [m]: the constant ``angle``, or the
+        callable's values (ValueError when it does not return one finite number per point)."""
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        if not callable(self.angle):
+            return np.full(x.shape, self.angle)
+        try:
+            a = np.asarray(self.angle(x.copy(), y.copy()), dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"Bedding: angle(x, y) must return the angles [degrees] as numbers: {exc}") from exc
+        if a.shape == ():
+            a = np.full(x.shape, float(a))
+        if a.shape != x.shape:
+            raise ValueError(f"Bedding: angle(x, y) must return one angle per point (shape {x.shape}), got shape "
+                             f"{a.shape}; write it with NumPy operations on the arrays x and y")
+        if not np.all(np.isfinite(a)):
+            raise ValueError("Bedding: angle(x, y) returned a non-finite angle")
+        return a
+
+    def with_(self, **changes) -> "Bedding":
+        """A copy with some parameters changed (validated again)."""
+        return replace(self, **changes)
+
+
 @dataclass(frozen=True)
 class Material:
     """A bulk material of the deformable triangles and its contact properties (SI units).
@@ -62,9 +178,10 @@ class Material:
     density : float
         Mass density ρ [kg/m³], > 0.
     young : float
-        Young's modulus E [Pa], > 0.
+        Young's modulus E [Pa], > 0 (with ``bedding``: E1 in the bedding plane).
     poisson : float
-        Poisson's ratio ν, −1 < ν < 0.5.
+        Poisson's ratio ν, −1 < ν < 0.5 (with ``bedding``: ν1 in the bedding plane, −1 < ν1 < 1
+        and the bounds of :class:`Bedding`).
     friction : float
         Coulomb friction coefficient μ_f ≥ 0 of contacts (docs/theory/contact.md §5.1).  The
         coefficient of a couple of two materials is the smaller of the two unless
@@ -107,6 +224,16 @@ class Material:
         p_f [Pa] (default ``10 · young``).  Intact joints add compliance L/p_f next to the
         element's h/E, so the effective modulus is about E/(1 + E/p_f): ~9 % softer at the
         default; a warning is given below 10·E.
+    bedding : Bedding or None
+        Transversely isotropic elasticity with the plane of isotropy along the bedding
+        (docs/theory/anisotropy.md); None (default): isotropic.
+    conductivity : float or None
+        Thermal conductivity k [W/(m·K)], > 0 (heat conduction; None: none).
+    heat_capacity : float or None
+        Specific heat capacity c [J/(kg·K)], > 0 (heat conduction; None: none).
+    expansion : float
+        Linear thermal expansion coefficient α [1/K] (with ``bedding``: α1 in the bedding plane;
+        ``Bedding.expansion_normal`` gives α2 across it).  Default 0.
     """
 
     density: float = 2700.0
@@ -124,6 +251,10 @@ class Material:
     fracture_energy: float | None = None
     fracture_energy_shear: float | None = None
     joint_penalty: float | None = None
+    bedding: Bedding | None = None
+    conductivity: float | None = None
+    heat_capacity: float | None = None
+    expansion: float = 0.0
 
     def __post_init__(self):
         where = f"Material{'(' + repr(self.name) + ')' if self.name else ''}"
@@ -143,7 +274,7 @@ class Material:
             raise ValueError(f"{where}: density must be > 0 kg/m³, got {self.density}")
         if self.young <= 0:
             raise ValueError(f"{where}: young (Young's modulus) must be > 0 Pa, got {self.young}")
-        if not -1.0 < self.poisson < 0.5:
+        if self.bedding is None and not -1.0 < self.poisson < 0.5:
             raise ValueError(f"{where}: poisson must satisfy -1 < ν < 0.5, got {self.poisson}")
         if self.friction < 0:
             raise ValueError(f"{where}: friction coefficient must be >= 0, got {self.friction}")
@@ -172,8 +303,53 @@ class Material:
                               f" is <= tensile_strength f_t = {self.tensile_strength:g} Pa: compressed joints fail "
                               "in shear first (a Brazilian disc fails at ~0.56 f_t); rock has c ≈ 2–4 f_t "
                               "(UCS/BTS ≈ 10–20): pass cohesion= explicitly", RuntimeWarning, stacklevel=3)
+        self._check_thermal_and_bedding(where)
+
+    def _check_thermal_and_bedding(self, where: str) -> None:
+        """The heat fields (conductivity, heat_capacity > 0 when given; expansion finite) and the
+        bedding (a :class:`Bedding`, its five constants positive definite with young and poisson)."""
+        for key, unit in (("conductivity", "W/(m·K)"), ("heat_capacity", "J/(kg·K)")):
+            v = getattr(self, key)
+            if v is not None:
+                object.__setattr__(self, key, _check_positive(key, v, where, unit))
+        object.__setattr__(self, "expansion", check_finite("expansion", self.expansion, where))
+        if self.bedding is None:
+            return
+        if not isinstance(self.bedding, Bedding):
+            raise TypeError(f"{where}: bedding must be a taichi_fdem.Bedding or None, got {self.bedding!r}")
+        E1 = check_finite("young", self.young, where)
+        nu1 = check_finite("poisson", self.poisson, where)
+        b = self.bedding
+        elasticity.check_ti(E1, nu1, b.young_normal, b.poisson_normal, b.shear_modulus, where)
 
     # --- derived quantities -------------------------------------------------------------------
+    @property
+    def anisotropic(self) -> bool:
+        """True with a :class:`Bedding` (transversely isotropic elasticity)."""
+        return self.bedding is not None
+
+    @property
+    def ti_constants(self) -> tuple:
+        """(E1 [Pa], ν1, E2 [Pa], ν21, G2 [Pa]) (docs/theory/anisotropy.md); an isotropic material:
+        (E, ν, E, ν, E/(2(1 + ν)))."""
+        if self.bedding is None:
+            return elasticity.isotropic_constants(self.young, self.poisson)
+        b = self.bedding
+        return self.young, self.poisson, b.young_normal, b.poisson_normal, b.shear_modulus
+
+    def stiffness_2d(self, plane: str) -> tuple:
+        """(C11, C22, C12, C66) [Pa] of the plane problem in the bedding frame
+        (:func:`taichi_fdem.elasticity.stiffness_2d`; isotropic: the isotropic stiffness)."""
+        return elasticity.stiffness_2d(*self.ti_constants, plane)
+
+    def thermal_expansion_2d(self, plane: str) -> tuple:
+        """(α1*, α2*) [1/K], the effective expansion of the plane problem in the bedding frame
+        (:func:`taichi_fdem.elasticity.thermal_strain_2d`; isotropic plane strain: α(1 + ν))."""
+        a2 = self.expansion
+        if self.bedding is not None and self.bedding.expansion_normal is not None:
+            a2 = self.bedding.expansion_normal
+        return elasticity.thermal_strain_2d(*self.ti_constants, self.expansion, a2, plane)
+
     @property
     def contact_penalty(self) -> float:
         """Normal contact penalty p [Pa] (``penalty`` or the default 10·E)."""
@@ -186,7 +362,7 @@ class Material:
 
     @property
     def shear_modulus(self) -> float:
-        """μ = E / (2(1+ν)) [Pa]."""
+        """μ = E / (2(1+ν)) [Pa] (with ``bedding``: the shear modulus of the bedding plane)."""
         return self.young / (2.0 * (1.0 + self.poisson))
 
     def lambda_y(self, plane: str) -> float:
@@ -194,7 +370,10 @@ class Material:
 
         Because J − 1/J ≈ 2 tr ε, λ_Y is *half* the usual Lamé λ of the plane problem, so that
         small strains reproduce Hooke's law with this E and ν (docs/theory/elements.md §3.2, the factor-2 caveat).
+        With ``bedding`` (whose triangles use the stiffness of :meth:`stiffness_2d`), half of its C12.
         """
+        if self.bedding is not None:
+            return 0.5 * self.stiffness_2d(plane)[2]
         E, nu = self.young, self.poisson
         if plane == "stress":
             return E * nu / (2.0 * (1.0 - nu * nu))
@@ -203,7 +382,11 @@ class Material:
         raise ValueError(f"plane must be 'strain' or 'stress', got {plane!r}")
 
     def p_wave_speed(self, plane: str) -> float:
-        """Dilatational wave speed c_p [m/s] of the plane problem (docs/theory/elements.md §6.2)."""
+        """Dilatational wave speed c_p [m/s] of the plane problem (docs/theory/elements.md §6.2); with
+        ``bedding``, the speed √(M/ρ) of the stiffest direction (M:
+        :func:`taichi_fdem.elasticity.p_wave_modulus`, docs/theory/anisotropy.md)."""
+        if self.bedding is not None:
+            return math.sqrt(elasticity.p_wave_modulus(*self.stiffness_2d(plane)) / self.density)
         E, nu, rho = self.young, self.poisson, self.density
         if plane == "stress":
             return math.sqrt(E / (rho * (1.0 - nu * nu)))

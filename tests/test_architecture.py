@@ -11,7 +11,7 @@ PKG = pathlib.Path(__file__).resolve().parent.parent / "taichi_fdem"
 
 # lower number = lower layer; a module may import its own layer or any lower one
 LAYERS = [
-    ("backend", "material", "mesh", "discontinuity"),
+    ("backend", "material", "elasticity", "mesh", "discontinuity"),
     ("engine",),
     ("timestep", "arrays", "views", "fluid", "topology", "model", "state", "motion"),
     ("guards", "energies", "cracks", "ae", "results", "recorders", "outputs", "settings", "profiling", "excavation", "team",

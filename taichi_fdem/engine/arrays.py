@@ -102,7 +102,8 @@ SIZES = {
     "friction": "switch: some contact pair has friction",
     "fracture": "switch: the scene has joints",
     "fluid": "switch: the scene has a fluid in its fracture network",
-    "heat": "switch: the scene conducts heat (scene.set_temperature or scene.heat)",
+    "bedding": "switch: some material has a bedding (transversely isotropic elasticity)",
+    "heat": "switch: the scene conducts heat (scene.set_temperature or scene.heat): temperatures and thermal strains",
     "blocks": "switch: the parallel strategy with force blocks (the CPU default)",
     "slots": "switch: the parallel strategy with force slots",
 }
@@ -163,12 +164,21 @@ ARRAYS: tuple = (
     _a("tri_fans", "tris", MODEL, "i32", ["F"], "-",
        "the fans of the original nodes: header, fan starts, missing-link masks, corner pairs, joint links "
        "(sim.topology.fan_links)"),
+    _a("tri_bedding", "tris", MODEL, "real vec2", ["E if bedding else 1"], "-",
+       "cos and sin of the bedding angle of each triangle; (0, 0) for a triangle of an isotropic material "
+       "(docs/theory/anisotropy.md)"),
+    _a("tri_thermal", "tris", STATE, "real vec3", ["E if heat else 1"], "-",
+       "effective 2D thermal strain ε* = (xx, yy, xy) of each triangle in the global frame; its thermal stretch "
+       "is F_th = I + ε* (docs/theory/anisotropy.md)"),
     _a("tri_nb_on", "tris", STATE, "i32", ["max(NB + V, 1)"], "-",
        "per neighbour pair: 0 bonded, else 1 | NB_HELD while it holds friction slip; then per fan: the mask of its "
        "missing and damaged links"),
     # ---- materials --------------------------------------------------------------------------
     _a("mat_lame", "mats", MODEL, "real vec2", ["M"], "Pa",
        "Lamé shear modulus μ and λ (plane strain or stress) of each material"),
+    _a("mat_aniso", "mats", MODEL, "real vec4", ["M if bedding else 1"], "Pa",
+       "C11, C22, C12, C66 of the plane problem in the bedding frame (engineering shear) of each material; "
+       "isotropic materials of a bedded scene: their isotropic stiffness (docs/theory/anisotropy.md)"),
     _a("mat_pair", "mats", MODEL, "real vec4", ["M", "M"], "Pa, Pa/m, -, Pa·s/m",
        "contact penalty p, tangential penalty k_t, friction coefficient μ, normal damping c_n of each pair"),
     # ---- contact couples --------------------------------------------------------------------
@@ -278,6 +288,8 @@ ARRAYS: tuple = (
     _a("tri_area0_np", "", HOST, "f64", ["E"], "m²", "rest area of each triangle"),
     _a("tri_fracturing", "", HOST, "bool", ["E"], "-", "whether a triangle is bonded in a fracturing body"),
     _a("tri_intact0_np", "", HOST, "i32", ["E"], "-", "initial tri_intact bits"),
+    _a("tri_bedding_np", "", HOST, "f64", ["E if bedding else 0"], "°",
+       "bedding angle of each triangle (its material's Bedding.angle at the rest centroid)"),
     _a("tri_prestress_np", "", HOST, "f64", ["E if prestress else 0", "3"], "Pa",
        "initial stress (xx, yy, xy) of each triangle at its centroid"),
     _a("joint_tris_np", "", HOST, "i32", ["J if fracture else 0", "2"], "-", "the two triangles of each joint"),

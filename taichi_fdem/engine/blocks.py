@@ -243,7 +243,7 @@ def block_items(b, nblk, T, J, C, dacc, p, nodes: ti.template(), tris: ti.templa
     N = nodes.node_x.shape[0]
     base = (b - 1) * N
     for e in range(b * T // nblk, (b + 1) * T // nblk):
-        f0, f1, f2 = tri_forces(e, nodes, tris, mats, step)
+        f0, f1, f2 = tri_forces(e, nodes, tris, mats, step, feat)
         n = tris.tri_nodes[e]
         add_block_force(n[0], base, f0, nodes, asm, target)
         add_block_force(n[1], base, f1, nodes, asm, target)

@@ -82,8 +82,9 @@ def pass_potential(c0, c1, c2, t0, t1, t2):
 @ti.kernel
 def energy_terms(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, contact: ContactGroup,
                  step: StepGroup, couple_count: ti.i32, out: ti.types.ndarray(), friction: ti.template(),
-                 fracture: ti.template()):
+                 fracture: ti.template(), feat: ti.template()):
     """out = [kinetic, strain, contact (penalty + friction spring), gravity, damping dissipated], J/m.
+    ``feat``: the step kernels' :class:`~taichi_fdem.engine.step.Features` (the strain energy's law).
 
     Neighbour pairs bonded by intact joints (``tri_nb_on`` 0: those whose forces contact skips,
     :func:`taichi_fdem.engine.contact.couple_forces`), and pairs with a removed triangle, carry
@@ -103,7 +104,7 @@ def energy_terms(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, contact:
     damp_on = step.step_int[SWITCHES] & SWITCH_DAMPING
     ti.loop_config(serialize=True)
     for e in range(tris.tri_nodes.shape[0]):
-        out[1] += tri_strain_energy(e, nodes, tris, mats, step)
+        out[1] += tri_strain_energy(e, nodes, tris, mats, step, feat)
         if damp_on != 0:
             out[4] += tris.tri_diss[e]
     ti.loop_config(serialize=True)

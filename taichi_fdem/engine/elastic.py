@@ -59,7 +59,116 @@ def prestress_matrix(s):
 
 
 @ti.func
-def tri_forces(e, nodes: ti.template(), tris: ti.template(), mats: ti.template(), step: ti.template()):
+def thermal_stretch(t):
+    """F_th = I + ε* of a thermal strain stored as (xx, yy, xy) (docs/theory/anisotropy.md)."""
+    return ti.Matrix([[1.0 + t[0], t[2]], [t[2], 1.0 + t[1]]], dt=float)
+
+
+@ti.func
+def bedding_rotation(c, s):
+    """R, rows the bedding direction (c, s) and its normal (−s, c): a tensor A of the global frame
+    is R A Rᵀ in the bedding frame."""
+    return ti.Matrix([[c, s], [-s, c]], dt=float)
+
+
+@ti.func
+def pk2_aniso(F, c, s, C):
+    """(S, E_b, S_b): the second Piola–Kirchhoff stress S [Pa] of the St Venant–Kirchhoff law of a
+    transversely isotropic triangle (docs/theory/anisotropy.md), with the Green strain E_b and
+    the stress S_b in the bedding frame (c, s: cosine and sine of the bedding angle;
+    C = (C11, C22, C12, C66) in the bedding frame, engineering shear)."""
+    R = bedding_rotation(c, s)
+    Eb = R @ green_strain(F) @ R.transpose()
+    s11 = C[0] * Eb[0, 0] + C[2] * Eb[1, 1]
+    s22 = C[2] * Eb[0, 0] + C[1] * Eb[1, 1]
+    s12 = C[3] * (2.0 * Eb[0, 1])
+    Sb = ti.Matrix([[s11, s12], [s12, s22]], dt=float)
+    return R.transpose() @ Sb @ R, Eb, Sb
+
+
+@ti.func
+def cauchy_aniso(F, J, c, s, C):
+    """Cauchy stress σ = F S Fᵀ / J [Pa] of :func:`pk2_aniso`: objective, and the TI linear law at
+    small strain."""
+    S, Eb, Sb = pk2_aniso(F, c, s, C)
+    return F @ S @ F.transpose() / J
+
+
+@ti.func
+def energy_aniso(F, c, s, C):
+    """W = ½ E_b : C : E_b per unit (intermediate) area [Pa] of :func:`pk2_aniso`."""
+    S, Eb, Sb = pk2_aniso(F, c, s, C)
+    return 0.5 * (Sb[0, 0] * Eb[0, 0] + Sb[1, 1] * Eb[1, 1] + 2.0 * Sb[0, 1] * Eb[0, 1])
+
+
+@ti.func
+def is_bedded(b):
+    """A triangle of a bedded material: its tri_bedding (cos, sin) is a unit vector; the triangles
+    of isotropic materials hold (0, 0)."""
+    return b[0] != 0.0 or b[1] != 0.0
+
+
+@ti.func
+def elastic_part(e, F, tris: ti.template(), feat: ti.template()):
+    """(F_e, det F_th): the elastic part F_e = F F_th⁻¹ of the deformation and the thermal area
+    ratio with ``feat.heat`` (F_th = I + ε*, ε* = tris.tri_thermal[e]), else (F, 1)."""
+    Fe = F
+    ratio = 1.0
+    if ti.static(feat.heat):
+        Fth = thermal_stretch(tris.tri_thermal[e])
+        Fe = F @ Fth.inverse()
+        ratio = Fth.determinant()
+    return Fe, ratio
+
+
+@ti.func
+def elastic_stress(e, F, J, tris: ti.template(), mats: ti.template(), feat: ti.template()):
+    """The elastic Cauchy stress of triangle e [Pa]: :func:`cauchy_elastic` of its material, or
+    :func:`cauchy_aniso` for a bedded triangle (``feat.bedding``), of the elastic part F_e of F
+    (``feat.heat``: F = F_e F_th, J_e = det F_e)."""
+    m = tris.tri_mat[e]
+    Fe, ratio = elastic_part(e, F, tris, feat)
+    Je = J
+    if ti.static(feat.heat):
+        Je = Fe.determinant()
+    T = ti.Matrix.zero(float, 2, 2)
+    if ti.static(feat.bedding):
+        b = tris.tri_bedding[e]
+        if is_bedded(b):
+            T = cauchy_aniso(Fe, Je, b[0], b[1], mats.mat_aniso[m])
+        else:
+            T = cauchy_elastic(Fe, Je, mats.mat_lame[m][0], mats.mat_lame[m][1])
+    else:
+        T = cauchy_elastic(Fe, Je, mats.mat_lame[m][0], mats.mat_lame[m][1])
+    return T
+
+
+@ti.func
+def elastic_energy(e, F, J, tris: ti.template(), mats: ti.template(), feat: ti.template()):
+    """W per unit initial area [Pa] of triangle e, the potential of :func:`elastic_stress`:
+    det F_th · W(F_e)."""
+    m = tris.tri_mat[e]
+    Fe, ratio = elastic_part(e, F, tris, feat)
+    Je = J
+    if ti.static(feat.heat):
+        Je = Fe.determinant()
+    W = 0.0
+    if ti.static(feat.bedding):
+        b = tris.tri_bedding[e]
+        if is_bedded(b):
+            W = energy_aniso(Fe, b[0], b[1], mats.mat_aniso[m])
+        else:
+            W = strain_energy_density(Fe, Je, mats.mat_lame[m][0], mats.mat_lame[m][1])
+    else:
+        W = strain_energy_density(Fe, Je, mats.mat_lame[m][0], mats.mat_lame[m][1])
+    if ti.static(feat.heat):
+        W *= ratio
+    return W
+
+
+@ti.func
+def tri_forces(e, nodes: ti.template(), tris: ti.template(), mats: ti.template(), step: ti.template(),
+               feat: ti.template()):
     """The internal nodal forces (f0, f1, f2) [N/m] of triangle e (§3.5: f_i = ½ T n_i).
 
     A removed triangle (tris.tri_intact[e] < 0, an excavation) contributes nothing.  With the
@@ -68,7 +177,9 @@ def tri_forces(e, nodes: ti.template(), tris: ti.template(), mats: ti.template()
 
     With the damping switch on, the viscous stress k_s D is added and its dissipated work
     k_s (D:D) A Δt is accumulated in tris.tri_diss[e] [J/m].  A non-positive J flags
-    step_int[INVERTED] (1 + triangle index) and gives zero forces.
+    step_int[INVERTED] (1 + triangle index) and gives zero forces.  The elastic stress is
+    :func:`elastic_stress` (``feat``: the compile-time :class:`~taichi_fdem.engine.step.Features`;
+    its ``bedding`` and ``heat`` select the transversely isotropic law and the thermal strains).
     """
     n = tris.tri_nodes[e]
     x0, x1, x2 = nodes.node_x[n[0]], nodes.node_x[n[1]], nodes.node_x[n[2]]
@@ -81,8 +192,7 @@ def tri_forces(e, nodes: ti.template(), tris: ti.template(), mats: ti.template()
     elif J <= 0.0:
         ti.atomic_max(step.step_int[INVERTED], e + 1)
     else:
-        m = tris.tri_mat[e]
-        T = cauchy_elastic(F, J, mats.mat_lame[m][0], mats.mat_lame[m][1])
+        T = elastic_stress(e, F, J, tris, mats, feat)
         if step.step_int[SWITCHES] & SWITCH_PRESTRESS:
             T += (F @ prestress_matrix(tris.tri_prestress[e]) @ F.transpose()) / J
         if step.step_int[SWITCHES] & SWITCH_DAMPING:        # a runtime switch: one compiled variant
@@ -104,9 +214,10 @@ def tri_forces(e, nodes: ti.template(), tris: ti.template(), mats: ti.template()
 
 
 @ti.func
-def eval_tri_elastic(e, nodes: ti.template(), tris: ti.template(), mats: ti.template(), step: ti.template()):
+def eval_tri_elastic(e, nodes: ti.template(), tris: ti.template(), mats: ti.template(), step: ti.template(),
+                     feat: ti.template()):
     """Add the internal nodal forces of triangle e (:func:`tri_forces`) to nodes.node_f."""
-    f0, f1, f2 = tri_forces(e, nodes, tris, mats, step)
+    f0, f1, f2 = tri_forces(e, nodes, tris, mats, step, feat)
     n = tris.tri_nodes[e]
     ti.atomic_add(nodes.node_f[n[0]], f0)
     ti.atomic_add(nodes.node_f[n[1]], f1)
@@ -114,16 +225,16 @@ def eval_tri_elastic(e, nodes: ti.template(), tris: ti.template(), mats: ti.temp
 
 
 @ti.func
-def tri_strain_energy(e, nodes: ti.template(), tris: ti.template(), mats: ti.template(), step: ti.template()):
-    """Strain energy A0·W of triangle e [J/m] (0 once removed); with an initial stress S⁰, plus
-    its potential A0 S⁰:E, E = ½(FᵀF − I) the Green strain."""
+def tri_strain_energy(e, nodes: ti.template(), tris: ti.template(), mats: ti.template(), step: ti.template(),
+                      feat: ti.template()):
+    """Strain energy A0·W of triangle e [J/m] (0 once removed; W: :func:`elastic_energy`); with an
+    initial stress S⁰, plus its potential A0 S⁰:E, E = ½(FᵀF − I) the Green strain."""
     n = tris.tri_nodes[e]
     Fx, F, J = deformation(nodes.node_x[n[0]], nodes.node_x[n[1]], nodes.node_x[n[2]], tris.tri_rest_inv[e])
     W = 0.0
     if J > 0.0 and tris.tri_intact[e] >= 0:
-        m = tris.tri_mat[e]
         area0 = 0.5 / tris.tri_rest_inv[e].determinant()      # det F0⁻¹ = 1 / (2 A0)
-        W = area0 * strain_energy_density(F, J, mats.mat_lame[m][0], mats.mat_lame[m][1])
+        W = area0 * elastic_energy(e, F, J, tris, mats, feat)
         if step.step_int[SWITCHES] & SWITCH_PRESTRESS:
             S = prestress_matrix(tris.tri_prestress[e])
             E = green_strain(F)

@@ -162,7 +162,7 @@ LEAVES_SERIAL_FLUID = 1 + _leaves(SERIAL_FLUID_MEMBERS)
 LEAVES_PARALLEL_FLUID = LEAVES_PARALLEL + _leaves(FLUID_MEMBERS)
 # every step kernel keeps LEAVES_FREE of Taichi's 64 leaves free, room for the arrays of new physics
 LEAVES_MAX = 64
-LEAVES_FREE = 6
+LEAVES_FREE = 3
 LEAVES = {"serial": LEAVES_SERIAL, "parallel": LEAVES_PARALLEL, "team": LEAVES_TEAM,
           "serial_fluid": LEAVES_SERIAL_FLUID, "parallel_fluid": LEAVES_PARALLEL_FLUID}
 assert all(n <= LEAVES_MAX - LEAVES_FREE for n in LEAVES.values()), LEAVES

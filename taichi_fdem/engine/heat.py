@@ -24,6 +24,7 @@ A(t) is the row's curve (``nodes.curve_points``) at the end of the heat step.
 """
 import taichi as ti
 
+from .elastic import tri_strain_energy
 from .groups import HeatGroup, JointGroup, MaterialGroup, NodeGroup, StepGroup, TriGroup
 from .loads import curve_value
 
@@ -135,3 +136,16 @@ def tri_thermal_strain(e, heat: ti.template(), tris: ti.template()):
           - heat.heat_node[n[0]][1] - heat.heat_node[n[1]][1] - heat.heat_node[n[2]][1]) / 3.0
     K = heat.heat_tri[e]
     return ti.Vector([K[6] * dT, K[7] * dT, K[8] * dT], dt=float)
+
+
+@ti.kernel
+def thermal_strain(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, step: StepGroup, heat: HeatGroup,
+                   feat: ti.template()):
+    """Write each triangle's thermal strain ``tris.tri_thermal`` from the temperatures
+    (:func:`tri_thermal_strain`) and add the change of its strain energy at the current geometry
+    to ``heat.heat_tri_work`` (the thermal work, docs/theory/heat.md §6)."""
+    for e in range(tris.tri_nodes.shape[0]):
+        W0 = tri_strain_energy(e, nodes, tris, mats, step, feat)
+        tris.tri_thermal[e] = tri_thermal_strain(e, heat, tris)
+        W1 = tri_strain_energy(e, nodes, tris, mats, step, feat)
+        heat.heat_tri_work[e] = heat.heat_tri_work[e] + (W1 - W0)

@@ -73,9 +73,11 @@ from .tiutil import vec2
 #: the quasi-static damping compiles none of their code.  ``many_blocks``: the block assembly
 #: has more than two blocks (blocks 2, 3, ... add into their copies at a runtime offset, a third
 #: compiled variant of the block loop that two blocks do not need).  ``fluid``: the scene has a
-#: fluid in its fracture network (the step's phase 6).
-Features = namedtuple("Features", "contact friction fracture loads local_damping many_blocks fluid",
-                      defaults=(False, False))
+#: fluid in its fracture network (the step's phase 6).  ``bedding``: some material is
+#: transversely isotropic (engine.elastic.cauchy_aniso); ``heat``: the triangles take the thermal
+#: strains of tri_thermal (engine.elastic.tri_forces).
+Features = namedtuple("Features", "contact friction fracture loads local_damping many_blocks fluid bedding heat",
+                      defaults=(False, False, False, False))
 
 __all__ = ["UNSTABLE_BIT", "DUE_BIT", "ABORT_BIT", "TIMEOUT_BIT", "Features", "detect_count", "detect_fill", "build_node_slots", "step_parallel",
            "run_steps_blocks", "run_steps_serial", "run_steps_serial_fluid", "step_parallel_fluid", "eval_elastic", "eval_joints", "eval_contact", "eval_loads",
@@ -86,9 +88,10 @@ __all__ = ["UNSTABLE_BIT", "DUE_BIT", "ABORT_BIT", "TIMEOUT_BIT", "Features", "d
 # phases
 # ---------------------------------------------------------------------------------------------
 @ti.func
-def phase_elastic(nodes: ti.template(), tris: ti.template(), mats: ti.template(), step: ti.template()):
+def phase_elastic(nodes: ti.template(), tris: ti.template(), mats: ti.template(), step: ti.template(),
+                  feat: ti.template()):
     for e in range(tris.tri_nodes.shape[0]):
-        eval_tri_elastic(e, nodes, tris, mats, step)
+        eval_tri_elastic(e, nodes, tris, mats, step, feat)
 
 
 @ti.func
@@ -161,7 +164,7 @@ def status_code(step: ti.template()):
 def phases_forces_integrate(nodes: ti.template(), tris: ti.template(), mats: ti.template(), contact: ti.template(),
                             joints: ti.template(), step: ti.template(), fluid: ti.template(), feat: ti.template()):
     """Phases 2–8 of a step (``fluid``: the fluid group, read only with ``feat.fluid``)."""
-    phase_elastic(nodes, tris, mats, step)
+    phase_elastic(nodes, tris, mats, step, feat)
     if ti.static(feat.fracture):
         phase_joints(nodes, tris, mats, joints, step)
     if ti.static(feat.contact):
@@ -189,7 +192,7 @@ def phase_slots(nodes: ti.template(), tris: ti.template(), mats: ti.template(), 
     (Vulkan binds at most 31 storage buffers per stage)."""
     T, J, C = item_counts(tris, joints, step, feat)
     for e in range(T):
-        f0, f1, f2 = tri_forces(e, nodes, tris, mats, step)
+        f0, f1, f2 = tri_forces(e, nodes, tris, mats, step, feat)
         asm.asm_force[3 * e] = f0
         asm.asm_force[3 * e + 1] = f1
         asm.asm_force[3 * e + 2] = f2
@@ -483,8 +486,8 @@ def run_steps_serial_fluid(nsteps: ti.i32, g: SerialFluidGroup, feat: ti.templat
 # single-phase kernels: force evaluation without a step, and per-phase profiling
 # ---------------------------------------------------------------------------------------------
 @ti.kernel
-def eval_elastic(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, step: StepGroup):
-    phase_elastic(nodes, tris, mats, step)
+def eval_elastic(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, step: StepGroup, feat: ti.template()):
+    phase_elastic(nodes, tris, mats, step, feat)
 
 
 @ti.kernel

@@ -46,7 +46,7 @@ def compute_energies(sim) -> dict:
         out = sim._energy_out = ti.ndarray(backend.real_ti(), shape=8)
     p = sim._packs
     energy_terms(p["nodes"], p["tris"], p["mats"], p["contact"], p["step"], sim.solver.couple_count, out, md.friction,
-                 md.fracture)
+                 md.fracture, sim.solver.features())
     o = out.to_numpy().astype(np.float64)
     t = sim.thickness
     w = st.step_real.to_numpy().astype(np.float64)

@@ -47,21 +47,10 @@ def _thermal_fields(materials, where: str) -> tuple:
 
 def effective_expansion(materials, plane: str) -> np.ndarray:
     """(M, 2): the effective 2D expansion (a₁*, a₂*) [1/K] of each material along and across its
-    bedding (docs/theory/heat.md §5): α(1 + ν) in plane strain, α in plane stress for an isotropic
-    material; a transversely isotropic one through :mod:`taichi_fdem.elasticity` when present."""
-    out = np.zeros((len(materials), 2))
-    try:
-        from .. import elasticity
-        fn = getattr(elasticity, "effective_expansion", None)
-    except ImportError:
-        fn = None
-    for i, m in enumerate(materials):
-        alpha = float(getattr(m, "expansion", 0.0) or 0.0)
-        if fn is not None:
-            out[i] = fn(m, plane)
-        else:
-            out[i] = alpha * (1.0 + m.poisson) if plane == "strain" else alpha
-    return out
+    bedding (docs/theory/heat.md §5, :meth:`Material.thermal_expansion_2d
+    <taichi_fdem.material.Material.thermal_expansion_2d>`): α(1 + ν) in plane strain, α in plane
+    stress for an isotropic material."""
+    return np.array([m.thermal_expansion_2d(plane) for m in materials], dtype=np.float64).reshape(-1, 2)
 
 
 def _conduction_matrices(X, tris, kt) -> np.ndarray:
@@ -78,12 +67,12 @@ def _conduction_matrices(X, tris, kt) -> np.ndarray:
 
 def _expansion_tensors(md, scene, materials, tri_mat) -> np.ndarray:
     """(E, 3): the effective expansion tensor R diag(a₁*, a₂*) Rᵀ (xx, yy, xy) [1/K] of each
-    triangle, R the rotation to its bedding (``tri_bedding`` (cos, sin) when the model has one)."""
+    triangle, R the rotation to its bedding angle (``tri_bedding_np`` [°] when the model has one)."""
     a = effective_expansion(materials, scene.plane)[tri_mat]
     bedding = getattr(md, "tri_bedding_np", None)
-    if bedding is None:
+    if bedding is None or len(bedding) != len(a):
         return np.stack([a[:, 0], a[:, 1], np.zeros(len(a))], axis=1)
-    cs, sn = bedding[:, 0], bedding[:, 1]
+    cs, sn = np.cos(np.radians(bedding)), np.sin(np.radians(bedding))
     return np.stack([a[:, 0] * cs * cs + a[:, 1] * sn * sn, a[:, 0] * sn * sn + a[:, 1] * cs * cs,
                      (a[:, 0] - a[:, 1]) * cs * sn], axis=1)
 

@@ -27,7 +27,7 @@ def profile(sim, steps: int = 100) -> dict:
             t0 = pc(); sim._detect(); t["detection"] += pc() - t0
         p = sim._packs
         t0 = pc()
-        kernels.eval_elastic(p["nodes"], p["tris"], p["mats"], p["step"])
+        kernels.eval_elastic(p["nodes"], p["tris"], p["mats"], p["step"], sim.solver.features())
         t1 = pc(); t["elastic"] += t1 - t0
         if md.fracture:
             kernels.eval_joints(p["nodes"], p["tris"], p["mats"], p["joints"], p["step"])
@@ -65,7 +65,8 @@ def evaluate_forces(sim, contact_only: bool = False) -> np.ndarray:
     st.node_f.fill(0)
     sim._forget_apart()
     if not contact_only:
-        sim._launch("eval_elastic", kernels.eval_elastic, p["nodes"], p["tris"], p["mats"], p["step"])
+        sim._launch("eval_elastic", kernels.eval_elastic, p["nodes"], p["tris"], p["mats"], p["step"],
+                    sim.solver.features())
         if md.fracture:
             sim._launch("eval_joints", kernels.eval_joints, p["nodes"], p["tris"], p["mats"], p["joints"],
                         p["step"])

@@ -124,11 +124,9 @@ class HeatCoupling:
         """Write each triangle's thermal strain from the temperatures (engine.heat), and book the
         change of its strain energy as thermal work."""
         sim = self._sim
-        if not hasattr(heat_kernels, "thermal_strain"):
-            return
         p = sim._packs
         sim._launch_cached("thermal_strain", heat_kernels.thermal_strain, p["nodes"], p["tris"], p["mats"], p["step"],
-                           p["heat"])
+                           p["heat"], sim.solver.features())
 
 
 class Solver:
@@ -223,7 +221,8 @@ class Solver:
         """The compile-time features of this simulation's step kernels."""
         md = self._sim.model
         return kernels.Features(bool(md.contact), bool(md.friction), bool(md.fracture), bool(md.loads),
-                                bool(md.local_damping), self._many_blocks(), bool(md.fluid))
+                                bool(md.local_damping), self._many_blocks(), bool(md.fluid), bool(md.bedding),
+                                bool(md.heat))
 
     def _many_blocks(self) -> bool:
         return False
