@@ -36,11 +36,13 @@ from .model import counter, set_counter
 from .team import TeamScheduler
 
 __all__ = ["Solver", "SerialSolver", "ParallelSolver", "FluidCoupling", "HeatCoupling", "SERIAL_MAX_STEPS", "SERIAL_TRI_STEPS",
-           "TEAM_TRI_STEPS"]
+           "TEAM_TRI_STEPS", "HEAT_EVERY_MAX"]
 
 SERIAL_MAX_STEPS = 2000          # at most this many steps per launch
 SERIAL_TRI_STEPS = 2_000_000     # triangle-steps per serial launch: responsive progress and Ctrl-C
 TEAM_TRI_STEPS = 10_000_000      # the same for a team launch
+
+HEAT_EVERY_MAX = 100            # mechanical steps between two heat updates at most (HeatCoupling.every)
 
 _STEPS = kernels.UNSTABLE_BIT - 1    # the steps in a launch's result
 
@@ -65,7 +67,7 @@ class FluidCoupling:
 
 class HeatCoupling:
     """Heat conduction as a sub-solver between mechanical launches (:mod:`taichi_fdem.engine.heat`,
-    docs/theory/heat.md): every :meth:`every` mechanical steps it advances the temperatures over
+    docs/theory/heat.md): every n = :meth:`every` mechanical steps it advances the temperatures over
     the time those steps took, in m = ⌈n Δt / Δt_h⌉ heat steps of n Δt / m each (Δt_h the stable
     heat step ``sim.model.dt_heat``; several per mechanical step when Δt_h < Δt: the mechanical
     step is never shortened), then writes each triangle's thermal strain.  The solvers split
@@ -76,10 +78,12 @@ class HeatCoupling:
         self._sim = sim
 
     def every(self) -> int:
-        """Mechanical steps per heat update: ⌊Δt_h / Δt⌋, at least 1."""
+        """Mechanical steps per heat update: ⌊Δt_h / Δt⌋, at least 1 and at most
+        :data:`HEAT_EVERY_MAX` (the thermal strains then change in small increments against
+        the mechanical response)."""
         sim = self._sim
         ratio = sim.model.dt_heat / counter(sim.state.step_real, DT)
-        return int(max(1, min(ratio, 1 << 30)))
+        return int(max(1, min(ratio, HEAT_EVERY_MAX)))
 
     def steps_to_update(self) -> int:
         """Mechanical steps until the next heat update (at least 1)."""
@@ -126,7 +130,7 @@ class HeatCoupling:
         sim = self._sim
         p = sim._packs
         sim._launch_cached("thermal_strain", heat_kernels.thermal_strain, p["nodes"], p["tris"], p["mats"], p["step"],
-                           p["heat"], sim.solver.features())
+                           p["heat"], sim.solver.features()._replace(many_blocks=False))
 
 
 class Solver:
