@@ -1,4 +1,4 @@
-"""Heat conduction on the triangle mesh (docs/theory/heat.md), as Taichi kernels.
+"""Heat conduction on the triangle mesh (docs/theory/heat.md §16), as Taichi kernels.
 
 Temperatures live on the nodes (``heat.heat_temp``); each node copy of a fracturing body is a
 node of its own.  One heat step advances them by the explicit (forward Euler) update of the
@@ -39,7 +39,7 @@ H_SINCE, H_UPDATES = 0, 1
 @ti.func
 def joint_conductance(j, end, nodes: ti.template(), joints: ti.template(), heat: ti.template()):
     """Conductance [W/(m·K)] between the facing node copies of joint j at its end ``end`` (0: j0
-    and j3, 1: j1 and j2), docs/theory/heat.md §4: G₀ z of the end while the joint is intact (z the
+    and j3, 1: j1 and j2), docs/theory/heat.md §16.4: G₀ z of the end while the joint is intact (z the
     softening factor of its largest opening, 1 undamaged); once broken, G₀ min(1, δ / δ_c) for an
     overlap δ > 0 of the two copies normal to face A (δ_c = heat_joint[j][1]), 0 apart."""
     g = heat.heat_joint[j]
@@ -143,7 +143,7 @@ def thermal_strain(nodes: NodeGroup, tris: TriGroup, mats: MaterialGroup, step: 
                    feat: ti.template()):
     """Write each triangle's thermal strain ``tris.tri_thermal`` from the temperatures
     (:func:`tri_thermal_strain`) and add the change of its strain energy at the current geometry
-    to ``heat.heat_tri_work`` (the thermal work, docs/theory/heat.md §6)."""
+    to ``heat.heat_tri_work`` (the thermal work, docs/theory/heat.md §16.6)."""
     for e in range(tris.tri_nodes.shape[0]):
         W0 = tri_strain_energy(e, nodes, tris, mats, step, feat)
         tris.tri_thermal[e] = tri_thermal_strain(e, heat, tris)

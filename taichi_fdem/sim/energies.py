@@ -10,7 +10,7 @@ forces, docs/theory/loads.md §12), local_damping (work dissipated by the quasi-
 them: strain, kinetic and gravity energy at removal), fluid_work (work done on the solid by
 the fluid pressure on the fracture faces, scenes with a fluid only), thermal_work (the change of
 the strain energy as the thermal strains changed at fixed geometry, scenes with heat only,
-docs/theory/heat.md §6), and
+docs/theory/heat.md §16.6), and
 total = kinetic + strain + contact + gravity + joints + dissipated + excavated − boundary_work
 − load_work − fluid_work − thermal_work, which is conserved up to the time-discretisation error.  The strain energy includes
 the potential S⁰:E of an initial stress.

@@ -1,5 +1,5 @@
 """Heat conduction at build time: capacities, conduction matrices, the nodes' lists of terms, the
-boundary rows and the stable heat step (docs/theory/heat.md), and the heat's results.
+boundary rows and the stable heat step (docs/theory/heat.md §16), and the heat's results.
 
 :func:`build_heat` turns the scene's temperatures (``scene.set_temperature``, ``scene.heat``)
 and the materials' thermal fields (``conductivity``, ``heat_capacity``, ``expansion``) into
@@ -21,10 +21,10 @@ __all__ = ["build_heat", "heat_state_values", "JOINT_CONDUCTANCE_FACTOR", "CONTA
 #: conductance of an intact joint per unit length, in units of k̄ / h̄ (k̄ the harmonic mean of
 #: the conductivities of its two triangles, h̄ the smaller of their smallest altitudes): large
 #: against the elements' own, so an intact joint's thermal resistance is about 1 % of theirs
-#: (docs/theory/heat.md §4)
+#: (docs/theory/heat.md §16.4)
 JOINT_CONDUCTANCE_FACTOR = 100.0
 #: overlap of the faces of a broken joint, in units of its rest length, at which it conducts as
-#: an intact one (docs/theory/heat.md §4)
+#: an intact one (docs/theory/heat.md §16.4)
 CONTACT_OVERLAP_REF = 1.0e-3
 
 
@@ -47,7 +47,7 @@ def _thermal_fields(materials, where: str) -> tuple:
 
 def effective_expansion(materials, plane: str) -> np.ndarray:
     """(M, 2): the effective 2D expansion (a₁*, a₂*) [1/K] of each material along and across its
-    bedding (docs/theory/heat.md §5, :meth:`Material.thermal_expansion_2d
+    bedding (docs/theory/heat.md §16.5, :meth:`Material.thermal_expansion_2d
     <taichi_fdem.material.Material.thermal_expansion_2d>`): α(1 + ν) in plane strain, α in plane
     stress for an isotropic material."""
     return np.array([m.thermal_expansion_2d(plane) for m in materials], dtype=np.float64).reshape(-1, 2)
@@ -55,7 +55,7 @@ def effective_expansion(materials, plane: str) -> np.ndarray:
 
 def _conduction_matrices(X, tris, kt) -> np.ndarray:
     """(E, 6): K_e (00, 11, 22, 01, 12, 20) = k A ∇N_a·∇N_b of the linear triangles on the rest
-    geometry [W/(m·K)] (docs/theory/heat.md §2)."""
+    geometry [W/(m·K)] (docs/theory/heat.md §16.2)."""
     x, y = X[tris, 0], X[tris, 1]
     b = np.stack([y[:, 1] - y[:, 2], y[:, 2] - y[:, 0], y[:, 0] - y[:, 1]], axis=1)
     c = np.stack([x[:, 2] - x[:, 1], x[:, 0] - x[:, 2], x[:, 1] - x[:, 0]], axis=1)
@@ -94,10 +94,10 @@ def _initial_temperature(scene, X) -> np.ndarray:
     return T
 
 
-def _heat_rows(scene, bodies, X, curves) -> tuple:
+def _heat_rows(scene, bodies, X, curves, boundary_edges) -> tuple:
     """(rows (R, 5) i32, values (R, 2)) of the scene's held temperatures and fluxes
-    (engine.heat: kind, node i, node j, curve start, curve count; value, length share)."""
-    from .model import _boundary_edges
+    (engine.heat: kind, node i, node j, curve start, curve count; value, length share);
+    ``boundary_edges(body)``: (local triangle, local edge) of its boundary edges."""
     rows, vals = [], []
     for k, spec in enumerate(getattr(scene, "_heat", [])):
         what = f"Scene.heat #{k}"
@@ -114,7 +114,7 @@ def _heat_rows(scene, bodies, X, curves) -> tuple:
                 rows += [(ROW_TEMPERATURE, int(i), -1, c) for i in nodes]
                 vals += [(spec.temperature, 0.0)] * len(nodes)
                 continue
-            t, e = _boundary_edges(b)
+            t, e = boundary_edges(b)
             tri = b.mesh.triangles
             ni = tri[t, e] + b.node_start
             nj = tri[t, (e + 1) % 3] + b.node_start
@@ -167,7 +167,7 @@ def _node_lists(N, tris, joint_nodes, rows) -> np.ndarray:
 
 def _joint_conductance(md, kt, altitude, joint_nodes, joint_tris, joint_len) -> np.ndarray:
     """(J, 2): G₀ = F k̄ (L/2) / h̄ per facing pair and the reference overlap δ_c = r L
-    (docs/theory/heat.md §4; F :data:`JOINT_CONDUCTANCE_FACTOR`, r :data:`CONTACT_OVERLAP_REF`)."""
+    (docs/theory/heat.md §16.4; F :data:`JOINT_CONDUCTANCE_FACTOR`, r :data:`CONTACT_OVERLAP_REF`)."""
     if not md.fracture:
         return np.zeros((1, 2))
     J = md.joint_count
@@ -178,12 +178,13 @@ def _joint_conductance(md, kt, altitude, joint_nodes, joint_tris, joint_len) -> 
     return np.stack([JOINT_CONDUCTANCE_FACTOR * kbar * 0.5 * L / h, CONTACT_OVERLAP_REF * L], axis=1)
 
 
-def build_heat(md, scene, X, tris, materials, tri_mat, area0, altitude, joints, curves) -> dict:
+def build_heat(md, scene, X, tris, materials, tri_mat, area0, altitude, joints, curves, boundary_edges) -> dict:
     """The model values of the heat group (engine.arrays) and the model's heat attributes:
     ``md.heat`` (the scene conducts heat), ``md.dt_heat`` (the stable heat step [s],
-    docs/theory/heat.md §3), ``md.heat_row_count``, ``md.heat_adj_count``, ``md.heat_temp0``
+    docs/theory/heat.md §16.3), ``md.heat_row_count``, ``md.heat_adj_count``, ``md.heat_temp0``
     (initial temperatures (N,) [K]), ``md.heat_capacity_np`` (C_i (N,) [J/(m·K)]),
-    ``md.heat_conductivity_np`` (k per triangle (E,) [W/(m·K)]).  Placeholders without heat."""
+    ``md.heat_conductivity_np`` (k per triangle (E,) [W/(m·K)]).  Placeholders without heat.
+    ``boundary_edges(body)``: (local triangle, local edge) of the body's boundary edges."""
     joint_nodes, joint_tris, joint_len = joints
     md.heat = bool(getattr(scene, "_temperature", None) is not None or getattr(scene, "_heat", []))
     md.heat_row_count, md.heat_adj_count, md.dt_heat = 0, 0, math.inf
@@ -202,7 +203,7 @@ def build_heat(md, scene, X, tris, materials, tri_mat, area0, altitude, joints, 
     T0 = _initial_temperature(scene, X)
     Ke = _conduction_matrices(X, tris, kt)
     G = _joint_conductance(md, kt, altitude, joint_nodes, joint_tris, joint_len)
-    rows, vals = _heat_rows(scene, md.bodies, X, curves)
+    rows, vals = _heat_rows(scene, md.bodies, X, curves, boundary_edges)
     md.heat_rows_list = rows
     md.heat_temp0, md.heat_capacity_np, md.heat_conductivity_np = T0, cap, kt
     md.dt_heat = _stable_heat_step(N, tris, Ke, cap, joint_nodes[: md.joint_count] if md.fracture else None, G)
@@ -216,7 +217,7 @@ def build_heat(md, scene, X, tris, materials, tri_mat, area0, altitude, joints, 
 
 
 def _stable_heat_step(N, tris, Ke, cap, joint_nodes, G) -> float:
-    """Δt_h = min_i C_i / Σ_j |K_ij| (Gershgorin, docs/theory/heat.md §3), joints at G₀."""
+    """Δt_h = min_i C_i / Σ_j |K_ij| (Gershgorin, docs/theory/heat.md §16.3), joints at G₀."""
     row = np.zeros(N)
     full = np.abs(np.stack([Ke[:, 0], Ke[:, 3], Ke[:, 5], Ke[:, 3], Ke[:, 1], Ke[:, 4], Ke[:, 5], Ke[:, 4],
                             Ke[:, 2]], axis=1)).reshape(-1, 3, 3).sum(axis=2)
@@ -245,7 +246,7 @@ def temperatures(sim) -> np.ndarray:
 
 def heat_flow(sim) -> np.ndarray:
     """Heat flux density q = −k ∇T of each triangle (E, 2) [W/m²], ∇T of its linear temperature
-    field on the rest geometry (docs/theory/heat.md §2)."""
+    field on the rest geometry (docs/theory/heat.md §16.2)."""
     T = temperatures(sim)
     md = sim.model
     X, tris = md.node_rest, md.tri_nodes_np

@@ -133,7 +133,7 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     fluid_values = fluid_net.install_fluid(md, scene, net, curves)   # (its curves join the table first)
     aniso_values = _anisotropy(md, scene, materials, X, tris, tri_mat)     # (md.tri_bedding_np: heat's expansion)
     heat_values = heat.build_heat(md, scene, X, tris, materials, tri_mat, area0, altitude,
-                                  (joint_nodes, joint_tris, joint_len), curves)
+                                  (joint_nodes, joint_tris, joint_len), curves, _boundary_edges)
     md.loads = md.load_count > 0
     md.curves = curves.list
     md.curve_slices = curves.slices

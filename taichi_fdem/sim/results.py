@@ -192,7 +192,7 @@ class SimulationResults:
         return heat.temperatures(self)
 
     def heat_flow(self) -> np.ndarray:
-        """Heat flux density q = −k ∇T of each triangle, shape (E, 2) [W/m²] (docs/theory/heat.md §2)."""
+        """Heat flux density q = −k ∇T of each triangle, shape (E, 2) [W/m²] (docs/theory/heat.md §16.2)."""
         return heat.heat_flow(self)
 
     def couples(self) -> np.ndarray:

@@ -67,7 +67,7 @@ class FluidCoupling:
 
 class HeatCoupling:
     """Heat conduction as a sub-solver between mechanical launches (:mod:`taichi_fdem.engine.heat`,
-    docs/theory/heat.md): every n = :meth:`every` mechanical steps it advances the temperatures over
+    docs/theory/heat.md §16): every n = :meth:`every` mechanical steps it advances the temperatures over
     the time those steps took, in m = ⌈n Δt / Δt_h⌉ heat steps of n Δt / m each (Δt_h the stable
     heat step ``sim.model.dt_heat``; several per mechanical step when Δt_h < Δt: the mechanical
     step is never shortened), then writes each triangle's thermal strain.  The solvers split
@@ -76,6 +76,16 @@ class HeatCoupling:
 
     def __init__(self, sim):
         self._sim = sim
+
+    @property
+    def time(self) -> float:
+        """The time [s] the temperatures are at: the end of the last heat update."""
+        return float(self._sim.state.heat_real.to_numpy()[H_TIME])
+
+    @property
+    def updates(self) -> int:
+        """Heat updates so far."""
+        return int(self._sim.state.heat_int.to_numpy()[H_UPDATES])
 
     def every(self) -> int:
         """Mechanical steps per heat update: ⌊Δt_h / Δt⌋, at least 1 and at most
