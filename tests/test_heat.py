@@ -157,13 +157,21 @@ def test_free_plate_heated_expands_without_stress(plane):
     assert np.abs(_stresses(sim)).max() < 0.01 * E * alpha * dT
 
 
+def _gradient(x, y):
+    return 20.0 + 100.0 * x
+
+
+def _left(x, y):
+    return x < -0.05 + 1e-9
+
+
 def _heated_grains(strategy, **solver):
     m = _mat(density=2700.0, young=1e8, conductivity=3.0, heat_capacity=800.0, expansion=1e-5,
              tensile_strength=1e5, cohesion=3e5, fracture_energy=1.0)
     scene = fdem.Scene(gravity=(0.0, 0.0))
     scene.add_body(fdem.mesh.rectangle(0.1, 0.1, 0.02), m, fracture=True)
-    scene.set_temperature(lambda x, y: 20.0 + 100.0 * x)
-    scene.heat(lambda x, y: x < -0.05 + 1e-9, temperature=220.0, curve=fdem.Curve.ramp(0.001))
+    scene.set_temperature(_gradient)                       # (module functions: a checkpoint pickles the scene)
+    scene.heat(_left, temperature=220.0, curve=fdem.Curve.ramp(0.001))
     sim = scene.build(strategy=strategy)
     for k, v in solver.items():
         setattr(sim.solver, k, v)
