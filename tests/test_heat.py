@@ -261,3 +261,68 @@ def test_heat_input_errors():
     scene3.set_temperature(lambda x, y: np.zeros(3))
     with pytest.raises(ValueError, match="shape"):
         scene3.build()
+
+
+SCENE_FILE = """
+[scene]
+gravity = [0.0, 0.0]
+
+[materials.rock]
+density = 1000.0
+young = 1e5
+conductivity = 1.0
+heat_capacity = 1.0
+expansion = 1e-5
+
+[[bodies]]
+name = "strip"
+material = "rock"
+shape = "rectangle"
+width = 1.0
+height = 0.05
+h = 0.0125
+
+[temperature]
+initial = 20.0
+
+[[heat]]
+xmax = -0.5
+temperature = 21.0
+ramp = 0.5
+
+[[heat]]
+xmin = 0.5
+flux = 3.0
+
+[solver]
+duration = 1.0
+strategy = "serial"
+"""
+
+
+def _left_end(x, y):
+    return x <= -0.5
+
+
+def _right_end(x, y):
+    return x >= 0.5
+
+
+def test_scene_file_heat_tables_build_the_same_scene():
+    import tomllib
+    from taichi_fdem.io import scenefile
+    sim_file, _ = scenefile.loads(tomllib.loads(SCENE_FILE), SCENE_FILE).build()
+    scene = fdem.Scene(gravity=(0.0, 0.0))
+    scene.add_body(fdem.mesh.rectangle(1.0, 0.05, 0.0125), _mat(expansion=1e-5))
+    scene.set_temperature(20.0)
+    scene.heat(_left_end, temperature=21.0, curve=fdem.Curve.ramp(0.5))
+    scene.heat(_right_end, flux=3.0)
+    sim_py = scene.build(strategy="serial")
+    for sim in (sim_file, sim_py):
+        sim.run(1.0, progress=False)
+    assert sim_file.temperatures().tobytes() == sim_py.temperatures().tobytes()
+    assert sim_file.temperatures().max() > 20.5
+    bad = SCENE_FILE.replace("flux = 3.0", "flux = 3.0\ntemperature = 1.0")
+    with pytest.raises(scenefile.SceneFileError, match="exactly one of temperature"):
+        scenefile.loads(tomllib.loads(bad), bad)
+
