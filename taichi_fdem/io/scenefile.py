@@ -249,15 +249,15 @@ ramp              s       the rate or pressure rises linearly from 0 over this t
 curve             —       or: a NAME of ``[curves]`` multiplying the rate or pressure [none]
 ================  ======  =================================================================
 
-``[temperature]`` (the initial, stress-free temperature of every node, ``Scene.set_temperature``;
-the table, or a ``[[heat]]``, makes the scene conduct heat: docs/guide/heat.md)
+``[temperature]`` (the stress-free temperature of every node, ``Scene.set_temperature``)
 
 ================  ======  =================================================================
-initial           K       initial temperature of every node (any consistent scale: °C or K) [0.0]
+initial           K       initial temperature of every node (any consistent scale: °C or K); the
+                          table, or a ``[[heat]]``, makes the scene conduct heat, and every
+                          material then needs ``conductivity`` and ``heat_capacity`` [0.0]
 ================  ======  =================================================================
 
-``[[heat]]`` (a held temperature or a heat flux, ``Scene.heat``; every material needs
-``conductivity`` and ``heat_capacity``)
+``[[heat]]`` (a held temperature or a heat flux, ``Scene.heat``: docs/guide/heat.md)
 
 ================  ======  =================================================================
 xmin, xmax        m       region of the nodes (initial positions), inclusive [−∞, +∞]; at
@@ -372,9 +372,9 @@ video                 —       video of the test coloured by joint damage [none
 A top-level ``description`` string is allowed (free text).
 
 Order: the scene is built as bodies, ``[[joint_sets]]``, ``[[interactions]]``,
-``[[constraints]]``, ``[[loads]]``, ``[[initial_stress]]``, ``[fluid]``, ``[[inject]]``,
-``[temperature]`` and ``[[heat]]`` (each kind in the file's order), which is the order a Python script of the same scene uses
-when it adds the joint sets after the bodies.
+``[[constraints]]``, ``[[loads]]``, ``[[initial_stress]]``, ``[fluid]``, ``[[inject]]``, the
+temperatures of ``[temperature]`` and ``[[heat]]`` (each kind in the file's order), which is
+the order a Python script of the same scene uses when it adds the joint sets after the bodies.
 
 Sanity bounds (a value beyond them is refused as a typo; products of it would overflow):
 lengths (sizes, radii, ``h``, ``thickness``, ``buffer``) within [1e-9, 1e6] m, coordinates

@@ -37,8 +37,8 @@ MATERIAL_KEYS = {
     "friction_angle": _F(unit="°"),
     "fracture_energy_shear": _F(unit="J/m²"),
     "joint_penalty": _F(unit="Pa"),
-    "conductivity": _POS("W/(m·K)"),
-    "heat_capacity": _POS("J/(kg·K)"),
+    "conductivity": _POS("W/m/K"),
+    "heat_capacity": _POS("J/kg/K"),
     "expansion": _F(default=0.0, unit="1/K", lo=-1.0, hi=1.0),
     "like": _Key("str"),
 }
