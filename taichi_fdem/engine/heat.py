@@ -12,7 +12,8 @@ and no float atomics are needed: every strategy gives the same bits.  A list ent
 ``index · 4 + kind``:
 
 * kind :data:`ADJ_TRI`: triangle e at its local node a, index ``3 e + a`` (the row a of the
-  triangle's conduction matrix K_e, ``heat.heat_tri[e][0:6]``);
+  triangle's conduction matrix K_e, ``heat.heat_tri[e][0:6]``; none once the triangle is
+  excavated, ``tris.tri_intact[e] < 0``);
 * kind :data:`ADJ_JOINT`: joint j at its node p = 0..3, index ``4 j + p``; the facing copy is
   node 3 − p of the joint (j0 faces j3, j1 faces j2) and the conductance G_p is
   :func:`joint_conductance`;
@@ -74,16 +75,17 @@ def node_rate(i, t, nodes: ti.template(), tris: ti.template(), joints: ti.templa
         idx = code >> 2
         if kind == ADJ_TRI:
             e = idx // 3
-            a = idx - 3 * e
-            n = tris.tri_nodes[e]
-            K = heat.heat_tri[e]
-            # row a of the symmetric K_e stored as (00, 11, 22, 01, 12, 20)
-            r0, r1, r2 = K[0], K[3], K[5]
-            if a == 1:
-                r0, r1, r2 = K[3], K[1], K[4]
-            elif a == 2:
-                r0, r1, r2 = K[5], K[4], K[2]
-            s -= r0 * heat.heat_temp[n[0]] + r1 * heat.heat_temp[n[1]] + r2 * heat.heat_temp[n[2]]
+            if tris.tri_intact[e] >= 0:                     # (an excavated triangle conducts nothing)
+                a = idx - 3 * e
+                n = tris.tri_nodes[e]
+                K = heat.heat_tri[e]
+                # row a of the symmetric K_e stored as (00, 11, 22, 01, 12, 20)
+                r0, r1, r2 = K[0], K[3], K[5]
+                if a == 1:
+                    r0, r1, r2 = K[3], K[1], K[4]
+                elif a == 2:
+                    r0, r1, r2 = K[5], K[4], K[2]
+                s -= r0 * heat.heat_temp[n[0]] + r1 * heat.heat_temp[n[1]] + r2 * heat.heat_temp[n[2]]
         elif kind == ADJ_JOINT:
             j = idx // 4
             p = idx - 4 * j
