@@ -326,3 +326,25 @@ def test_scene_file_heat_tables_build_the_same_scene():
     with pytest.raises(scenefile.SceneFileError, match="exactly one of temperature"):
         scenefile.loads(tomllib.loads(bad), bad)
 
+
+
+def test_free_bedded_plate_expands_along_and_across_its_bedding():
+    """Plane stress, bedding at 30°: the free plate's strain is R diag(α1, α2) Rᵀ ΔT
+    (docs/theory/heat.md §16.5), α1 along the bedding, α2 across it, within 1 %."""
+    E, nu, a1, a2, dT, angle = 1e6, 0.25, 1e-5, 3e-5, 100.0, 30.0
+    bed = fdem.Bedding(angle=angle, young_normal=E, poisson_normal=nu, shear_modulus=E / (2.0 * (1.0 + nu)),
+                       expansion_normal=a2)
+    scene = fdem.Scene(gravity=(0.0, 0.0), plane="stress")
+    scene.add_body(fdem.mesh.rectangle(1.0, 1.0, 0.25), _mat(young=E, poisson=nu, expansion=a1, bedding=bed))
+    scene.heat(ALL, temperature=dT, curve=fdem.Curve.ramp(0.5))
+    sim = scene.build(strategy="serial", quasi_static=True)
+    sim.run(1.5, progress=False)
+    X = sim.model.node_rest
+    u = sim.node_positions() - X
+    A = np.column_stack([X, np.ones(len(X))])
+    grad = np.linalg.lstsq(A, u, rcond=None)[0][:2].T                      # du_i/dX_j
+    eps = 0.5 * (grad + grad.T)
+    c, s = math.cos(math.radians(angle)), math.sin(math.radians(angle))
+    R = np.array([[c, -s], [s, c]])
+    expect = R @ np.diag([a1, a2]) @ R.T * dT
+    assert np.abs(eps - expect).max() < 0.01 * a2 * dT, (eps, expect)
