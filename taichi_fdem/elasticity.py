@@ -24,7 +24,7 @@ import math
 import numpy as np
 
 __all__ = ["ti_bounds", "check_ti", "compliance_3d", "stiffness_2d", "apparent_modulus", "p_wave_modulus",
-           "thermal_strain_2d", "isotropic_constants"]
+           "thermal_strain_2d", "isotropic_constants", "cauchy_svk", "out_of_plane_stress"]
 
 PLANES = ("strain", "stress")
 
@@ -135,3 +135,37 @@ def thermal_strain_2d(E1: float, nu1: float, E2: float, nu21: float, G2: float, 
     S = compliance_3d(E1, nu1, E2, nu21, G2)
     a = np.array([alpha1, alpha2]) - S[:2, 2] * alpha1 / S[2, 2]
     return float(a[0]), float(a[1])
+
+
+def cauchy_svk(F, c, s, C) -> np.ndarray:
+    """Cauchy stress σ = F S Fᵀ / det F [Pa] of the St Venant–Kirchhoff law in the bedding frame
+    (docs/theory/anisotropy.md), vectorised: F (n, 2, 2); c, s (n,) the cosine and sine of the
+    bedding angle; C (n, 4) = (C11, C22, C12, C66) in the bedding frame.  The host twin of
+    ``engine.elastic.cauchy_aniso``."""
+    F = np.asarray(F, dtype=np.float64)
+    R = np.stack([np.stack([c, s], axis=1), np.stack([-s, c], axis=1)], axis=1)     # rows: bedding, normal
+    Rt = R.transpose(0, 2, 1)
+    E = 0.5 * (F.transpose(0, 2, 1) @ F - np.eye(2))
+    Eb = R @ E @ Rt
+    s11 = C[:, 0] * Eb[:, 0, 0] + C[:, 2] * Eb[:, 1, 1]
+    s22 = C[:, 2] * Eb[:, 0, 0] + C[:, 1] * Eb[:, 1, 1]
+    s12 = C[:, 3] * 2.0 * Eb[:, 0, 1]
+    Sb = np.stack([np.stack([s11, s12], axis=1), np.stack([s12, s22], axis=1)], axis=1)
+    S = Rt @ Sb @ R
+    return F @ S @ F.transpose(0, 2, 1) / np.linalg.det(F)[:, None, None]
+
+
+def out_of_plane_stress(T, cs, k) -> np.ndarray:
+    """σ_zz [Pa] of plane strain (ε_zz = 0 in the linear law): k₁ σ₁ + k₂ σ₂, with σ₁, σ₂ the
+    normal stresses along and across the bedding and (k₁, k₂) = (ν1, ν21 E1/E2)
+    (``Material.out_of_plane_ratios``; isotropic: (ν, ν), so σ_zz = ν(σ_xx + σ_yy)).  T (n, 2, 2)
+    Cauchy stresses; cs (n, 2) the cosine and sine of the bedding (rows (0, 0): along x); k (n, 2)."""
+    T = np.asarray(T, dtype=np.float64)
+    cs = np.asarray(cs, dtype=np.float64)
+    off = np.all(cs == 0.0, axis=1)
+    c = np.where(off, 1.0, cs[:, 0])
+    s = np.where(off, 0.0, cs[:, 1])
+    sxx, syy, sxy = T[:, 0, 0], T[:, 1, 1], 0.5 * (T[:, 0, 1] + T[:, 1, 0])
+    s1 = c * c * sxx + 2.0 * c * s * sxy + s * s * syy
+    s2 = s * s * sxx - 2.0 * c * s * sxy + c * c * syy
+    return k[:, 0] * s1 + k[:, 1] * s2

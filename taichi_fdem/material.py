@@ -188,8 +188,8 @@ class Material:
         :meth:`Scene.set_interaction <taichi_fdem.scene.Scene.set_interaction>` says otherwise.
     damping : float
         Viscous damping β in [0, 1], as a fraction of critical damping of the highest
-        element mode: k_s = 2 h β √(E ρ) (docs/theory/elements.md §3.4).  0 (default) for wave
-        and impact problems, 0.1–1 for quasi-static runs.
+        element mode: k_s = 2 h β √(E ρ) (docs/theory/elements.md §3.4; with ``bedding``, E the
+        larger of E1 and E2).  0 (default) for wave and impact problems, 0.1–1 for quasi-static runs.
     penalty : float or None
         Normal contact penalty p [Pa].  Default ``10 · young``: by the book's estimate
         (p. 79–80) the penetration is then about 1/10 of the element's own elastic
@@ -341,6 +341,14 @@ class Material:
         """(C11, C22, C12, C66) [Pa] of the plane problem in the bedding frame
         (:func:`taichi_fdem.elasticity.stiffness_2d`; isotropic: the isotropic stiffness)."""
         return elasticity.stiffness_2d(*self.ti_constants, plane)
+
+    @property
+    def out_of_plane_ratios(self) -> tuple:
+        """(k₁, k₂) of the plane-strain out-of-plane stress σ_zz = k₁ σ₁ + k₂ σ₂ (σ₁, σ₂ along and
+        across the bedding): (ν1, ν21 E1/E2); isotropic (ν, ν)."""
+        if self.bedding is None:
+            return self.poisson, self.poisson
+        return self.poisson, self.bedding.poisson_normal * self.young / self.bedding.young_normal
 
     def thermal_expansion_2d(self, plane: str) -> tuple:
         """(α1*, α2*) [1/K], the effective expansion of the plane problem in the bedding frame

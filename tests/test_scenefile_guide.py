@@ -39,6 +39,7 @@ EXAMPLES = [
     ("docs/guide/outputs.md", 0, "outputs_recorders.toml", 20),
     ("docs/guide/outputs.md", 1, "outputs_vtu.toml", 20),
     ("docs/guide/outputs.md", 2, "outputs_body_motion.toml", 20),
+    ("docs/guide/anisotropy.md", 0, "anisotropy.toml", 20),
 ]
 #: blocks of the guide that build no scene: a material, meshes, an envelope fit
 NO_SCENE = [("docs/guide/materials.md", 0), ("docs/guide/meshes.md", 0), ("docs/guide/meshes.md", 1),

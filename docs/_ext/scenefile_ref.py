@@ -15,6 +15,7 @@ import re
 SECTIONS = (  # (title, schema attribute, docstring header)
     ("[scene]", "SCENE_KEYS", "``[scene]``"),
     ("[materials.NAME]", "MATERIAL_KEYS", "``[materials.NAME]``"),
+    ("[materials.NAME.bedding]", "BEDDING_KEYS", "``[materials.NAME.bedding]``"),
     ("[curves.NAME]", "CURVE_KEYS", "``[curves.NAME]``"),
     ("[[bodies]]", "BODY_KEYS", "``[[bodies]]``"),
     ("[[joint_sets]]", "JOINT_SET_KEYS", "``[[joint_sets]]``"),

@@ -42,8 +42,8 @@ Kernels take the array groups of :mod:`taichi_fdem.engine.groups` in the order o
 with the fluid's group: :func:`run_steps_serial_fluid` and :func:`step_parallel_fluid` differ
 from :func:`run_steps_serial` and :func:`step_parallel` only in how their groups are passed (one
 argpack holding every member: separate ones would pass Taichi's 64 argument leaves).
-``contact``, ``friction``, ``fracture``, ``loads``, ``local_damping`` (the quasi-static option)
-and ``fluid`` are compile-time switches, passed together as one :class:`Features` tuple (absent
+``contact``, ``friction``, ``fracture``, ``loads``, ``local_damping`` (the quasi-static option),
+``fluid``, ``bedding`` and ``heat`` are compile-time switches, passed together as one :class:`Features` tuple (absent
 features are not compiled); damping, contact damping and prescribed velocities are runtime
 switches in the step group.
 """

@@ -19,8 +19,9 @@ stored but rebuilt from the scene; the file holds
   state, and anything a user hung on it), pickled, Taichi ndarrays inside tuples, lists and
   dicts included as NumPy data, and the build settings (time step, buffer, speed limit);
 * the :class:`~taichi_fdem.scene.Scene` (meshes, materials, bodies, settings), pickled, with
-  each ``fix_nodes`` and load predicate replaced by the node mask it selected, so that lambdas
-  need not be picklable (curves are plain data).
+  each ``fix_nodes`` and load predicate replaced by the node mask it selected, and each callable
+  bedding angle by the angles it gave at the triangles' centroids, so that lambdas need not be
+  picklable (curves are plain data).
 
 :func:`load` rebuilds the scene with the saved time step, strategy, buffer and speed limit
 (``force_dt=True``, no overlap check), then overwrites every saved state array — re-allocating
@@ -79,6 +80,50 @@ class _NodeMask:
             raise ValueError(f"checkpoint: a fix_nodes selection restored from a checkpoint holds "
                              f"{self.mask.size} nodes, the scene now has {np.size(x)}")
         return self.mask.copy()
+
+
+class _BeddingAngles:
+    """A picklable stand-in for a callable bedding angle (``Bedding(angle=f)``): the angles [°] it
+    gave at the triangles' centroids at build, looked up by the centroid."""
+
+    def __init__(self, xy: np.ndarray, angles: np.ndarray):
+        self.table = {(float(x), float(y)): float(a) for (x, y), a in zip(np.asarray(xy), np.asarray(angles))}
+
+    def __call__(self, x, y):
+        try:
+            return np.array([self.table[(float(a), float(b))] for a, b in zip(np.ravel(x), np.ravel(y))])
+        except KeyError:
+            raise ValueError("checkpoint: a bedding angle restored from a checkpoint is known at the centroids of "
+                             "the saved scene's triangles only") from None
+
+
+def _fixed_bedding(sim) -> dict:
+    """{id(material): a copy whose callable bedding angle is a :class:`_BeddingAngles`}."""
+    import warnings
+    md = sim.model
+    out = {}
+    centroid = md.node_rest[md.tri_nodes_np].mean(axis=1)
+    for k, m in enumerate(md.materials):
+        bed = getattr(m, "bedding", None)
+        if bed is None or not callable(bed.angle) or isinstance(bed.angle, _BeddingAngles):
+            continue
+        sel = md.tri_mat_np == k
+        with warnings.catch_warnings():         # its warnings were given when it was made
+            warnings.simplefilter("ignore")
+            out[id(m)] = m.with_(bedding=bed.with_(angle=_BeddingAngles(centroid[sel], md.tri_bedding_np[sel])))
+    return out
+
+
+def _substitute_materials(bodies, subst: dict) -> list:
+    """Copies of the bodies with their materials replaced by ``subst`` (by id)."""
+    out = []
+    for b in bodies:
+        b2 = copy.copy(b)
+        b2.material = subst.get(id(b.material), b.material)
+        if getattr(b, "materials", None):
+            b2.materials = [subst.get(id(m), m) for m in b.materials]
+        out.append(b2)
+    return out
 
 
 def _ndarray_meta(arr) -> dict:
@@ -161,11 +206,15 @@ def _scene_bundle(sim) -> dict:
         Xf = sim.model.fluid_node_rest
         scene._injections = [dataclasses.replace(inj, where=_NodeMask(np.asarray(
             inj.where(Xf[:, 0].copy(), Xf[:, 1].copy()), dtype=bool))) for inj in sim.scene._injections]
+    # a callable bedding angle becomes the table of the angles it gave (a lambda is not picklable)
+    subst = _fixed_bedding(sim)
+    if subst:
+        scene.bodies = _substitute_materials(scene.bodies, subst)
     # interactions are keyed by id(material): store the material objects themselves
     by_id = {}
     for b in sim.bodies:
         for m in (getattr(b, "materials", None) or [b.material]):
-            by_id[id(m)] = m
+            by_id[id(m)] = subst.get(id(m), m)
     interactions = [(by_id[a], by_id[b], dict(props)) for (a, b), props in sim.scene._interactions.items()
                     if a in by_id and b in by_id]
     scene._interactions = {}

@@ -63,6 +63,26 @@ like                   —       a NAME of ``[materials]`` whose values this one
                                given replace them (``Material.with_``) [none]
 =====================  ======  ===============================================================
 
+A material may hold a ``bedding`` sub-table: transversely isotropic elasticity, ``young`` and
+``poisson`` then being E1 and ν1 in the bedding plane (docs/guide/anisotropy.md).
+
+``[materials.NAME.bedding]`` (``fdem.Bedding``; a callable angle(x, y) needs the Python API)
+
+=====================  ======  ===============================================================
+angle                  °       dip of the bedding from the x axis, counter-clockwise
+young_normal           Pa      E2, Young's modulus across the bedding, > 0
+poisson_normal         —       ν21: strain in the bedding plane per strain across it, under a
+                               stress across it (S₁₂ = −ν21/E2)
+shear_modulus          Pa      G2, shear modulus of planes normal to the bedding, > 0
+tensile_strength       Pa      f_t of joints parallel to the bedding [the material's]
+cohesion               Pa      c of joints parallel to the bedding [the material's]
+friction_angle         °       φ_i of joints parallel to the bedding [the material's]
+fracture_energy        J/m²    G_I of joints parallel to the bedding [the material's]
+fracture_energy_shear  J/m²    G_II of joints parallel to the bedding [the material's]
+expansion_normal       1/K     thermal expansion across the bedding [the material's expansion]
+spacing                m       distance between weak bedding planes [none]
+=====================  ======  ===============================================================
+
 ``[curves.NAME]`` (a load curve ``fdem.Curve``, piecewise linear, constant past its ends)
 
 ================  ======  =================================================================
@@ -307,8 +327,9 @@ video          —       video written while running: .mp4, .gif or a folder of 
 fps            1/s     frames per second of the video [30]
 frame_dt       s       simulated time between frames [duration / (5 s × fps)]
 color_by       —       "body", "material", "speed", "displacement", "von_mises",
-                       "max_principal", "min_principal", "damage" or "fluid_pressure"
-                       (needs ``[fluid]``) ["body"]
+                       "max_principal", "min_principal", "damage", "fluid_pressure"
+                       (needs ``[fluid]``), "bedding" (needs a bedded material) or
+                       "temperature" (needs ``[temperature]`` or ``[[heat]]``) ["body"]
 width, height  px      video frame size [960, 540]
 cracks         —       draw the broken joints on the video frames [false]
 crack_events   —       CSV file of crack events, appended as joints break [none]
@@ -392,7 +413,7 @@ from .scenetables.keys import (  # noqa: F401 (re-exported: the schemas the refe
     _ARRAY_TABLES, _BOUNDS, _MESH_KEYS, BODY_KEYS, CHECK_KEYS, COLOR_BY, CONSTRAINT_KEYS, CURVE_KEYS,
     EXCAVATE_KEYS, FLUID_KEYS, HEAT_KEYS, INITIAL_STRESS_KEYS, INJECT_KEYS, INTERACTION_KEYS, JOINT_SET_KEYS,
     LAB_JOINT_SET_KEYS, LAB_KEYS, LAB_TEST_KEYS, LOAD_KEYS, LOAD_VALUE, MATERIAL_KEYS, OUTPUT_KEYS, REGION_KEYS,
-    SCENE_KEYS, SHAPE_KEYS, SOLVER_KEYS, TEMPERATURE_KEYS, TOP_KEYS)
+    SCENE_KEYS, SHAPE_KEYS, SOLVER_KEYS, TEMPERATURE_KEYS, TOP_KEYS, BEDDING_KEYS)
 from .scenetables.common import region_of, strength_of  # noqa: F401 (re-exported)
 from .scenetables.bodies import _body_tables
 from .scenetables.boundary import (_constraint_tables, _excavate_tables, _excavations_within,

@@ -28,10 +28,15 @@ cell data
     ``stress``: elastic Cauchy stress [Pa] as 3 components (σ_xx, σ_yy, σ_xy), from
     :meth:`Simulation.stresses` (without the viscous part);
     ``von_mises`` [Pa]: √(½[(σ_xx−σ_yy)² + (σ_yy−σ_zz)² + (σ_zz−σ_xx)²] + 3 σ_xy²), with
-    σ_zz = 0 in plane stress and σ_zz = ν(σ_xx + σ_yy) in plane strain (as the renderer);
+    σ_zz = 0 in plane stress and σ_zz = ν(σ_xx + σ_yy) in plane strain (as the renderer; a bedded
+    triangle: σ_zz = ν1 σ_1 + ν21 (E1/E2) σ_2 with σ_1, σ_2 the normal stresses along and across its
+    bedding, docs/theory/anisotropy.md);
     ``strain``: Green–Lagrange strain E = ½(FᵀF − I) (dimensionless) as 3 tensor components (E_xx, E_yy, E_xy) — not engineering shear; it equals the small strain
     sym(∇u) to first order; ``body_id`` and ``material_id`` (int32); ``damage`` in [0, 1]
-    (``sim.cracks.tri_damage()``: zeros for bodies without joints).  Triangles removed by an excavation (``sim.remove``) are not written.
+    (``sim.cracks.tri_damage()``: zeros for bodies without joints); in scenes with a bedded material
+    (``fdem.Bedding``), ``bedding``: the current unit direction F a / ‖F a‖ of each triangle's
+    bedding a = (cos θ, sin θ), 3 components (z = 0), zero for triangles of isotropic materials.
+    Triangles removed by an excavation (``sim.remove``) are not written.
 
 Cracks: :func:`write_cracks_vtu` writes the broken joints as a separate VTU file of line cells
 (their current midlines) with the crack events' data (time, mode, energy, length, set).
@@ -43,6 +48,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from ..elasticity import out_of_plane_stress
 from ..sim.recorders import Recorder
 
 __all__ = ["ExporterVtu", "VTU", "frame_fields", "write_cracks_vtu", "write_ae_vtu"]
@@ -75,9 +81,14 @@ def frame_fields(sim) -> dict:
     sxx, syy, sxy = T[:, 0, 0], T[:, 1, 1], 0.5 * (T[:, 0, 1] + T[:, 1, 0])
     szz = np.zeros_like(sxx)
     scene = getattr(sim, "scene", None)
+    bedding = getattr(sim.model, "bedding", False)
+    cs = _to_numpy(sim.model.tri_bedding).astype(np.float64) if bedding else None
     if getattr(scene, "plane", "stress") == "strain":     # Hooke's out-of-plane stress σ_zz = ν(σ_xx + σ_yy)
         nu = np.array([m.poisson for m in sim.model.materials])[np.asarray(sim.model.tri_mat_np)]
         szz = nu * (sxx + syy)
+        if bedding:
+            k = np.array([m.out_of_plane_ratios for m in sim.model.materials])[np.asarray(sim.model.tri_mat_np)]
+            szz = out_of_plane_stress(T, cs, k)
     von_mises = np.sqrt(np.maximum(0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2)
                                    + 3.0 * sxy * sxy, 0.0))
 
@@ -96,6 +107,10 @@ def frame_fields(sim) -> dict:
              "body_id": np.asarray(sim.model.tri_body_np, dtype=np.int32),
              "material_id": np.asarray(sim.model.tri_mat_np, dtype=np.int32),
              "damage": damage}
+    if bedding:                                # the current direction of the bedding, F a / ‖F a‖
+        d = (F @ cs[:, :, None])[:, :, 0]
+        n = np.linalg.norm(d, axis=1)
+        cells["bedding"] = _pad3(np.where(n[:, None] > 0, d / np.where(n > 0, n, 1.0)[:, None], 0.0))
     active = getattr(sim, "active_triangles", None)
     if callable(active):                       # triangles removed by an excavation are not written
         keep = np.asarray(active(), dtype=bool)

@@ -4,7 +4,8 @@
   :meth:`~taichi_fdem.render.RendererImage.render_sim` with their colour-bar titles
   (``"fluid_pressure"`` colours the fracture network, not the triangles);
 * :data:`COLORMAPS` / :func:`colormap` -- scalar fields to RGB (viridis, gray, coolwarm);
-* :func:`body_colors` -- a distinct palette colour per body (or material) id.
+* :func:`body_colors` -- a distinct palette colour per body (or material) id;
+* :func:`bedding_colors` -- a hue per bedding angle (``color_by="bedding"``).
 
 The raster kernel applies the same tables on the device (see
 :func:`~taichi_fdem.render.kernels._cmap`), so both paths give the same colours.
@@ -15,7 +16,8 @@ import numpy as np
 
 from ._util import _to_np
 
-__all__ = ["COLOR_MODES", "COLORMAPS", "colormap", "body_colors", "SOLID_UNDER_FLUID"]
+__all__ = ["COLOR_MODES", "COLORMAPS", "colormap", "body_colors", "bedding_colors", "SOLID_UNDER_FLUID",
+           "ISOTROPIC_COLOR"]
 
 # color_by modes of RendererImage.render_sim: name -> (kernel mode id or None for categorical,
 # colour-bar title with units).  The stress titles have two spaces before "stress": a space of
@@ -32,9 +34,13 @@ COLOR_MODES = {
     "damage": (-1, "damage"),       # sim.cracks.tri_damage() (joint model), range [0, 1]
     # the network edges coloured by the fluid pressure over a grey solid (scenes with a fluid)
     "fluid_pressure": (-2, "fluid  pressure [Pa]"),
+    # a hue per bedding angle, isotropic triangles in ISOTROPIC_COLOR (scenes with a bedded material)
+    "bedding": (-3, "bedding angle"),
     # the mean of the nodes' temperatures of each triangle (scenes with heat: sim.temperatures())
-    "temperature": (-3, "temperature"),
+    "temperature": (-4, "temperature"),
 }
+#: fill colour of the triangles of isotropic materials in the "bedding" mode (RGB in [0, 1])
+ISOTROPIC_COLOR = (0.6, 0.6, 0.6)
 #: fill colour of the solid under the fluid network in the "fluid_pressure" mode (RGB in [0, 1])
 SOLID_UNDER_FLUID = (0.86, 0.86, 0.86)
 
@@ -123,3 +129,16 @@ def body_colors(tri_body) -> np.ndarray:
         raise ValueError(f"body_colors: body ids must be integers, got dtype {ids.dtype}")
     ids = ids.astype(np.int64).reshape(-1)
     return _BODY_PALETTE[np.mod(ids, len(_BODY_PALETTE))]
+
+
+def bedding_colors(tri_bedding) -> np.ndarray:
+    """(m, 3) float32 RGB of the ``"bedding"`` colour mode: the bedding direction (cos, sin) of
+    each triangle (``sim.model.tri_bedding``) as a hue, its angle modulo 180° around the colour
+    circle (0° red, 60° green, 120° blue); (0, 0), a triangle of an isotropic material, in
+    :data:`ISOTROPIC_COLOR`."""
+    cs = np.asarray(_to_np(tri_bedding), dtype=np.float64).reshape(-1, 2)
+    hue = np.mod(np.degrees(np.arctan2(cs[:, 1], cs[:, 0])), 180.0) / 180.0
+    k = np.mod(np.array([5.0, 3.0, 1.0])[None, :] + hue[:, None] * 6.0, 6.0)     # HSV → RGB, s = 0.75, v = 0.9
+    rgb = 0.9 - 0.9 * 0.75 * np.clip(np.minimum(k, 4.0 - k), 0.0, 1.0)
+    rgb[np.all(cs == 0.0, axis=1)] = ISOTROPIC_COLOR
+    return rgb.astype(np.float32)

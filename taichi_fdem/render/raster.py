@@ -14,10 +14,11 @@ import numpy as np
 import taichi as ti
 
 from taichi_fdem import backend
+from taichi_fdem.elasticity import out_of_plane_stress
 
 from ._util import (_check_color, _check_pos_int, _check_range, _check_real, _check_view, _is_ndarray,
                     _np_dtype, _to_np)
-from .colors import COLOR_MODES, COLORMAPS, SOLID_UNDER_FLUID, _check_color_by, body_colors, colormap
+from .colors import COLOR_MODES, COLORMAPS, SOLID_UNDER_FLUID, _check_color_by, bedding_colors, body_colors, colormap
 from .kernels import (_bbox_kernel, _centroid_kernel, _clear_kernel, _clear_u8_kernel, _colormap_kernel,
                       _cracks_u8_kernel, _drawn_tris_kernel, _fluid_u8_kernel, _raster_kernel, _raster_u8_kernel,
                       _resolve_kernel, _sim_scalar_kernel, _to_pixels_kernel, _tri_damage_kernel, _tri_scalar_kernel,
@@ -32,6 +33,37 @@ def _tri_temperatures(sim) -> np.ndarray:
     if not getattr(sim.model, "heat", False):
         raise ValueError("color_by='temperature': the scene conducts no heat (scene.set_temperature, scene.heat)")
     return sim.temperatures()[sim.model.tri_nodes_np].mean(axis=1)
+
+
+def _host_stress(kid, sim) -> bool:
+    """Whether the stress scalars of mode kid come from ``sim.stresses()`` on the host: scenes with
+    bedded triangles or thermal strains, whose laws the raster kernel does not hold."""
+    md = getattr(sim, "model", None)
+    return kid in (2, 3, 4, 5) and bool(getattr(md, "bedding", False) or getattr(md, "heat", False))
+
+
+def _host_stress_scalars(sim, kid) -> np.ndarray:
+    """The stress scalars of mode kid (see kernels._tri_scalar_kernel) from ``sim.stresses()``,
+    σ_zz of plane strain from the triangles' laws (:func:`taichi_fdem.elasticity.out_of_plane_stress`);
+    NaN for inverted triangles."""
+    md = sim.model
+    T = np.asarray(sim.stresses(), dtype=np.float64)
+    sxx, syy, sxy = T[:, 0, 0], T[:, 1, 1], 0.5 * (T[:, 0, 1] + T[:, 1, 0])
+    if kid in (2, 5):
+        szz = np.zeros_like(sxx)
+        if kid == 5:
+            k = np.array([m.out_of_plane_ratios for m in md.materials])[np.asarray(md.tri_mat_np)]
+            cs = md.tri_bedding.to_numpy() if md.bedding else np.zeros((md.tri_count, 2))
+            szz = out_of_plane_stress(T, cs, k)
+        val = np.sqrt(np.maximum(0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2) + 3.0 * sxy * sxy, 0.0))
+    else:
+        c, r = 0.5 * (sxx + syy), np.sqrt(0.25 * (sxx - syy) ** 2 + sxy * sxy)
+        val = c + r if kid == 3 else c - r
+    x = sim.state.node_x.to_numpy().astype(np.float64)
+    t = md.tri_nodes_np
+    e1, e2 = x[t[:, 1]] - x[t[:, 0]], x[t[:, 2]] - x[t[:, 0]]
+    val[e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0] <= 0.0] = np.nan
+    return val
 
 
 def _plane_mode(kid, sim):
@@ -76,8 +108,11 @@ class RendererImage(_Overlays):
         conducting edge of the fracture network, its two faces ``crack_width`` pixels wide and
         the opening between them, coloured by the fluid pressure [Pa] (``cmap``, interpolated
         linearly between the edge's two network nodes); the automatic range is that of the
-        conducting nodes' pressures.  ``"temperature"`` (scenes with heat, ``scene.heat``): the
-        mean of the triangle's nodes' temperatures (``sim.temperatures()``).
+        conducting nodes' pressures.  ``"bedding"`` (scenes with a bedded material,
+        ``fdem.Bedding``): a hue per bedding angle modulo 180° (0° red, 60° green, 120° blue;
+        :func:`~taichi_fdem.render.colors.bedding_colors`), isotropic triangles grey.
+        ``"temperature"`` (scenes with heat, ``scene.heat``): the mean of the triangle's nodes'
+        temperatures (``sim.temperatures()``).
     vmin, vmax : float or None
         Colour range of the scalar modes, in the quantity's unit.  ``None`` (default)
         = automatic, the finite min / max of the current frame (so colours are not comparable
@@ -403,15 +438,17 @@ class RendererImage(_Overlays):
         (m/s, m or Pa; NaN for inverted triangles), computed by a Taichi kernel."""
         mode = _check_color_by(self.color_by if color_by is None else color_by)
         kid = _plane_mode(COLOR_MODES[mode][0], sim)
-        if kid is None:
+        if kid is None or kid == -3:
             raise ValueError(f"tri_scalars: color_by={mode!r} is not a scalar mode")
         if kid == -2:
             raise ValueError("tri_scalars: 'fluid_pressure' colours the fracture network, not the triangles "
                              "(sim.fluid.pressures() gives the network's pressures)")
-        if kid == -3:
+        if kid == -4:
             return _tri_temperatures(sim)
         if kid < 0:      # "damage"
             return np.asarray(sim.cracks.tri_damage(), dtype=np.float64)
+        if _host_stress(kid, sim):
+            return _host_stress_scalars(sim, kid)
         backend.ensure_init()
         consts = self._sim_consts(sim)
         x0 = self._rest_positions(sim, consts)
@@ -475,7 +512,7 @@ class RendererImage(_Overlays):
         info = self._np_small.get("range")
         if info is None:
             info = self._np_small["range"] = np.zeros(3, dtype=np.float64)
-        if kid == -3:    # "temperature": the mean of the nodes' temperatures of each triangle
+        if kid == -4:    # "temperature": the mean of the nodes' temperatures of each triangle
             t = _tri_temperatures(sim)
             scal.from_numpy(np.ascontiguousarray(t, dtype=_np_dtype(sim.state.node_x.dtype)))
             info[:] = (float(t.min()), float(t.max()), len(t))
@@ -487,6 +524,12 @@ class RendererImage(_Overlays):
             else:
                 scal.fill(0)
             info[:] = (0.0, 1.0, sim.model.tri_count)
+            return scal, info
+        if _host_stress(kid, sim):
+            vals = _host_stress_scalars(sim, kid)
+            scal.from_numpy(vals.astype(_np_dtype(scal.dtype)))
+            fin = vals[np.isfinite(vals)]
+            info[:] = (fin.min(), fin.max(), len(fin)) if len(fin) else (0.0, 0.0, 0)
             return scal, info
         _sim_scalar_kernel(sim.state.node_x, sim.state.node_v, x0, sim.model.tri_nodes, sim.model.tri_rest_inv, sim.model.tri_mat,
                            sim.model.mat_lame, int(kid), scal, info)
@@ -579,12 +622,17 @@ class RendererImage(_Overlays):
         kid, title = COLOR_MODES[mode]
         bar = None
         fluid_rng = None
-        if kid is None or kid == -2:
+        if kid is None or kid in (-2, -3):
             key = "colors_" + mode
             colors = consts.get(key)
             if colors is None:
                 if kid == -2:
                     cols = np.broadcast_to(np.asarray(SOLID_UNDER_FLUID, np.float32), (sim.model.tri_count, 3))
+                elif kid == -3:
+                    if not getattr(sim.model, "bedding", False):
+                        raise ValueError("render_sim: color_by='bedding' needs a scene with a bedded material "
+                                         "(fdem.Material(..., bedding=fdem.Bedding(...)))")
+                    cols = bedding_colors(sim.model.tri_bedding)
                 else:
                     cols = body_colors(sim.model.tri_body_np if mode == "body" else sim.model.tri_mat_np)
                 colors = ti.Vector.ndarray(3, ti.f32, shape=(sim.model.tri_count,))

@@ -376,8 +376,10 @@ def _anisotropy(md, scene, materials, X, tris, tri_mat) -> dict:
 
 
 def _tri_viscosity(materials, tri_mat, area0, beta_t, rho) -> np.ndarray:
-    """The viscous damping coefficient of each triangle [Pa·s·m] (docs/theory/contact.md §2.3)."""
-    E = np.array([m.young for m in materials])[tri_mat]
+    """The viscous damping coefficient of each triangle [Pa·s·m] (docs/theory/contact.md §2.3); a
+    bedded material is rated with the larger of its moduli E1, E2."""
+    E = np.array([m.young if m.bedding is None else max(m.young, m.bedding.young_normal)
+                  for m in materials])[tri_mat]
     h = np.sqrt(4.0 * area0 / math.sqrt(3.0))       # edge of the equilateral of equal area
     return 2.0 * h * beta_t * np.sqrt(E * rho)
 

@@ -12,6 +12,7 @@ import csv
 import os
 
 from . import heat
+from ..elasticity import cauchy_svk
 from .energies import compute_energies
 from .motion import BodyMotion, body_motion_of
 from .views import View
@@ -76,16 +77,15 @@ class SimulationResults:
 
     def stresses(self, body=None) -> np.ndarray:
         """Elastic Cauchy stress of each triangle [Pa], shape (m, 2, 2) (§3.2, without the viscous part;
-        with the initial stress, §12.4; zero for removed triangles)."""
+        with the initial stress, §12.4; zero for removed triangles).  Bedded triangles follow the
+        transversely isotropic law and thermal strains the split F = F_e F_th
+        (docs/theory/anisotropy.md)."""
         x = self.state.node_x.to_numpy().astype(np.float64)
         t = self.model.tri_nodes_np
         Fx = np.stack([x[t[:, 1]] - x[t[:, 0]], x[t[:, 2]] - x[t[:, 0]]], axis=2)
         F = Fx @ self.model.tri_rest_inv.to_numpy().astype(np.float64)
         J = np.linalg.det(F)
-        lame = self.model.mat_lame.to_numpy()[self.model.tri_mat_np]
-        mu, lam = lame[:, 0, None, None], lame[:, 1, None, None]
-        I = np.eye(2)
-        T = (mu / J[:, None, None]) * (F @ F.transpose(0, 2, 1) - I) + lam * (J - 1.0 / J)[:, None, None] * I
+        T = self._elastic_stresses(F, J)
         S0 = self.model.tri_prestress_np
         if self.model.prestress:            # initial stress: + F S⁰ Fᵀ / J (docs/theory/loads.md §12.4)
             S = np.stack([np.stack([S0[:, 0], S0[:, 2]], 1), np.stack([S0[:, 2], S0[:, 1]], 1)], 1)
@@ -94,6 +94,27 @@ class SimulationResults:
         if body is None:
             return T
         return T[self._body_obj(body).triangles]
+
+    def _elastic_stresses(self, F, J) -> np.ndarray:
+        """The elastic Cauchy stress [Pa] of the triangles at deformation gradients F (E, 2, 2),
+        J = det F: the host twin of engine.elastic.elastic_stress."""
+        md = self.model
+        Fe, Je = F, J
+        if md.heat:                         # F = F_e F_th, F_th = I + ε*
+            th = self.state.tri_thermal.to_numpy().astype(np.float64)
+            Fth = np.stack([np.stack([1.0 + th[:, 0], th[:, 2]], 1), np.stack([th[:, 2], 1.0 + th[:, 1]], 1)], 1)
+            Fe = F @ np.linalg.inv(Fth)
+            Je = np.linalg.det(Fe)
+        lame = md.mat_lame.to_numpy()[md.tri_mat_np]
+        mu, lam = lame[:, 0, None, None], lame[:, 1, None, None]
+        I = np.eye(2)
+        T = (mu / Je[:, None, None]) * (Fe @ Fe.transpose(0, 2, 1) - I) + lam * (Je - 1.0 / Je)[:, None, None] * I
+        if md.bedding:
+            cs = md.tri_bedding.to_numpy().astype(np.float64)
+            on = np.any(cs != 0.0, axis=1)
+            C = md.mat_aniso.to_numpy().astype(np.float64)[md.tri_mat_np[on]]
+            T[on] = cauchy_svk(Fe[on], cs[on, 0], cs[on, 1], C)
+        return T
 
     # ------------------------------------------------------------------------------------------
     # loads and reactions (docs/theory/loads.md §12)

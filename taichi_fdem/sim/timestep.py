@@ -21,7 +21,8 @@ def estimate_time_steps(*, altitude, area0, cp, beta, moving, contact_altitude, 
     """The per-mechanism estimates and the limit [s].
 
     Parameters (per triangle unless said): altitude (smallest altitude [m]), area0 [m²], cp
-    (P-wave speed [m/s]), beta (damping ratio), moving (bool: not every node prescribed);
+    (P-wave speed [m/s]; of the stiffest direction for a bedded material, ``Material.p_wave_speed``,
+    docs/theory/anisotropy.md), beta (damping ratio), moving (bool: not every node prescribed);
     contact_altitude (altitudes of contact triangles, may be empty), contact_penalty (largest
     penalty in use [Pa], 0 without contact), rho_min [kg/m³], xi_max (largest contact damping
     ratio); joint_h, joint_rho, joint_penalty (per joint; empty without fracture); fluid_step

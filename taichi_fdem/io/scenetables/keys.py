@@ -42,6 +42,21 @@ MATERIAL_KEYS = {
     "expansion": _F(default=0.0, unit="1/K", lo=-1.0, hi=1.0),
     "like": _Key("str"),
 }
+#: the ``[materials.NAME.bedding]`` sub-table: ``fdem.Bedding`` (a number angle only: a callable
+#: angle(x, y) cannot be written in a file)
+BEDDING_KEYS = {
+    "angle": _F(unit="°", lo=-360.0, hi=360.0, required=True),
+    "young_normal": _POS("Pa", required=True),
+    "poisson_normal": _F(required=True),
+    "shear_modulus": _POS("Pa", required=True),
+    "tensile_strength": _POS("Pa"),
+    "cohesion": _POS("Pa"),
+    "friction_angle": _F(unit="°", lo=0.0, hi=90.0),
+    "fracture_energy": _POS("J/m²"),
+    "fracture_energy_shear": _POS("J/m²"),
+    "expansion_normal": _F(unit="1/K"),
+    "spacing": _POS("m", hi=_LEN),
+}
 BODY_KEYS = {
     "name": _Key("str"),
     "material": _Key("str"),
@@ -182,7 +197,7 @@ SOLVER_KEYS = {
     "speed_limit": _POS("m/s", hi=1e9),
 }
 COLOR_BY = ("body", "material", "speed", "displacement", "von_mises", "max_principal", "min_principal", "damage",
-            "fluid_pressure", "temperature")
+            "fluid_pressure", "bedding", "temperature")
 OUTPUT_KEYS = {
     "video": _Key("str"),
     "fps": _Key("int", 30, "1/s", lo=1, hi=1000),

@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 
 from ..toml_check import SceneFileError, _suggest
-from .keys import CURVE_KEYS, MATERIAL_KEYS
+from .keys import BEDDING_KEYS, CURVE_KEYS, MATERIAL_KEYS
 
 
 def _material_tables(ck, data: dict) -> dict:
@@ -27,8 +27,11 @@ def _material_tables(ck, data: dict) -> dict:
         mt = pending.pop(name)
         mp = ("materials", name)
         ck.table(mt, mp, "density, young, poisson, friction, ...")
-        ck.keys(mt, MATERIAL_KEYS, mp)
-        vals = {k: v for k, v in ck.values(mt, MATERIAL_KEYS, mp).items() if v is not None}
+        own = {k: v for k, v in mt.items() if k != "bedding"}
+        ck.keys(own, MATERIAL_KEYS, mp)
+        vals = {k: v for k, v in ck.values(own, MATERIAL_KEYS, mp).items() if v is not None}
+        if "bedding" in mt:
+            vals["bedding"] = _bedding_table(ck, mt["bedding"], mp + ("bedding",))
         like = vals.pop("like", None)
         try:
             if like is not None:
@@ -43,6 +46,24 @@ def _material_tables(ck, data: dict) -> dict:
             bad = next((k for k in MATERIAL_KEYS if re.search(rf"\b{k}\b", str(exc)) and k in mt), None)
             raise ck.error(mp + ((bad,) if bad else ()), str(exc), table=mp) from None
     return {n: materials[n] for n in mats_t}      # in the file's order
+
+
+def _bedding_table(ck, table, bp: tuple):
+    """The :class:`~taichi_fdem.material.Bedding` of a ``[materials.NAME.bedding]`` sub-table."""
+    from ...material import Bedding
+    bt = ck.table(table, bp, "angle, young_normal, poisson_normal, shear_modulus, ...")
+    ck.keys(bt, BEDDING_KEYS, bp)
+    a = bt.get("angle")
+    if a is not None and (isinstance(a, bool) or not isinstance(a, (int, float))):
+        raise ck.error(bp + ("angle",), f"angle must be a number [°], got {a!r}: a bedding angle that varies with "
+                       "position (a callable angle(x, y), a folded layer) cannot be written in a scene file; build "
+                       "that scene in Python with fdem.Bedding(angle=f)")
+    vals = {k: v for k, v in ck.values(bt, BEDDING_KEYS, bp).items() if v is not None}
+    try:
+        return Bedding(**vals)
+    except (ValueError, TypeError) as exc:
+        bad = next((k for k in BEDDING_KEYS if re.search(rf"\b{k}\b", str(exc)) and k in bt), None)
+        raise ck.error(bp + ((bad,) if bad else ()), str(exc), table=bp) from None
 
 
 def _curve_tables(ck, data: dict) -> dict:
