@@ -21,6 +21,9 @@ Cases (the features each runs):
 * ``fluid``: a jointed block with a central crack fed by a rate source, drained by a pressure
   source at one of its edges: the fluid in the fracture network (apertures, pressures, the
   pressure forces and their gather, the flow substeps, joints that break and join the network).
+* ``heat``: a jointed block heated by a ramped held temperature on one edge and a flux on
+  another: heat conduction through the triangles and the joints (engine.heat), the curves of
+  its rows, the thermal strains and their work.
 """
 import json
 import os
@@ -71,6 +74,25 @@ def fluid_scene():
     return scene
 
 
+def _hot_edge(x, y):
+    return x < -0.1 + 1e-9
+
+
+def _top_edge(x, y):
+    return y > 0.1 - 1e-9
+
+
+def heat_scene():
+    rock = fdem.Material(density=2700.0, young=1e8, poisson=0.25, tensile_strength=3e5, cohesion=9e5,
+                         fracture_energy=1.0, conductivity=3.0, heat_capacity=800.0, expansion=1e-5)
+    scene = fdem.Scene(gravity=(0.0, 0.0))
+    scene.add_body(fdem.mesh.rectangle(0.2, 0.2, 0.05), rock, fracture=True)
+    scene.set_temperature(20.0)
+    scene.heat(_hot_edge, temperature=220.0, curve=fdem.Curve.ramp(1e-4))
+    scene.heat(_top_edge, flux=1e6)
+    return scene
+
+
 def snapshot(sim, arch):
     from taichi_fdem.render import RendererImage
     e = sim.energies()
@@ -105,7 +127,7 @@ def state_arrays(sim) -> dict:
 
 
 def run_case(name, arch):
-    scene = {"impact": impact_scene, "rock": rock_scene, "fluid": fluid_scene}[name]()
+    scene = {"impact": impact_scene, "rock": rock_scene, "fluid": fluid_scene, "heat": heat_scene}[name]()
     import warnings
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -131,6 +153,8 @@ def run_case(name, arch):
     if name == "fluid":
         out["fluid_pressures"] = sim.fluid.pressures()[1].tolist()
         out["injected"] = sim.fluid.injected_volumes().tolist()
+    if name == "heat":
+        out["temperatures"] = sim.temperatures().tolist()
     out["checkpoint_state_same"] = bool(state_same)
     return out
 
@@ -141,4 +165,4 @@ def main(arch, precision, cases):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], sys.argv[2], sys.argv[3].split(",") if len(sys.argv) > 3 else ["impact", "rock", "fluid"])
+    main(sys.argv[1], sys.argv[2], sys.argv[3].split(",") if len(sys.argv) > 3 else ["impact", "rock", "fluid", "heat"])

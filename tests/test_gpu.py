@@ -96,7 +96,7 @@ def task_buffer_counts(cache_dir) -> dict:
 
 
 @pytest.mark.parametrize("precision", ["f64", "f32"])
-@pytest.mark.parametrize("case", ["impact", "rock", "fluid"])
+@pytest.mark.parametrize("case", ["impact", "rock", "fluid", "heat"])
 def test_vulkan_runs_every_feature(vulkan, precision, case):
     """Every feature of the case runs on Vulkan: the run completes, every energy term of the
     CPU run is there and finite, the frame renders like the CPU's, the fragments are counted."""
@@ -109,6 +109,11 @@ def test_vulkan_runs_every_feature(vulkan, precision, case):
     if case == "fluid":
         assert gpu["checkpoint_same"]
         assert np.allclose(gpu["injected"], cpu["injected"], rtol=1e-3)
+    if case == "heat":
+        assert gpu["checkpoint_same"] and gpu["checkpoint_state_same"]
+        tol = {"f64": 1e-9, "f32": 1e-3}[precision]          # K, of temperatures near 200
+        assert np.allclose(gpu["temperatures"], cpu["temperatures"], rtol=0.0, atol=tol)
+        assert max(gpu["temperatures"]) > 21.0
 
 
 @pytest.mark.parametrize("precision", ["f64", "f32"])

@@ -339,7 +339,8 @@ def test_spec_pickles(tmp_path):
 def test_docstring_lists_every_key():
     doc = scenefile.__doc__
     for schema in (scenefile.SCENE_KEYS, scenefile.MATERIAL_KEYS, scenefile.BODY_KEYS, scenefile.CONSTRAINT_KEYS,
-                   scenefile.FLUID_KEYS, scenefile.INJECT_KEYS, scenefile.SOLVER_KEYS, scenefile.OUTPUT_KEYS):
+                   scenefile.FLUID_KEYS, scenefile.INJECT_KEYS, scenefile.TEMPERATURE_KEYS, scenefile.HEAT_KEYS,
+                   scenefile.SOLVER_KEYS, scenefile.OUTPUT_KEYS):
         for key, spec in schema.items():
             assert re.search(rf"\b{key}\b", doc), f"{key} is not documented"
             if spec.unit and spec.unit not in ("1/s", "px"):

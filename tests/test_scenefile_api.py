@@ -557,7 +557,7 @@ def test_new_tables_are_in_the_generated_reference():
     import scenefile_ref
     text = scenefile_ref.render()
     for title in ("[curves.NAME]", "[[joint_sets]]", "[[interactions]]", "[[loads]]", "[[initial_stress]]",
-                  "[[excavate]]", "[checks]"):
+                  "[[excavate]]", "[checks]", "[temperature]", "[[heat]]"):
         assert f"## `{title}`" in text, title
 
 

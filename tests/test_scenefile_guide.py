@@ -33,6 +33,7 @@ EXAMPLES = [
     ("docs/guide/checkpoints.md", 0, "checkpoints.toml", 20),
     ("docs/guide/fluid.md", 0, "fluid.toml", 20),
     ("docs/guide/fracture.md", 0, "fracture.toml", 10),
+    ("docs/guide/heat.md", 0, "heat.toml", 20),
     ("docs/guide/loads.md", 0, "loads_lame.toml", 20),
     ("docs/guide/loads.md", 1, "loads_bar.toml", 20),
     ("docs/guide/outputs.md", 0, "outputs_recorders.toml", 20),

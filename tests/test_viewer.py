@@ -178,7 +178,7 @@ def test_gui_image_layout_and_colour_cycle():
     sim = _small_sim()
     v = Viewer(sim, RendererImage(32, 32))
     from taichi_fdem.render import COLOR_MODES
-    n = len(COLOR_MODES) - 2          # "fluid_pressure" needs a scene with a fluid, "bedding" a bedded material
+    n = len(COLOR_MODES) - 3          # "fluid_pressure" needs a fluid, "bedding" a bedded material, "temperature" heat
     seen = [v.renderer.color_by] + [v.cycle_color() for _ in range(n)]
     assert seen[0] == seen[-1] == "body" and len(set(seen)) == n
     with pytest.raises(ValueError):

@@ -25,6 +25,8 @@ SECTIONS = (  # (title, schema attribute, docstring header)
     ("[[initial_stress]]", "INITIAL_STRESS_KEYS", "``[[initial_stress]]``"),
     ("[fluid]", "FLUID_KEYS", "``[fluid]``"),
     ("[[inject]]", "INJECT_KEYS", "``[[inject]]``"),
+    ("[temperature]", "TEMPERATURE_KEYS", "``[temperature]``"),
+    ("[[heat]]", "HEAT_KEYS", "``[[heat]]``"),
     ("[[excavate]]", "EXCAVATE_KEYS", "``[[excavate]]``"),
     ("[solver]", "SOLVER_KEYS", "``[solver]``"),
     ("[checks]", "CHECK_KEYS", "``[checks]``"),

@@ -56,6 +56,9 @@ cohesion               Pa      joints: cohesion c [f_t]
 friction_angle         °       joints: internal friction angle φ_i [30]
 fracture_energy_shear  J/m²    joints: mode II fracture energy G_II [5 × G_I]
 joint_penalty          Pa      joints: penalty p_f [10 × young]
+conductivity           W/m/K   thermal conductivity k > 0 (heat conduction) [none]
+heat_capacity          J/kg/K  specific heat capacity c > 0 (heat conduction) [none]
+expansion              1/K     linear thermal expansion coefficient α [0.0]
 like                   —       a NAME of ``[materials]`` whose values this one starts from: the keys
                                given replace them (``Material.with_``) [none]
 =====================  ======  ===============================================================
@@ -271,6 +274,29 @@ ramp              s       the rate or pressure rises linearly from 0 over this t
 curve             —       or: a NAME of ``[curves]`` multiplying the rate or pressure [none]
 ================  ======  =================================================================
 
+``[temperature]`` (the stress-free temperature of every node, ``Scene.set_temperature``)
+
+================  ======  =================================================================
+initial           K       initial temperature of every node (any consistent scale: °C or K); the
+                          table, or a ``[[heat]]``, makes the scene conduct heat, and every
+                          material then needs ``conductivity`` and ``heat_capacity`` [0.0]
+================  ======  =================================================================
+
+``[[heat]]`` (a held temperature or a heat flux, ``Scene.heat``: docs/guide/heat.md)
+
+================  ======  =================================================================
+xmin, xmax        m       region of the nodes (initial positions), inclusive [−∞, +∞]; at
+ymin, ymax        m       least one bound is required
+center            m       centre of the region's ring
+r_min, r_max      m       the region's ring
+body              —       restrict to this body (by name) [all bodies]
+temperature       K       the nodes are held at T₀ + A(t)(temperature − T₀), T₀ their initial
+                          temperature [none]
+flux              W/m²    or: a heat flux into the body through the region's boundary edges [none]
+ramp              s       A(t) rises linearly from 0 to 1 over this time [none: 1]
+curve             —       or: a NAME of ``[curves]`` giving A(t) [none]
+================  ======  =================================================================
+
 ``[solver]``
 
 ===============  ======  ===================================================================
@@ -307,7 +333,8 @@ fps            1/s     frames per second of the video [30]
 frame_dt       s       simulated time between frames [duration / (5 s × fps)]
 color_by       —       "body", "material", "speed", "displacement", "von_mises",
                        "max_principal", "min_principal", "damage", "fluid_pressure"
-                       (needs ``[fluid]``) or "bedding" (needs a bedded material) ["body"]
+                       (needs ``[fluid]``), "bedding" (needs a bedded material) or
+                       "temperature" (needs ``[temperature]`` or ``[[heat]]``) ["body"]
 width, height  px      video frame size [960, 540]
 cracks         —       draw the broken joints on the video frames [false]
 crack_events   —       CSV file of crack events, appended as joints break [none]
@@ -374,9 +401,9 @@ video                 —       video of the test coloured by joint damage [none
 A top-level ``description`` string is allowed (free text).
 
 Order: the scene is built as bodies, ``[[joint_sets]]``, ``[[interactions]]``,
-``[[constraints]]``, ``[[loads]]``, ``[[initial_stress]]``, ``[fluid]`` and ``[[inject]]``
-(each kind in the file's order), which is the order a Python script of the same scene uses
-when it adds the joint sets after the bodies.
+``[[constraints]]``, ``[[loads]]``, ``[[initial_stress]]``, ``[fluid]``, ``[[inject]]``, the
+temperatures of ``[temperature]`` and ``[[heat]]`` (each kind in the file's order), which is
+the order a Python script of the same scene uses when it adds the joint sets after the bodies.
 
 Sanity bounds (a value beyond them is refused as a typo; products of it would overflow):
 lengths (sizes, radii, ``h``, ``thickness``, ``buffer``) within [1e-9, 1e6] m, coordinates
@@ -392,14 +419,15 @@ from .toml_check import SceneFileError, _Checker, _Key, _suggest, read_toml  # n
 from .scenespec import RunSettings, SceneSpec, _BoxSelector  # noqa: F401 (re-exported; old pickles name it here)
 from .scenetables.keys import (  # noqa: F401 (re-exported: the schemas the reference is generated from)
     _ARRAY_TABLES, _BOUNDS, _MESH_KEYS, BODY_KEYS, CHECK_KEYS, COLOR_BY, CONSTRAINT_KEYS, CURVE_KEYS,
-    EXCAVATE_KEYS, FLUID_KEYS, INITIAL_STRESS_KEYS, INJECT_KEYS, INTERACTION_KEYS, JOINT_SET_KEYS,
+    EXCAVATE_KEYS, FLUID_KEYS, HEAT_KEYS, INITIAL_STRESS_KEYS, INJECT_KEYS, INTERACTION_KEYS, JOINT_SET_KEYS,
     LAB_JOINT_SET_KEYS, LAB_KEYS, LAB_TEST_KEYS, LOAD_KEYS, LOAD_VALUE, MATERIAL_KEYS, OUTPUT_KEYS, REGION_KEYS,
-    SCENE_KEYS, SHAPE_KEYS, SOLVER_KEYS, TOP_KEYS, BEDDING_KEYS)
+    SCENE_KEYS, SHAPE_KEYS, SOLVER_KEYS, TEMPERATURE_KEYS, TOP_KEYS, BEDDING_KEYS)
 from .scenetables.common import region_of, strength_of  # noqa: F401 (re-exported)
 from .scenetables.bodies import _body_tables
 from .scenetables.boundary import (_constraint_tables, _excavate_tables, _excavations_within,
                                    _initial_stress_tables, _load_tables)
 from .scenetables.fluid import _fluid_tables
+from .scenetables.heat import _heat_tables
 from .scenetables.joints import _interaction_tables, _joint_set_tables
 from .scenetables.lab import _lab_table
 from .scenetables.materials import _curve_tables, _material_tables
@@ -503,6 +531,7 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
     bodies, names = _body_tables(ck, data, materials, curves, base_dir)
     constraints = _constraint_tables(ck, data, names, curves)
     fluid, injections = _fluid_tables(ck, data, curves)
+    temperature, heat = _heat_tables(ck, data, names, curves)
     joint_sets = _joint_set_tables(ck, data, materials, names)
     interactions = _interaction_tables(ck, data, materials)
     loads = _load_tables(ck, data, names, curves)
@@ -514,5 +543,5 @@ def loads(data: dict, text: str = "", path: str = "<scene>", overrides: dict | N
     output = _output_table(ck, data)
     return SceneSpec(path=path, scene=scene, materials=materials, bodies=bodies, constraints=constraints,
                      solver=solver, output=output, description=description, fluid=fluid, injections=injections,
-                     curves=curves, joint_sets=joint_sets, interactions=interactions, loads=loads,
-                     initial_stress=initial_stress, excavations=excavations, checks=checks, _checker=ck)
+                     temperature=temperature, heat=heat, curves=curves, joint_sets=joint_sets,
+                     interactions=interactions, loads=loads, initial_stress=initial_stress, excavations=excavations, checks=checks, _checker=ck)

@@ -113,6 +113,7 @@ class SceneSpec:
     lab : the ``[lab]`` table (a standard test, :meth:`run_lab`), or None; a lab file has no
         bodies, constraints, solver or output.
     fluid : the ``[fluid]`` table (None without one); injections : one dict per ``[[inject]]``.
+    temperature : the ``[temperature]`` table (None without one); heat : one dict per ``[[heat]]``.
     curves : {name: {"times", "values"}} of ``[curves.NAME]``; joint_sets, interactions, loads,
         initial_stress, excavations : one dict per ``[[joint_sets]]``, ``[[interactions]]``,
         ``[[loads]]``, ``[[initial_stress]]``, ``[[excavate]]``; checks : the ``[checks]`` table.
@@ -129,6 +130,8 @@ class SceneSpec:
     lab: dict | None = None
     fluid: dict | None = None
     injections: list = field(default_factory=list)
+    temperature: dict | None = None
+    heat: list = field(default_factory=list)
     curves: dict = field(default_factory=dict)
     joint_sets: list = field(default_factory=list)
     interactions: list = field(default_factory=list)
@@ -262,8 +265,8 @@ class SceneSpec:
 
     def build_scene(self):
         """(:class:`~taichi_fdem.scene.Scene`, {body name: Body}): bodies, joint sets, contact
-        interactions, constraints, loads, initial stresses, the fluid and its sources added, in
-        that order (each kind in the file's order)."""
+        interactions, constraints, loads, initial stresses, the fluid and its sources, the
+        temperatures added, in that order (each kind in the file's order)."""
         from ..scene import Scene
         scene = Scene(gravity=self.scene["gravity"], plane=self.scene["plane"], thickness=self.scene["thickness"])
         self.__dict__["_made_curves"] = {}
@@ -275,6 +278,7 @@ class SceneSpec:
                                   tangential_penalty=c["tangential_penalty"], contact_damping=c["contact_damping"])
         self._add_boundary(scene, bodies)
         self._add_fluid(scene)
+        self._add_heat(scene, bodies)
         return scene, bodies
 
     def _add_body(self, scene, i: int):
@@ -370,6 +374,19 @@ class SceneSpec:
             for c in getattr(self, "injections", []):
                 curve = Curve.ramp(c["ramp"]) if c["ramp"] is not None else self.curve(c.get("curve"))
                 scene.inject(_Region(**_region(c)), rate=c["rate"], pressure=c["pressure"], curve=curve)
+
+    def _add_heat(self, scene, bodies: dict) -> None:
+        """Set the ``[temperature]`` and add the ``[[heat]]`` rows (nothing without them)."""
+        from ..scene import Curve
+        t = getattr(self, "temperature", None)
+        if t is not None:
+            scene.set_temperature(t["initial"])
+        for k, c in enumerate(getattr(self, "heat", [])):
+            where = _Region(**_region(c))
+            body = bodies[c["body"]] if c["body"] else None
+            self._selects(scene, where, body, ("heat", k), "node")
+            curve = Curve.ramp(c["ramp"]) if c["ramp"] is not None else self.curve(c.get("curve"))
+            scene.heat(where, body=body, temperature=c["temperature"], flux=c["flux"], curve=curve)
 
     def _line_groups(self, i: int):
         """``get(name)``: the Segments of the physical line group ``name`` of body ``i``'s mesh

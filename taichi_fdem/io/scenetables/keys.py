@@ -37,6 +37,9 @@ MATERIAL_KEYS = {
     "friction_angle": _F(unit="°"),
     "fracture_energy_shear": _F(unit="J/m²"),
     "joint_penalty": _F(unit="Pa"),
+    "conductivity": _POS("W/m/K"),
+    "heat_capacity": _POS("J/kg/K"),
+    "expansion": _F(default=0.0, unit="1/K", lo=-1.0, hi=1.0),
     "like": _Key("str"),
 }
 #: the ``[materials.NAME.bedding]`` sub-table: ``fdem.Bedding`` (a number angle only: a callable
@@ -195,7 +198,7 @@ SOLVER_KEYS = {
     "speed_limit": _POS("m/s", hi=1e9),
 }
 COLOR_BY = ("body", "material", "speed", "displacement", "von_mises", "max_principal", "min_principal", "damage",
-            "fluid_pressure", "bedding")
+            "fluid_pressure", "bedding", "temperature")
 OUTPUT_KEYS = {
     "video": _Key("str"),
     "fps": _Key("int", 30, "1/s", lo=1, hi=1000),
@@ -284,8 +287,21 @@ INJECT_KEYS = {
     "ramp": _POS("s"),
     "curve": _Key("str"),
 }
+TEMPERATURE_KEYS = {
+    "initial": _F(default=0.0, unit="K", lo=-1e6, hi=1e6),
+}
+HEAT_KEYS = {
+    **REGION_KEYS,
+    "body": _Key("str"),
+    "temperature": _F(unit="K", lo=-1e6, hi=1e6),
+    "flux": _F(unit="W/m²", lo=-1e15, hi=1e15),
+    "ramp": _POS("s"),
+    "curve": _Key("str"),
+}
 TOP_KEYS = ("description", "scene", "materials", "curves", "bodies", "joint_sets", "interactions", "constraints",
-            "loads", "initial_stress", "fluid", "inject", "excavate", "solver", "checks", "output", "lab")
+            "loads", "initial_stress", "fluid", "inject", "temperature", "heat", "excavate", "solver", "checks",
+            "output", "lab")
 
 #: the arrays of tables [[...]]
-_ARRAY_TABLES = ("bodies", "joint_sets", "interactions", "constraints", "loads", "initial_stress", "inject", "excavate")
+_ARRAY_TABLES = ("bodies", "joint_sets", "interactions", "constraints", "loads", "initial_stress", "inject", "heat",
+                 "excavate")

@@ -41,6 +41,9 @@ def _output_table(ck, data: dict) -> dict:
     if output["color_by"] == "fluid_pressure" and "fluid" not in data:
         raise ck.error(("output", "color_by"), "color_by = \"fluid_pressure\" colours the fluid in the fractures: "
                        "it needs a [fluid] table")
+    if output["color_by"] == "temperature" and "temperature" not in data and not data.get("heat"):
+        raise ck.error(("output", "color_by"), "color_by = \"temperature\" colours the temperatures: it needs a "
+                       "[temperature] table or [[heat]] rows")
     if "history_every" in output_t and output["history"] is None:
         raise ck.error(("output", "history_every"), "history_every needs history = \"file.csv\"")
     if "vtu_every" in output_t and output["vtu"] is None:
