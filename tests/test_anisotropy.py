@@ -202,29 +202,39 @@ def test_the_time_step_follows_the_stiffest_direction():
 
 
 # ---- the thermal eigenstrain hook --------------------------------------------------------------
-def _plate(mat, plane, held: bool):
+HEAT = dict(conductivity=3.0, heat_capacity=800.0)       # the thermal strains come from the heat sub-solver
+
+
+def _plate(mat, plane, held: bool, dT: float):
+    """A unit square plate of ``mat`` whose every node is held at dT above its stress-free
+    temperature 0, after the first heat update (sim.solver.heat)."""
     scene = fdem.Scene(plane=plane, gravity=(0.0, 0.0))
     scene.add_body(fdem.mesh.rectangle(1.0, 1.0, h=0.25, origin=(0.0, 0.0)), mat)
+    scene.set_temperature(0.0)
+    scene.heat(lambda x, y: np.ones_like(x, bool), temperature=dT)
     if held:
         scene.fix_nodes(lambda x, y: np.ones_like(x, bool))
-    return scene.build(strategy="serial", quasi_static=not held)
+    sim = scene.build(strategy="serial", quasi_static=not held)
+    assert sim.model.heat and sim.solver.features().heat
+    sim.step(sim.solver.heat.every())
+    assert sim.solver.heat.updates >= 1
+    return sim
 
 
-def _write_thermal(sim, eps):
-    th = sim.state.tri_thermal.to_numpy()
-    th[:] = eps
-    sim.state.tri_thermal.from_numpy(th)
+def _bedding_frame(deg):
+    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+    return np.array([[c, s], [-s, c]])
 
 
 def test_a_held_plate_carries_minus_c_thermal_strain():
     """Isotropic plane strain, ε* = α(1 + ν)ΔT in both directions: σ = −E α ΔT/(1 − 2ν), from the
     kernels' nodal forces and from sim.stresses(); a bedded plate gives σ = −C:ε* in its frame."""
     E, nu, alpha, dT = 20e9, 0.25, 1e-5, 0.01
-    mat = fdem.Material(density=2500.0, young=E, poisson=nu, expansion=alpha)
-    sim = _plate(mat, "strain", held=True)
-    assert sim.model.heat and sim.solver.features().heat
+    mat = fdem.Material(density=2500.0, young=E, poisson=nu, expansion=alpha, **HEAT)
+    sim = _plate(mat, "strain", held=True, dT=dT)
     a1, a2 = mat.thermal_expansion_2d("strain")
-    _write_thermal(sim, (a1 * dT, a2 * dT, 0.0))
+    np.testing.assert_allclose(sim.state.tri_thermal.to_numpy(), [[a1 * dT, a2 * dT, 0.0]] * sim.model.tri_count,
+                               rtol=1e-12, atol=1e-20)
     want = -E * alpha * dT / (1 - 2 * nu)
     T = sim.stresses()
     np.testing.assert_allclose(T[:, 0, 0], want, rtol=1e-6)
@@ -235,15 +245,14 @@ def test_a_held_plate_carries_minus_c_thermal_strain():
     right = sim.model.node_rest[:, 0] > 1.0 - 1e-9
     assert f[right, 0].sum() == pytest.approx(-want * 1.0, rel=1e-6)
     # bedded at 30°: σ in the bedding frame = −C (ε*₁, ε*₂, 0)
-    bed = fdem.Material(density=2500.0, young=E1, poisson=NU1, expansion=alpha,
+    bed = fdem.Material(density=2500.0, young=E1, poisson=NU1, expansion=alpha, **HEAT,
                         bedding=fdem.Bedding(30.0, E2, NU21, G2, expansion_normal=3 * alpha))
-    sim = _plate(bed, "strain", held=True)
+    sim = _plate(bed, "strain", held=True, dT=dT)
     a1, a2 = bed.thermal_expansion_2d("strain")
-    c, s = math.cos(math.radians(30.0)), math.sin(math.radians(30.0))
-    R = np.array([[c, s], [-s, c]])
+    R = _bedding_frame(30.0)
     eb = np.diag([a1 * dT, a2 * dT])
     eg = R.T @ eb @ R                                      # ε* in the global frame
-    _write_thermal(sim, (eg[0, 0], eg[1, 1], eg[0, 1]))
+    np.testing.assert_allclose(sim.state.tri_thermal.to_numpy()[0], (eg[0, 0], eg[1, 1], eg[0, 1]), rtol=1e-12)
     C11, C22, C12, C66 = bed.stiffness_2d("strain")
     want_b = -np.array([C11 * eb[0, 0] + C12 * eb[1, 1], C12 * eb[0, 0] + C22 * eb[1, 1]])
     Tb = R @ sim.stresses() @ R.T
@@ -263,17 +272,17 @@ def f_right(sim) -> float:
 
 @pytest.mark.parametrize("bedded", [False, True])
 def test_a_free_plate_expands_by_the_thermal_strain_without_stress(bedded):
-    """A free plate with a uniform ε* (isotropic: α ΔT; bedded: a sheared ε*) takes the strain ε*
-    and no stress."""
+    """A free plate heated uniformly (plane stress) takes the strain ε* and no stress: isotropic
+    α ΔT I; bedded at −20° with α across twice α along: R^T diag(α, 2α) R ΔT, sheared in x, y."""
     alpha, dT = 1e-5, 0.5
     if bedded:
-        mat = fdem.Material(density=2500.0, young=E1, poisson=NU1, expansion=alpha,
+        mat = fdem.Material(density=2500.0, young=E1, poisson=NU1, expansion=alpha, **HEAT,
                             bedding=fdem.Bedding(-20.0, E2, NU21, G2, expansion_normal=2 * alpha))
     else:
-        mat = fdem.Material(density=2500.0, young=20e9, poisson=0.25, expansion=alpha)
-    sim = _plate(mat, "stress", held=False)
-    eps = np.array([[3e-6, 1e-6], [1e-6, -2e-6]]) if bedded else np.eye(2) * alpha * dT
-    _write_thermal(sim, (eps[0, 0], eps[1, 1], eps[0, 1]))
+        mat = fdem.Material(density=2500.0, young=20e9, poisson=0.25, expansion=alpha, **HEAT)
+    sim = _plate(mat, "stress", held=False, dT=dT)
+    R = _bedding_frame(-20.0)
+    eps = R.T @ np.diag([alpha, 2 * alpha]) @ R * dT if bedded else np.eye(2) * alpha * dT
     sim.step(3000)
     X = sim.model.node_rest
     u = sim.node_displacements()
@@ -287,10 +296,14 @@ def test_a_free_plate_expands_by_the_thermal_strain_without_stress(bedded):
 # ---- energy balance and strategies ---------------------------------------------------------------
 def _bedded_scene(thermal: bool):
     fold = lambda x, y: 40.0 * np.sin(3.0 * x) - 25.0 * y          # noqa: E731
-    mat = fdem.Material(density=1000.0, young=E1, poisson=NU1, expansion=1e-5 if thermal else 0.0,
+    heat = HEAT if thermal else {}
+    mat = fdem.Material(density=1000.0, young=E1, poisson=NU1, expansion=1e-5 if thermal else 0.0, **heat,
                         bedding=fdem.Bedding(fold, E2, NU21, G2))
     scene = fdem.Scene(gravity=(0.0, -9.81))
     scene.add_body(fdem.mesh.rectangle(1.0, 0.4, h=0.1, origin=(0.0, 0.0)), mat)
+    if thermal:                      # the right part held 100 K above the rest: a non-uniform thermal strain
+        scene.set_temperature(0.0)
+        scene.heat(lambda x, y: x > 0.55, temperature=100.0)
     scene.fix_nodes(lambda x, y: x < 1e-9)
     scene.apply_traction(lambda x, y: x > 1.0 - 1e-9, (2e4, 1e4))
     return scene
@@ -300,13 +313,11 @@ def _bedded_scene(thermal: bool):
 def test_energy_balance_of_a_bedded_body(thermal):
     """A bedded cantilever under a sudden end traction and gravity, no damping: the energy
     account's residual stays small against the strain energy (an inconsistent stress and energy
-    would drift by O(1)); with a fixed non-uniform thermal strain as well."""
+    would drift by O(1)); with a fixed non-uniform thermal strain as well, from its first heat
+    update on."""
     sim = _bedded_scene(thermal).build(strategy="serial")
     if thermal:
-        x = sim.model.node_rest[sim.model.tri_nodes_np].mean(axis=1)[:, 0]
-        th = np.zeros((sim.model.tri_count, 3))
-        th[:, 0], th[:, 1], th[:, 2] = 2e-3 * x, -1e-3 * x, 5e-4 * x
-        sim.state.tri_thermal.from_numpy(th)
+        sim.step(sim.solver.heat.every())
     e0 = sim.energies()["total"]
     peak = 0.0
     for _ in range(10):
@@ -329,9 +340,6 @@ def test_serial_and_parallel_agree_bit_for_bit_with_bedding():
         elif blocks:
             sim.solver.assembly = "blocks"
             sim.solver.force_blocks = blocks
-        th = np.zeros((sim.model.tri_count, 3))
-        th[:, 0] = 1e-4
-        sim.state.tri_thermal.from_numpy(th)
         sim.step(500)
         runs[(strategy, blocks)] = (sim.node_positions(), sim.node_velocities())
     for a, b in zip(runs[("serial", None)], runs[("parallel", 1)]):
@@ -348,10 +356,8 @@ def test_the_forces_are_the_gradient_of_the_strain_energy(thermal):
     with a non-uniform thermal strain: the split F = F_e F_th and the weight det F_th)."""
     sim = _bedded_scene(thermal).build(strategy="serial")
     if thermal:
-        x = sim.model.node_rest[sim.model.tri_nodes_np].mean(axis=1)[:, 0]
-        th = np.zeros((sim.model.tri_count, 3))
-        th[:, 0], th[:, 1], th[:, 2] = 2e-3 * x, -1e-3 * x, 5e-4 * x
-        sim.state.tri_thermal.from_numpy(th)
+        sim.step(sim.solver.heat.every())
+        assert np.ptp(sim.state.tri_thermal.to_numpy()[:, 0]) > 0
     rng = np.random.default_rng(0)
     x0 = sim.state.node_x.to_numpy() + 1e-3 * rng.standard_normal((sim.model.node_count, 2))
     sim.state.node_x.from_numpy(x0)

@@ -82,6 +82,20 @@ class _NodeMask:
         return self.mask.copy()
 
 
+class _NodeValues:
+    """A picklable stand-in for a callable initial temperature (``scene.set_temperature(f)``): the
+    values it gave at the nodes' initial positions at build."""
+
+    def __init__(self, values: np.ndarray):
+        self.values = np.asarray(values, dtype=np.float64)
+
+    def __call__(self, x, y):
+        if np.shape(x) != self.values.shape:
+            raise ValueError(f"checkpoint: an initial temperature restored from a checkpoint holds "
+                             f"{self.values.size} nodes, the scene now has {np.size(x)}")
+        return self.values.copy()
+
+
 class _BeddingAngles:
     """A picklable stand-in for a callable bedding angle (``Bedding(angle=f)``): the angles [°] it
     gave at the triangles' centroids at build, looked up by the centroid."""
@@ -202,6 +216,13 @@ def _scene_bundle(sim) -> dict:
         mask = np.asarray(ld.where(X[:, 0].copy(), X[:, 1].copy()), dtype=bool)
         loads.append(_Load(ld.kind, _NodeMask(mask), ld.body, ld.value, ld.curve))
     scene._loads = loads
+    # heat: the selections of scene.heat become node masks, a callable initial temperature its values
+    scene._heat = [dataclasses.replace(h, where=_NodeMask(np.asarray(h.where(X[:, 0].copy(), X[:, 1].copy()),
+                                                                      dtype=bool)))
+                   for h in getattr(sim.scene, "_heat", [])]
+    if callable(getattr(sim.scene, "_temperature", None)):
+        scene._temperature = _NodeValues(np.broadcast_to(np.asarray(
+            sim.scene._temperature(X[:, 0].copy(), X[:, 1].copy()), dtype=np.float64), (len(X),)).copy())
     if getattr(sim.model, "fluid", False):             # sources: masks over the network's nodes
         Xf = sim.model.fluid_node_rest
         scene._injections = [dataclasses.replace(inj, where=_NodeMask(np.asarray(
