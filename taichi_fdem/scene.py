@@ -258,6 +258,17 @@ class _FluidSpec:
 
 
 @dataclass
+class _HeatSpec:
+    """A thermal boundary condition of the scene (:meth:`Scene.heat`): exactly one of
+    temperature [K] and flux [W/m²]."""
+    where: Callable
+    body: Optional[Body]
+    temperature: Optional[float]
+    flux: Optional[float]
+    curve: Optional[Curve] = None
+
+
+@dataclass
 class _Injection:
     """A source of the fracture network (:meth:`Scene.inject`): exactly one of rate, pressure."""
     where: Callable
@@ -292,6 +303,8 @@ class Scene:
         self._initial_stress: list[_InitialStress] = []
         self._fluid: Optional[_FluidSpec] = None
         self._injections: list[_Injection] = []
+        self._temperature = None
+        self._heat: list[_HeatSpec] = []
         self.joint_sets: list[JointSet] = []
         self._node_count = 0
         self._tri_count = 0
@@ -675,6 +688,41 @@ class Scene:
             if pressure < 0:
                 raise ValueError(f"{what}: pressure must be >= 0 Pa, got {pressure}")
         self._injections.append(_Injection(where, rate, pressure, self._check_curve(curve, what)))
+
+    # ---- heat (docs/guide/heat.md, docs/theory/heat.md) ---------------------------------------
+    def set_temperature(self, initial) -> None:
+        """The initial temperature of every node: a number, or a callable ``initial(x, y)`` of the
+        initial coordinates [m] returning a number or an array of one temperature per node.
+
+        Any consistent scale (°C or K): only differences enter the physics.  The initial
+        temperature is the stress-free one (thermal strain α(T − T₀)).  Calling it makes the
+        scene conduct heat (as :meth:`heat` does); without a call the initial temperature is 0.
+        """
+        if not callable(initial):
+            initial = _finite(initial, "initial", "Scene.set_temperature")
+        self._temperature = initial
+
+    def heat(self, where: Callable, body: Body | None = None, temperature: float | None = None,
+             flux: float | None = None, curve: Curve | None = None) -> None:
+        """A thermal boundary condition on the nodes selected by ``where(x, y)`` (initial
+        coordinates, a boolean array), restricted to ``body`` when given; exactly one of:
+
+        * ``temperature`` [K or °C]: the selected nodes are held at T₀ + A(t)(temperature − T₀),
+          T₀ a node's initial temperature and A(t) the ``curve`` (1 without one: held at
+          ``temperature`` from the start);
+        * ``flux`` [W/m²]: a heat flux A(t)·flux into the body through the selected boundary
+          edges (both nodes selected), q L/2 to each node of an edge of rest length L.
+
+        A node held by several calls takes the last one.  The heat supplied is booked in
+        ``sim.energies()`` (``heat_supplied``); selecting nothing is an error at build.
+        """
+        self._selector(where, body, "heat")
+        if (temperature is None) == (flux is None):
+            raise ValueError("Scene.heat: give exactly one of temperature= (a held temperature) and flux= "
+                             "(a heat flux [W/m²] into the body)")
+        t = None if temperature is None else _finite(temperature, "temperature", "Scene.heat")
+        q = None if flux is None else _finite(flux, "flux", "Scene.heat")
+        self._heat.append(_HeatSpec(where, body, t, q, _curve(curve, "Scene.heat")))
 
     @staticmethod
     def _check_curve(curve, where: str):

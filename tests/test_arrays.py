@@ -210,7 +210,7 @@ def test_the_declarations_are_consistent():
     for a in decl.ARRAYS:
         assert decl.symbols(a) <= set(decl.SIZES), a.name
         assert a.name.split("_")[0] in ("node", "load", "curve", "tri", "mat", "couple", "contact", "body", "det",
-                                        "asm", "joint", "step", "fluid", "bc", "nb"), a.name
+                                        "asm", "joint", "step", "fluid", "heat", "bc", "nb"), a.name
     used = set().union(*(decl.symbols(a) for a in decl.ARRAYS))
     assert used == set(decl.SIZES), sorted(set(decl.SIZES) - used)
 

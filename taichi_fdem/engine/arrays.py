@@ -57,7 +57,7 @@ MODEL, STATE, SCRATCH, HOST = "model", "state", "scratch", "host"
 ROLES = (MODEL, STATE, SCRATCH, HOST)
 
 #: the argpack groups, in the order of :data:`taichi_fdem.engine.groups.GROUPS`
-GROUP_ORDER = ("nodes", "tris", "mats", "contact", "detect", "joints", "step", "asm", "fluid")
+GROUP_ORDER = ("nodes", "tris", "mats", "contact", "detect", "joints", "step", "asm", "fluid", "heat")
 
 DET_CAND = 8              # partners of a contact triangle the count scan keeps for the fill (engine.detection,
                           # in det_cnew after its K + 1 counts: a new array would pass Taichi's 64 arguments)
@@ -85,6 +85,8 @@ SIZES = {
     "NC": "(network node, node copy) pairs (0 without a fluid)",
     "I": "length of the network's header and index lists (engine.fluid)",
     "R": "length of the fluid's parameters, counters and sources (engine.fluid)",
+    "HA": "length of the heat conduction's node lists (engine.heat; 1 without heat)",
+    "HR": "heat boundary rows: held temperatures and fluxes (1 without)",
     "FB": "force blocks of the parallel strategy (sim.solver.force_blocks)",
     "T": "team workers: FB with the team, else 0",
     "U": "node chunks of the team's gather (engine.groups.TEAM_CHUNK nodes each; 0 without the team)",
@@ -101,7 +103,7 @@ SIZES = {
     "fracture": "switch: the scene has joints",
     "fluid": "switch: the scene has a fluid in its fracture network",
     "bedding": "switch: some material has a bedding (transversely isotropic elasticity)",
-    "heat": "switch: the scene has thermal strains (some material has a thermal expansion or conductivity)",
+    "heat": "switch: the scene conducts heat (scene.set_temperature or scene.heat): temperatures and thermal strains",
     "blocks": "switch: the parallel strategy with force blocks (the CPU default)",
     "slots": "switch: the parallel strategy with force slots",
 }
@@ -249,6 +251,30 @@ ARRAYS: tuple = (
     _a("fluid_index", "fluid", MODEL, "i32", ["I"], "-", "the network's header and index lists (engine.fluid)"),
     _a("fluid_real", "fluid", STATE, "real", ["R"], "Pa, Pa·s, m, J/m, m²/s, m²",
        "the fluid's parameters, counters and sources (engine.fluid: F_K, ...)"),
+    # ---- heat conduction (engine.heat, docs/theory/heat.md) ----------------------------------
+    _a("heat_temp", "heat", STATE, "real", ["N if heat else 1"], "K", "temperature of each node"),
+    _a("heat_node", "heat", MODEL, "real vec2", ["N if heat else 1"], "J/(m·K), K",
+       "lumped heat capacity C_i = Σ ρ c A/3 and initial (stress-free) temperature of each node"),
+    _a("heat_supply", "heat", STATE, "real vec2", ["N if heat else 1"], "J/m",
+       "heat supplied to each node so far: through fluxes, through its held temperature"),
+    _a("heat_next", "heat", SCRATCH, "real", ["N if heat else 1"], "K", "the temperatures of the next heat step"),
+    _a("heat_tri", "heat", MODEL, "real vec9", ["E if heat else 1"], "W/(m·K), -",
+       "conduction matrix K_e (00, 11, 22, 01, 12, 20) of each triangle, then its effective expansion tensor "
+       "(xx, yy, xy) per kelvin"),
+    _a("heat_tri_work", "heat", STATE, "real", ["E if heat else 1"], "J/m",
+       "thermal work on each triangle: the change of its strain energy as its thermal strain changed"),
+    _a("heat_adj", "heat", MODEL, "i32", ["N + 1 + HA if heat else 1"], "-",
+       "each node's list of conduction terms: N + 1 starts, then the coded entries (engine.heat)"),
+    _a("heat_joint", "heat", MODEL, "real vec2", ["J if heat else 1"], "W/(m·K), m",
+       "conductance G₀ of an intact joint between each pair of facing node copies, and the overlap at which a "
+       "broken joint's conductance is G₀ (docs/theory/heat.md)"),
+    _a("heat_rows", "heat", MODEL, "i32 vec5", ["HR"], "-",
+       "heat boundary rows: kind (0 held temperature, 1 flux), node i, node j, curve start, curve count"),
+    _a("heat_row_val", "heat", MODEL, "real vec2", ["HR"], "K or W/m², m",
+       "the rows' values: held temperature or flux, and the length each node of a flux edge takes"),
+    _a("heat_real", "heat", STATE, "real", ["4"], "s, s, -, -",
+       "time of the last heat update, heat step, sub-steps per mechanical step, mechanical steps per update"),
+    _a("heat_int", "heat", STATE, "i32", ["2"], "-", "mechanical steps since the last heat update, heat updates"),
     # ---- host arrays of the model (NumPy) ---------------------------------------------------
     _a("node_rest", "", HOST, "f64", ["N", "2"], "m", "rest (initial) node positions X"),
     _a("node_mass_np", "", HOST, "f64", ["N"], "kg/m", "node_mass on the host"),

@@ -12,8 +12,8 @@ from collections import namedtuple
 
 #: The groups of :mod:`taichi_fdem.engine.groups` in the convention's order; a field a kernel does
 #: not have is None (never read: the functions that read it are compiled only with its feature).
-Groups = namedtuple("Groups", "nodes tris mats contact detect joints step asm fluid",
-                    defaults=(None,) * 9)
+Groups = namedtuple("Groups", "nodes tris mats contact detect joints step asm fluid heat",
+                    defaults=(None,) * 10)
 
 
 def one_argpack(g) -> Groups:

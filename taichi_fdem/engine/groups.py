@@ -43,6 +43,7 @@ JOINT_MEMBERS = members("joints")
 STEP_MEMBERS = members("step")
 STEP_COUNTERS = ("step_real", "step_int")
 FLUID_MEMBERS = members("fluid")
+HEAT_MEMBERS = members("heat")
 
 NodeGroup = _group(*NODE_MEMBERS)
 TriGroup = _group(*TRI_MEMBERS)
@@ -53,12 +54,14 @@ AssemblyGroup = _group(*ASSEMBLY_MEMBERS)
 JointGroup = _group(*JOINT_MEMBERS)
 StepGroup = _group(*STEP_MEMBERS)
 FluidGroup = _group(*FLUID_MEMBERS)
+HeatGroup = _group(*HEAT_MEMBERS)
 
 # group -> (argpack type, member names), in the order of engine.arrays.GROUP_ORDER
 GROUPS = {"nodes": (NodeGroup, NODE_MEMBERS), "tris": (TriGroup, TRI_MEMBERS), "mats": (MaterialGroup, MAT_MEMBERS),
           "contact": (ContactGroup, CONTACT_MEMBERS), "detect": (DetectGroup, DETECT_MEMBERS),
           "joints": (JointGroup, JOINT_MEMBERS), "step": (StepGroup, STEP_MEMBERS),
-          "asm": (AssemblyGroup, ASSEMBLY_MEMBERS), "fluid": (FluidGroup, FLUID_MEMBERS)}
+          "asm": (AssemblyGroup, ASSEMBLY_MEMBERS), "fluid": (FluidGroup, FLUID_MEMBERS),
+          "heat": (HeatGroup, HEAT_MEMBERS)}
 assert tuple(GROUPS) == GROUP_ORDER, (tuple(GROUPS), GROUP_ORDER)
 
 # The serial step of a scene with a fluid (engine.step.run_steps_serial_fluid) takes every group

@@ -22,7 +22,8 @@ point data
     ``displacement`` x − X [m] and ``velocity`` [m/s], 3 components (z = 0, so that ParaView
     treats them as vectors); ``body_id`` (int32); with a fluid in the fracture network
     (``scene.set_fluid``), ``fluid_pressure`` [Pa]: on the face nodes of the network's edges,
-    the pressure of their network node (0 elsewhere; ``sim.fluid.node_pressures``).
+    the pressure of their network node (0 elsewhere; ``sim.fluid.node_pressures``); with heat
+    (``scene.set_temperature``, ``scene.heat``), ``temperature`` (``sim.temperatures()``).
 cell data
     ``stress``: elastic Cauchy stress [Pa] as 3 components (σ_xx, σ_yy, σ_xy), from
     :meth:`Simulation.stresses` (without the viscous part);
@@ -130,6 +131,8 @@ def frame_fields(sim) -> dict:
     point = {"displacement": sim.node_displacements(), "velocity": sim.node_velocities(), "body_id": node_body}
     if getattr(getattr(sim, "model", None), "fluid", False):
         point["fluid_pressure"] = sim.fluid.node_pressures()
+    if getattr(getattr(sim, "model", None), "heat", False):
+        point["temperature"] = sim.temperatures()
     return {"points": x, "triangles": tris, "point_data": point, "cell_data": cells}
 
 

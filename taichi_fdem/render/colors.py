@@ -36,6 +36,8 @@ COLOR_MODES = {
     "fluid_pressure": (-2, "fluid  pressure [Pa]"),
     # a hue per bedding angle, isotropic triangles in ISOTROPIC_COLOR (scenes with a bedded material)
     "bedding": (-3, "bedding angle"),
+    # the mean of the nodes' temperatures of each triangle (scenes with heat: sim.temperatures())
+    "temperature": (-4, "temperature"),
 }
 #: fill colour of the triangles of isotropic materials in the "bedding" mode (RGB in [0, 1])
 ISOTROPIC_COLOR = (0.6, 0.6, 0.6)

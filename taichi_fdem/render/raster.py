@@ -27,6 +27,13 @@ from .labels import _Overlays
 __all__ = ["RendererImage"]
 
 
+def _tri_temperatures(sim) -> np.ndarray:
+    """The mean of the nodes' temperatures of each triangle, (m,) (``color_by="temperature"``)."""
+    if not getattr(sim.model, "heat", False):
+        raise ValueError("color_by='temperature': the scene conducts no heat (scene.set_temperature, scene.heat)")
+    return sim.temperatures()[sim.model.tri_nodes_np].mean(axis=1)
+
+
 def _plane_mode(kid, sim):
     """Kernel mode of a colour mode for this simulation: von Mises (2) becomes 5 in plane strain,
     where the out-of-plane stress σ_zz = ν(σ_xx + σ_yy) enters."""
@@ -71,7 +78,8 @@ class RendererImage(_Overlays):
         linearly between the edge's two network nodes); the automatic range is that of the
         conducting nodes' pressures.  ``"bedding"`` (scenes with a bedded material,
         ``fdem.Bedding``): a hue per bedding angle modulo 180° (0° red, 60° green, 120° blue;
-        :func:`~taichi_fdem.render.colors.bedding_colors`), isotropic triangles grey.
+        :func:`~taichi_fdem.render.colors.bedding_colors`), isotropic triangles grey.  ``"temperature"`` (scenes with heat,
+        ``scene.heat``): the mean of the triangle's nodes' temperatures (``sim.temperatures()``).
     vmin, vmax : float or None
         Colour range of the scalar modes, in the quantity's unit.  ``None`` (default)
         = automatic, the finite min / max of the current frame (so colours are not comparable
@@ -402,6 +410,8 @@ class RendererImage(_Overlays):
         if kid == -2:
             raise ValueError("tri_scalars: 'fluid_pressure' colours the fracture network, not the triangles "
                              "(sim.fluid.pressures() gives the network's pressures)")
+        if kid == -4:
+            return _tri_temperatures(sim)
         if kid < 0:      # "damage"
             return np.asarray(sim.cracks.tri_damage(), dtype=np.float64)
         backend.ensure_init()
@@ -467,6 +477,11 @@ class RendererImage(_Overlays):
         info = self._np_small.get("range")
         if info is None:
             info = self._np_small["range"] = np.zeros(3, dtype=np.float64)
+        if kid == -4:    # "temperature": the mean of the nodes' temperatures of each triangle
+            t = _tri_temperatures(sim)
+            scal.from_numpy(np.ascontiguousarray(t, dtype=_np_dtype(sim.state.node_x.dtype)))
+            info[:] = (float(t.min()), float(t.max()), len(t))
+            return scal, info
         if kid < 0:      # "damage": per-triangle joint damage (as sim.cracks.tri_damage()), fixed range [0, 1]
             if sim.model.fracture and sim.model.joint_count:
                 start, joints = self._joints_by_triangle(sim, consts)

@@ -247,11 +247,14 @@ class Viewer:
 
     def cycle_color(self) -> str:
         """Switch the renderer to the next colour mode (order of ``COLOR_MODES``; ``"fluid_pressure"``
-        only in a scene with a fluid, ``"bedding"`` in one with a bedded material); returns it."""
+        only in a scene with a fluid, ``"bedding"`` in one with a bedded material, ``"temperature"`` in one
+        with heat); returns it."""
         model = getattr(self.sim, "model", None)
         fluid = bool(getattr(model, "fluid", False))
         bedding = bool(getattr(model, "bedding", False))
-        modes = [m for m in COLOR_MODES if (fluid or m != "fluid_pressure") and (bedding or m != "bedding")]
+        heat = bool(getattr(model, "heat", False))
+        modes = [m for m in COLOR_MODES if (fluid or m != "fluid_pressure") and (bedding or m != "bedding")
+                 and (heat or m != "temperature")]
         i = modes.index(self.renderer.color_by) if self.renderer.color_by in modes else -1
         self.renderer.color_by = modes[(i + 1) % len(modes)]
         return self.renderer.color_by

@@ -8,10 +8,15 @@ dissipated in cracking), load_work (work done on the system by applied pressure,
 forces, docs/theory/loads.md §12), local_damping (work dissipated by the quasi-static damping), absorbed
 (work taken out by absorbing boundaries), excavated (energy the removed triangles took with
 them: strain, kinetic and gravity energy at removal), fluid_work (work done on the solid by
-the fluid pressure on the fracture faces, scenes with a fluid only), and
+the fluid pressure on the fracture faces, scenes with a fluid only), thermal_work (the change of
+the strain energy as the thermal strains changed at fixed geometry, scenes with heat only,
+docs/theory/heat.md §16.6), and
 total = kinetic + strain + contact + gravity + joints + dissipated + excavated − boundary_work
-− load_work − fluid_work, which is conserved up to the time-discretisation error.  The strain energy includes
+− load_work − fluid_work − thermal_work, which is conserved up to the time-discretisation error.  The strain energy includes
 the potential S⁰:E of an initial stress.
+
+A scene with heat also has its heat account, outside ``total``: heat_flux_in, heat_held_in,
+heat_supplied (their sum) and heat_stored (:func:`taichi_fdem.sim.heat.heat_account`).
 """
 from __future__ import annotations
 
@@ -21,6 +26,7 @@ import taichi as ti
 from .. import backend
 from ..engine.diagnostics import energy_terms
 from ..engine.fluid import F_WORK
+from .heat import heat_account
 from ..engine.groups import WORK_ABSORB, WORK_BOUNDARY, WORK_CDAMPING, WORK_FRICTION, WORK_LOAD, WORK_LOCAL
 
 
@@ -29,7 +35,7 @@ TOTAL_TERMS = (("kinetic", 1), ("strain", 1), ("contact", 1), ("gravity", 1), ("
                ("friction", 1), ("contact_damping", 1), ("fracture", 1), ("local_damping", 1), ("absorbed", 1),
                ("excavated", 1), ("boundary_work", -1), ("load_work", -1))
 # terms of ``total`` present only when the scene has the feature (a fluid: scene.set_fluid)
-OPTIONAL_TERMS = (("fluid_work", -1),)
+OPTIONAL_TERMS = (("fluid_work", -1), ("thermal_work", -1))
 
 
 def compute_energies(sim) -> dict:
@@ -57,5 +63,7 @@ def compute_energies(sim) -> dict:
         e["fracture"] = float(work[broken].sum()) * t
     if getattr(md, "fluid", False):
         e["fluid_work"] = float(st.fluid_real[F_WORK]) * t
+    if getattr(md, "heat", False):
+        e.update(heat_account(sim))
     e["total"] = sum(sign * e[k] for k, sign in TOTAL_TERMS + OPTIONAL_TERMS if k in e)
     return e

@@ -24,7 +24,7 @@ import warnings
 import numpy as np
 import taichi as ti
 
-from . import fluid as fluid_net, timestep
+from . import fluid as fluid_net, heat, timestep
 from .arrays import Counters, allocate, check_host, counter, host_write, set_counter
 from ..engine.arrays import MODEL, SCRATCH, STATE, declared
 from .topology import bonds
@@ -131,6 +131,9 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
     load_nodes, load_vals, md.dashpot_rate = _load_table(scene, bodies, X, mass, md.dt, curves, free, vbc_raw, vcurve)
     md.load_count = len(load_nodes)
     fluid_values = fluid_net.install_fluid(md, scene, net, curves)   # (its curves join the table first)
+    aniso_values = _anisotropy(md, scene, materials, X, tris, tri_mat)     # (md.tri_bedding_np: heat's expansion)
+    heat_values = heat.build_heat(md, scene, X, tris, materials, tri_mat, area0, altitude,
+                                  (joint_nodes, joint_tris, joint_len), curves, _boundary_edges)
     md.loads = md.load_count > 0
     md.curves = curves.list
     md.curve_slices = curves.slices
@@ -158,10 +161,10 @@ def build_model(scene, dt=None, safety=0.2, force_dt=False, buffer=None, speed_l
         "tri_visc": _tri_viscosity(materials, tri_mat, area0, beta_t, rho) if md.damping else np.zeros(1),
         "tri_origin": origin, "tri_prestress": prestress if md.prestress else np.zeros((1, 3)), "tri_fans": fans,
         "mat_lame": [(m.shear_modulus, m.lambda_y(scene.plane)) for m in materials],
-        **_anisotropy(md, scene, materials, X, tris, tri_mat),
+        **aniso_values,
         "mat_pair": pair, "contact_tri": ctri if md.contact else np.zeros(1), "body_flags": body_flags,
         "joint_nodes": joint_nodes, "joint_tris": joint_tris4, "joint_prop": np.concatenate(joint_cols, axis=1),
-        **fluid_values}
+        **fluid_values, **heat_values}
     md.sizes = _model_sizes(md, values, len(materials), len(groups))
     allocate(md, MODEL, md.sizes, values)
     check_host(md, md.sizes)
@@ -345,18 +348,16 @@ def _model_sizes(md, values: dict, materials: int, groups: int) -> dict:
             "W": max(md.fluid_node_count, 1), "NC": len(md.fluid_copies), "I": len(values["fluid_index"]),
             "R": len(md.fluid_real0), "bc": md.has_bc, "damping": md.damping, "prestress": md.prestress,
             "joint_prestress": md.joint_prestress, "contact": md.contact, "friction": md.friction,
-            "fracture": md.fracture, "fluid": md.fluid, "bedding": md.bedding, "heat": md.heat}
+            "fracture": md.fracture, "fluid": md.fluid, "bedding": md.bedding, "heat": md.heat,
+            "HA": max(md.heat_adj_count, 1), "HR": max(md.heat_row_count, 1)}
 
 
 def _anisotropy(md, scene, materials, X, tris, tri_mat) -> dict:
-    """Set ``md.bedding`` (some material has a :class:`~taichi_fdem.material.Bedding`) and
-    ``md.heat`` (some material has a thermal expansion or a conductivity: the triangles take the
-    thermal strains of ``tri_thermal``); the values of ``tri_bedding`` (cos, sin of each
+    """Set ``md.bedding`` (some material has a :class:`~taichi_fdem.material.Bedding`); the values of ``tri_bedding`` (cos, sin of each
     triangle's bedding angle, the angle evaluated at its rest centroid) and ``mat_aniso``
     (C11, C22, C12, C66 of each material in its bedding frame), docs/theory/anisotropy.md.
     Triangles of isotropic materials hold (0, 0) in ``tri_bedding`` (engine.elastic.is_bedded)."""
     md.bedding = any(m.bedding is not None for m in materials)
-    md.heat = any(m.expansion != 0.0 or m.conductivity is not None for m in materials)
     if not md.bedding:
         md.tri_bedding_np = np.zeros(0)
         return {"tri_bedding": np.array([[1.0, 0.0]]), "mat_aniso": np.zeros((1, 4))}

@@ -12,6 +12,7 @@ import csv
 import os
 
 from ..elasticity import cauchy_svk
+from . import heat
 from .energies import compute_energies
 from .motion import BodyMotion, body_motion_of
 from .views import View
@@ -200,9 +201,20 @@ class SimulationResults:
             row["crack_length"] = self.cracks.length()
         if md.fluid:
             self.fluid._fluid_history(row)
+        if getattr(md, "heat", False):
+            heat.heat_history(self, row)
         for k, v in self.energies().items():
             row[f"E_{k}"] = float(v)
         return row
+
+    def temperatures(self) -> np.ndarray:
+        """Temperature of each node, shape (N,) [the scale of the scene's temperatures]
+        (docs/guide/heat.md); ValueError for a scene without heat."""
+        return heat.temperatures(self)
+
+    def heat_flow(self) -> np.ndarray:
+        """Heat flux density q = −k ∇T of each triangle, shape (E, 2) [W/m²] (docs/theory/heat.md §16.2)."""
+        return heat.heat_flow(self)
 
     def couples(self) -> np.ndarray:
         """Current couple list as (c, 2) triangle indices.  The first ``model.nb_count`` are the

@@ -13,7 +13,9 @@ active one; ``Scene.build(strategy=...)`` or ``sim.solver.strategy = ...`` choos
   :class:`~taichi_fdem.sim.team.TeamScheduler`), otherwise one launch per step.
 
 The fluid in the fracture network is a sub-solver coupled into either one
-(:class:`FluidCoupling`): its phase runs inside every step.  A solver's settings live on it
+(:class:`FluidCoupling`): its phase runs inside every step.  Heat conduction is a sub-solver that
+runs its own kernels between mechanical launches (:class:`HeatCoupling`): the solvers split their
+batches of steps at its updates.  A solver's settings live on it
 (the parallel solver's: :attr:`~ParallelSolver.assembly`, :attr:`~ParallelSolver.force_blocks`,
 :attr:`~ParallelSolver.team_workers`, :attr:`~ParallelSolver.team_steps`; the serial solver
 passes them to the parallel one, which uses them once the strategy switches).  Changing a
@@ -22,20 +24,25 @@ setting changes how the steps run, never what they compute beyond round-off
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from ..engine import step as kernels
-from ..engine.groups import DETECTIONS, FORCE_BLOCKS, FOUND, MAX_FORCE_BLOCKS, REBALANCE
+from ..engine import heat as heat_kernels, step as kernels
+from ..engine.groups import DETECTIONS, DT, FORCE_BLOCKS, FOUND, MAX_FORCE_BLOCKS, REBALANCE, TIME
+from ..engine.heat import H_DT, H_EVERY, H_SINCE, H_SUB, H_TIME, H_UPDATES
 from . import guards
 from .model import counter, set_counter
 from .team import TeamScheduler
 
-__all__ = ["Solver", "SerialSolver", "ParallelSolver", "FluidCoupling", "SERIAL_MAX_STEPS", "SERIAL_TRI_STEPS",
-           "TEAM_TRI_STEPS"]
+__all__ = ["Solver", "SerialSolver", "ParallelSolver", "FluidCoupling", "HeatCoupling", "SERIAL_MAX_STEPS", "SERIAL_TRI_STEPS",
+           "TEAM_TRI_STEPS", "HEAT_EVERY_MAX"]
 
 SERIAL_MAX_STEPS = 2000          # at most this many steps per launch
 SERIAL_TRI_STEPS = 2_000_000     # triangle-steps per serial launch: responsive progress and Ctrl-C
 TEAM_TRI_STEPS = 10_000_000      # the same for a team launch
+
+HEAT_EVERY_MAX = 100            # mechanical steps between two heat updates at most (HeatCoupling.every)
 
 _STEPS = kernels.UNSTABLE_BIT - 1    # the steps in a launch's result
 
@@ -58,6 +65,84 @@ class FluidCoupling:
         return (packs["fluid"],)
 
 
+class HeatCoupling:
+    """Heat conduction as a sub-solver between mechanical launches (:mod:`taichi_fdem.engine.heat`,
+    docs/theory/heat.md §16): every n = :meth:`every` mechanical steps it advances the temperatures over
+    the time those steps took, in m = ⌈n Δt / Δt_h⌉ heat steps of n Δt / m each (Δt_h the stable
+    heat step ``sim.model.dt_heat``; several per mechanical step when Δt_h < Δt: the mechanical
+    step is never shortened), then writes each triangle's thermal strain.  The solvers split
+    their batches of steps at its updates; the steps since the last update and the count of
+    updates are state (``heat_int``), so a checkpoint resumes the schedule."""
+
+    def __init__(self, sim):
+        self._sim = sim
+
+    @property
+    def time(self) -> float:
+        """The time [s] the temperatures are at: the end of the last heat update."""
+        return float(self._sim.state.heat_real.to_numpy()[H_TIME])
+
+    @property
+    def updates(self) -> int:
+        """Heat updates so far."""
+        return int(self._sim.state.heat_int.to_numpy()[H_UPDATES])
+
+    def every(self) -> int:
+        """Mechanical steps per heat update: ⌊Δt_h / Δt⌋, at least 1 and at most
+        :data:`HEAT_EVERY_MAX` (the thermal strains then change in small increments against
+        the mechanical response)."""
+        sim = self._sim
+        ratio = sim.model.dt_heat / counter(sim.state.step_real, DT)
+        return int(max(1, min(ratio, HEAT_EVERY_MAX)))
+
+    def steps_to_update(self) -> int:
+        """Mechanical steps until the next heat update (at least 1)."""
+        since = int(self._sim.state.heat_int.to_numpy()[H_SINCE])
+        return max(1, self.every() - since)
+
+    def after_steps(self, k: int) -> None:
+        """Book ``k`` mechanical steps; update the heat when an interval is complete."""
+        st = self._sim.state
+        hi = st.heat_int.to_numpy()
+        hi[H_SINCE] += k
+        st.heat_int.from_numpy(hi)
+        if hi[H_SINCE] >= self.every():
+            self.update()
+
+    def update(self) -> None:
+        """Advance the temperatures over the mechanical steps since the last update, then write
+        the triangles' thermal strains."""
+        sim = self._sim
+        st, md = sim.state, sim.model
+        hi = st.heat_int.to_numpy()
+        dt_mech = counter(st.step_real, DT)
+        span = int(hi[H_SINCE]) * dt_mech
+        if span > 0.0:
+            m = max(1, int(math.ceil(span / md.dt_heat * (1.0 + 1e-12)))) if math.isfinite(md.dt_heat) else 1
+            hr = st.heat_real.to_numpy()
+            hr[H_TIME] = counter(st.step_real, TIME) - span
+            hr[H_DT] = span / m
+            hr[H_SUB] = m
+            hr[H_EVERY] = hi[H_SINCE]
+            st.heat_real.from_numpy(hr)
+            p = sim._packs
+            for _ in range(m):
+                sim._launch_cached("heat_substep", heat_kernels.heat_substep, p["nodes"], p["tris"], p["joints"],
+                                   p["heat"])
+            self.thermal_strain()
+        hi[H_SINCE] = 0
+        hi[H_UPDATES] += 1
+        st.heat_int.from_numpy(hi)
+
+    def thermal_strain(self) -> None:
+        """Write each triangle's thermal strain from the temperatures (engine.heat), and book the
+        change of its strain energy as thermal work."""
+        sim = self._sim
+        p = sim._packs
+        sim._launch_cached("thermal_strain", heat_kernels.thermal_strain, p["nodes"], p["tris"], p["mats"], p["step"],
+                           p["heat"], sim.solver.features()._replace(many_blocks=False))
+
+
 class Solver:
     """How ``sim`` advances (module docstring): the entry point :meth:`advance`, the settings,
     and the launch and detection counters.  Every setting is validated and may be changed
@@ -68,11 +153,18 @@ class Solver:
     def __init__(self, sim=None):
         self._sim = sim
         self._fluid = None
+        self._heat = None
 
     def _attach(self, sim) -> None:
         """Drive ``sim`` (at build, and after a checkpoint restored the settings)."""
         self._sim = sim
         self._fluid = FluidCoupling() if sim.model.fluid else None
+        self._heat = HeatCoupling(sim) if getattr(sim.model, "heat", False) else None
+
+    @property
+    def heat(self) -> HeatCoupling | None:
+        """The heat conduction sub-solver (:class:`HeatCoupling`), None without heat."""
+        return self._heat
 
     @property
     def fluid(self) -> FluidCoupling | None:
@@ -108,7 +200,20 @@ class Solver:
     # ---- the entry point ----------------------------------------------------------------------
     def advance(self, n: int) -> None:
         """Run ``n`` time steps; :class:`~taichi_fdem.sim.guards.SimulationError` after an
-        unstable one (a non-finite value, an inverted element, a speed above the limit)."""
+        unstable one (a non-finite value, an inverted element, a speed above the limit).  With
+        heat, the steps run in batches that end at the heat updates (:class:`HeatCoupling`)."""
+        heat = self._heat
+        if heat is None:
+            self._advance_steps(n)
+            return
+        while n > 0:
+            k = min(n, heat.steps_to_update())
+            self._advance_steps(k)
+            n -= k
+            heat.after_steps(k)
+
+    def _advance_steps(self, n: int) -> None:
+        """Run ``n`` mechanical time steps (the strategy's launches)."""
         raise NotImplementedError
 
     def prepare(self) -> None:
@@ -327,7 +432,7 @@ class ParallelSolver(Solver):
         super().detect()
         self.prepare(refresh=False)
 
-    def advance(self, n: int) -> None:
+    def _advance_steps(self, n: int) -> None:
         sim = self._sim
         due = sim._detect_due()
         if self.team_launches():
@@ -398,7 +503,7 @@ class SerialSolver(Solver):
     def team_steps(self, value) -> None:
         self._parallel().team_steps = value
 
-    def advance(self, n: int) -> None:
+    def _advance_steps(self, n: int) -> None:
         sim = self._sim
         feat = self.features()
         per_launch = self.steps_per_launch()

@@ -18,6 +18,7 @@ from ..engine.groups import (ASSEMBLY_MEMBERS, DACC_FORCE, FORCE_BLOCKS, GROUPS,
                              TEAM_MEMBERS, SerialFluidGroup, TeamGroup)
 from .arrays import allocate
 from .fluid import fluid_state_values
+from .heat import heat_state_values
 from .model import Model, Scratch, State
 
 
@@ -46,7 +47,7 @@ def allocate_state(md: Model) -> State:
         "node_vbc": md.node_vbc0 if md.has_bc else np.zeros((1, 2)),
         "tri_intact": md.tri_intact0_np,                # (tri_nb_on: set by Simulation, refresh_neighbours)
         "joint_zmax": np.ones((md.sizes["J"], 3)),      # z(dmax), z(0) = 1
-        "joint_fs": md.joint_fs0, **fluid_state_values(md)})
+        "joint_fs": md.joint_fs0, **fluid_state_values(md), **heat_state_values(md)})
     install_neighbour_pairs(md, st)
     set_parameters(md, st)
     c = st.counters

@@ -194,7 +194,7 @@ SOLVER_KEYS = {
     "speed_limit": _POS("m/s", hi=1e9),
 }
 COLOR_BY = ("body", "material", "speed", "displacement", "von_mises", "max_principal", "min_principal", "damage",
-            "fluid_pressure", "bedding")
+            "fluid_pressure", "bedding", "temperature")
 OUTPUT_KEYS = {
     "video": _Key("str"),
     "fps": _Key("int", 30, "1/s", lo=1, hi=1000),
