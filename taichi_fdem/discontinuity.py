@@ -15,6 +15,12 @@ Strength distributions (§13.3), one draw per joint from a seeded generator:
 The factor multiplies the joint's tensile strength f_t and cohesion c (one factor per joint: a
 weak joint is weak in tension and in shear); the fracture energies G_I, G_II stay fixed unless
 ``scale_energy=True`` (then they scale with the same factor).
+
+Strength of the bedding (docs/theory/anisotropy.md, "Strength of the bedding"): a material with a
+``Bedding`` gives each of its joints f_t, c, φ, G_I, G_II interpolated between the bedding's
+values (a joint parallel to the bedding) and the material's (a joint at θ ≥ θ_w to it) by the
+weight w(θ) = max(0, 1 − θ/θ_w) of the angle θ between the joint's rest direction and the bedding
+(:func:`bedding_weight`, :func:`bedding_strength`); the statistical factor then multiplies.
 """
 from __future__ import annotations
 
@@ -27,7 +33,13 @@ import numpy as np
 from .material import Material, check_finite
 from .mesh.split import split_mesh
 
-__all__ = ["Weibull", "NormalStrength", "split_body"]
+__all__ = ["Weibull", "NormalStrength", "split_body", "bedding_weight", "bedding_strength", "bedding_planes",
+           "BEDDING_WINDOW"]
+
+#: Default angular window θ_w [degrees] of the strength of the bedding: a joint at θ ≥ θ_w to the
+#: bedding keeps the material's strength, one parallel to it (θ = 0) has the bedding's, linearly
+#: in between (``Bedding(strength_window=...)`` sets it per material).
+BEDDING_WINDOW = 15.0
 
 
 @dataclass(frozen=True)
@@ -103,6 +115,140 @@ def _apply_strength(prop: np.ndarray, rows: np.ndarray, strength, seed_key) -> N
         prop[rows, 4] *= f                         # G_II
 
 
+def bedding_weight(theta_deg, window_deg: float = BEDDING_WINDOW) -> np.ndarray:
+    """The weight w(θ) = max(0, 1 − θ/θ_w) of the bedding's strength in a joint at θ [degrees, 0..90]
+    to the bedding (docs/theory/anisotropy.md, "Strength of the bedding"): 1 parallel to it, 0 from
+    the window θ_w [degrees] on; monotone in between."""
+    theta = np.abs(np.asarray(theta_deg, dtype=np.float64))
+    return np.clip(1.0 - theta / float(window_deg), 0.0, 1.0)
+
+
+def _bedding_values(bedding, prop: np.ndarray) -> tuple:
+    """(material's, bedding's) joint parameters (f_t, c, φ [°], G_I, G_II), each (n, 5), of the rows
+    ``prop`` (n, 6): a parameter the Bedding leaves None is the material's (it is isotropic)."""
+    base = np.column_stack([prop[:, 0], prop[:, 1], np.degrees(np.arctan(prop[:, 2])), prop[:, 3], prop[:, 4]])
+    out = base.copy()
+    for col, key in enumerate(("tensile_strength", "cohesion", "friction_angle", "fracture_energy",
+                               "fracture_energy_shear")):
+        v = getattr(bedding, key, None)
+        if v is not None:
+            out[:, col] = float(v)
+    return base, out
+
+
+def bedding_strength(prop: np.ndarray, bedding, theta_deg) -> np.ndarray:
+    """Joint properties (n, 6) (f_t, c, tan φ, G_I, G_II, p_f, the columns of
+    ``Material.joint_properties``) of joints at ``theta_deg`` (n,) [degrees] to ``bedding``: each of
+    f_t, c, φ, G_I, G_II is s = s_m + (s_b − s_m) w(θ) (:func:`bedding_weight` with the bedding's
+    ``strength_window``), s_m the material's value in ``prop``, s_b the bedding's; p_f is kept."""
+    prop = np.asarray(prop, dtype=np.float64)
+    w = bedding_weight(theta_deg, _window(bedding))[:, None]
+    base, bed = _bedding_values(bedding, prop)
+    mixed = base + (bed - base) * w
+    out = prop.copy()
+    out[:, [0, 1, 3, 4]] = mixed[:, [0, 1, 3, 4]]
+    out[:, 2] = np.tan(np.radians(mixed[:, 2]))
+    return out
+
+
+def _window(bedding) -> float:
+    w = getattr(bedding, "strength_window", None)
+    return BEDDING_WINDOW if w is None else float(w)
+
+
+def bedding_angles(bedding, centroids: np.ndarray) -> np.ndarray:
+    """The bedding's dip [degrees from the x axis] at each of ``centroids`` (m, 2) [m]: its
+    ``angle``, a number or a callable f(x, y) of the placed coordinates."""
+    c = np.asarray(centroids, dtype=np.float64)
+    a = bedding.angle
+    if callable(a):
+        v = np.broadcast_to(np.asarray(a(c[:, 0], c[:, 1]), dtype=np.float64), (len(c),))
+        if not np.isfinite(v).all():
+            raise ValueError("Bedding: angle(x, y) returned a non-finite value")
+        return np.array(v)
+    return np.full(len(c), float(a))
+
+
+def joint_bedding_theta(points, u, v, angle_a, angle_b) -> np.ndarray:
+    """The angle θ [degrees, 0..90] between the joints from ``points[u]`` to ``points[v]`` and the
+    bedding, whose dip [degrees] in the joints' two triangles is ``angle_a``, ``angle_b`` (their
+    mean direction, as lines: the mean of the doubled angles)."""
+    d = np.asarray(points, np.float64)[v] - np.asarray(points, np.float64)[u]
+    a2 = np.radians(2.0 * np.asarray(angle_a, np.float64))
+    b2 = np.radians(2.0 * np.asarray(angle_b, np.float64))
+    half = 0.5 * np.arctan2(np.sin(a2) + np.sin(b2), np.cos(a2) + np.cos(b2))
+    t = np.column_stack([np.cos(half), np.sin(half)])
+    c = np.abs((d * t).sum(1)) / np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-300)
+    return np.degrees(np.arccos(np.clip(c, 0.0, 1.0)))
+
+
+def _apply_bedding(prop: np.ndarray, rows: np.ndarray, body, mt) -> None:
+    """Rows ``rows`` of ``prop`` (joints of material ``mt``) by their angle to ``mt``'s bedding."""
+    bedding = getattr(mt, "bedding", None)
+    if bedding is None or not rows.any():
+        return
+    src = body.source_mesh
+    u, v, tA, _, tB, _ = body.edge_table
+    pts = np.asarray(src.points, np.float64)
+    cent = pts[np.asarray(src.triangles)].mean(axis=1)
+    ta, tb = tA[rows], tB[rows]
+    ang = bedding_angles(bedding, cent[np.concatenate([ta, tb])])
+    theta = joint_bedding_theta(pts, u[rows], v[rows], ang[: len(ta)], ang[len(ta):])
+    prop[rows] = bedding_strength(prop[rows], bedding, theta)
+
+
+def _spaced_bedding(body, where: str):
+    """(material, Bedding) of ``body``'s bedding with a ``spacing``, or None.  ValueError when
+    its material groups have different spaced beddings or the angle is not a constant."""
+    mats = body.materials[: body.group_count]
+    beds = [getattr(mt, "bedding", None) for mt in mats]
+    spaced = [(mt, b) for mt, b in zip(mats, beds) if b is not None and getattr(b, "spacing", None) is not None]
+    if not spaced:
+        return None
+    if len(mats) > 1 and any(b != spaced[0][1] for b in beds):
+        raise ValueError(f"{where}: Bedding(spacing=...) on a body of several material groups needs the same "
+                         "Bedding in every group; give the planes with Scene.add_joint_set and "
+                         "fdem.mesh.bedding_lines instead")
+    mt, bed = spaced[0]
+    if callable(bed.angle):
+        raise ValueError(f"{where}: Bedding(spacing=...) needs a constant angle (planes of a varying dip are "
+                         "not straight): give the planes with Scene.add_joint_set instead")
+    return mt, bed
+
+
+def bedding_planes(body, where: str):
+    """The weak bedding planes of ``body`` (docs/guide/anisotropy.md, "Weak bedding planes"):
+    (lines, material) with the planes' :class:`~taichi_fdem.mesh.Segments` through the body
+    (:func:`~taichi_fdem.mesh.bedding_lines` at the bedding's angle and ``spacing``, one through
+    the origin) and a copy of the body's material whose joint parameters are the bedding's
+    (:func:`bedding_strength` at θ = 0); None when its material has no ``Bedding(spacing=...)``
+    or no plane crosses the body.  ValueError when the mesh's edges do not follow the planes."""
+    found = _spaced_bedding(body, where)
+    if found is None:
+        return None
+    mt, bed = found
+    from .mesh.bedding import bedding_lines
+    lines = bedding_lines(body.source_mesh, float(bed.angle), float(bed.spacing))
+    if lines is None:
+        return None
+    mask = resolve(body, lines, where)
+    pts = np.asarray(body.source_mesh.points, np.float64)
+    u, v = body.edge_table[0], body.edge_table[1]
+    covered = float(np.hypot(*(pts[v[mask]] - pts[u[mask]]).T).sum())
+    if covered < (1.0 - 1e-6) * lines.length:
+        raise ValueError(f"{where}: the mesh's edges do not follow the bedding planes (Bedding(spacing="
+                         f"{bed.spacing!r})): {covered:.4g} m of {lines.length:.4g} m of planes lie along mesh edges; "
+                         "mesh the body with them: fdem.mesh.polygon(outline, h, lines=[fdem.mesh.bedding_lines("
+                         f"outline, {bed.angle!r}, {bed.spacing!r})])")
+    b = bedding_strength(np.array([mt.joint_properties()], np.float64), bed, np.zeros(1))[0]
+    changes = dict(tensile_strength=float(b[0]), cohesion=float(b[1]), friction_angle=math.degrees(math.atan(b[2])),
+                   fracture_energy=float(b[3]), fracture_energy_shear=float(b[4]),
+                   name=f"{mt.name or 'material'} (bedding)")
+    if hasattr(mt, "bedding"):
+        changes["bedding"] = None
+    return lines, mt.with_(**changes)
+
+
 def _material_label(body, mt, group: int) -> str:
     """The material of group ``group`` as the user named it: its ``name``, its group label of
     ``add_body(..., groups=)``, or (a single unnamed material) its repr."""
@@ -117,7 +263,7 @@ def _material_label(body, mt, group: int) -> str:
 def _joint_properties(body, joints, set_of_edge, joint_sets: list, where: str) -> np.ndarray:
     """The joint properties (e, 6) of every interior edge of ``body`` (rows of the edges that are
     no joint stay 0): the body's own joints (``set_of_edge`` 0) take the weaker material of their
-    two triangles (lower tensile strength), the joints of set k ≥ 1 the material of
+    two triangles (lower tensile strength), by their angle to its bedding where it has one, the joints of set k ≥ 1 the material of
     ``joint_sets[k − 1]``; each set's strength distribution then spreads them.  ValueError when
     an own joint's material cannot fracture."""
     u, _, tA, _, tB, _ = body.edge_table
@@ -135,6 +281,7 @@ def _joint_properties(body, joints, set_of_edge, joint_sets: list, where: str) -
                 raise ValueError(f"{where}: joints need tensile_strength [Pa] and fracture_energy [J/m²] on "
                                  f"{_material_label(body, mt, int(g))}")
             prop[own & (weaker == g)] = mt.joint_properties()
+            _apply_bedding(prop, own & (weaker == g), body, mt)
     for k, js in enumerate(joint_sets, start=1):
         rows = joints & (set_of_edge == k)
         if rows.any():

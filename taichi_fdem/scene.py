@@ -14,7 +14,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from .material import Fluid, Material, check_finite
-from .discontinuity import JointSet, check_strength, resolve, split_body
+from .discontinuity import JointSet, bedding_planes, check_strength, resolve, split_body
 from .mesh import TriMesh
 from .mesh.split import explode, interior_edge_table
 from .engine.joints import HANDOVER_DAMAGE
@@ -353,6 +353,13 @@ class Scene:
             with other materials the usual pair rule.
         strength : ``fdem.Weibull(m, seed=)`` or ``fdem.NormalStrength(cov, seed=)``: a per-joint
             random factor on the tensile strength and cohesion of this body's joints (§13.3).
+
+        A material with a ``Bedding``: its joints' strength depends on their angle to the bedding
+        (docs/theory/anisotropy.md, "Strength of the bedding"); with ``Bedding(spacing=s)`` the
+        mesh's edges along the bedding planes every ``s`` [m] (one through the origin) become a
+        joint set "bedding" with exactly the bedding's strength: build the mesh with them
+        (``fdem.mesh.polygon(outline, h, lines=[fdem.mesh.bedding_lines(outline, angle, s)])``),
+        else ValueError.
         """
         where = f"Scene.add_body({name or 'body ' + str(len(self.bodies))})"
         if not isinstance(mesh, TriMesh):
@@ -387,7 +394,19 @@ class Scene:
         split_body(body, self.joint_sets, where)
         self.bodies.append(body)
         self._renumber()
+        self._add_bedding_planes(body, where)
         return body
+
+    def _add_bedding_planes(self, body, where: str) -> None:
+        """The weak bedding planes of ``body``'s ``Bedding(spacing=...)``: a joint set "bedding"
+        (or "bedding (<body name>)" after the first) with exactly the bedding's strength, spread by
+        the body's ``strength`` (discontinuity.bedding_planes)."""
+        planes = bedding_planes(body, where)
+        if planes is None:
+            return
+        lines, material = planes
+        name = "bedding" if "bedding" not in self.joint_set_names else f"bedding ({body.name})"
+        self.add_joint_set(name, lines, material, body=body, strength=body.strength)
 
     def _material_groups(self, material, groups, mesh, where):
         """(materials, tri_group (m,) int32, labels) of add_body's material / groups."""

@@ -12,7 +12,8 @@ from .. import mesh as _mesh
 from ..material import Material
 from ..scene import Curve
 from ..sim.recorders import Checks, History
-from .specimens import axial_record, check_joint_sets, jointed_specimen_mesh, mohr_coulomb_peak, platen_scene
+from .specimens import (axial_record, bedded_material, bedded_rectangle, check_joint_sets, jaeger_peak,
+                        jointed_specimen_mesh, mohr_coulomb_peak, platen_scene, spaced_bedding)
 from ..scene import quasi_static_alpha
 from .results import (COMPRESSION_JOINT_PENALTY_FACTOR, LabResult, check_keyword, check_rate, convergence, elastic_constants,
                       lab_materials, specimen_kinetic, warn_kinetic)
@@ -50,7 +51,8 @@ def compression(material, width: float, height: float, h: float, confinement: fl
                 max_strain: float | None = None, samples: int = 150, stop_drop: float = 0.8,
                 safety: float = 0.2, quasi_static=True, handover_damage: float | None = None,
                 penalty_factor: float | None = None, video: str | None = None, history: str | None = None,
-                frame=None, joint_sets=(), check=None, test: str = "triaxial") -> LabResult:
+                frame=None, joint_sets=(), check=None, bedding_angle: float | None = None,
+                test: str = "triaxial") -> LabResult:
     """A compression test of a ``width`` × ``height`` [m] specimen (mesh size ``h`` [m]) between
     frictionless platens, confined by a pressure ``confinement`` = σ3 [Pa] on its sides.
 
@@ -59,7 +61,8 @@ def compression(material, width: float, height: float, h: float, confinement: fl
     transits) at a nominal strain rate that reaches the expected peak strain in
     ``rate_transits`` transits, until ``max_strain`` or until the axial stress has dropped below
     ``stop_drop`` × its peak.  The expected peak: Mohr–Coulomb of the joints' c, φ over E/2
-    (the joints' compliance) with fracture; without, ``max_strain`` (default 1e-3) / 2.5.
+    (the joints' compliance) with fracture, or Jaeger's slip on the weak bedding planes of a
+    spaced bedding where lower; without fracture, ``max_strain`` (default 1e-3) / 2.5.
 
     ``material``: a Material, or a dict of Materials with ``groups`` (one label per triangle of
     ``mesh``).  ``fracture``: passed to ``Scene.add_body`` (default: True when the material
@@ -79,6 +82,13 @@ def compression(material, width: float, height: float, h: float, confinement: fl
     (``rate_transits`` × 2) and/or half ``h`` with the same settings, and put the relative
     change of ``peak_stress`` in ``result.convergence``.
 
+    ``bedding_angle`` [degrees]: the angle between the bedding planes and the loading direction
+    (the y axis, σ1): 0 loads parallel to the bedding, 90 across it (the convention of Tavallali
+    & Vervoort 2010); the material's ``Bedding`` is turned to a dip of 90° − ``bedding_angle``
+    from the x axis (ValueError without a Bedding).  With ``Bedding(spacing=s)`` the default
+    mesh follows the bedding planes every ``s`` (one through the centre; docs/guide/anisotropy.md).
+    Jaeger's angle β between σ1 and the planes' normal is 90° − ``bedding_angle``.
+
     Quasi-static: ``rate_transits`` < ``lab.results.MIN_TRANSITS`` raises ValueError; the
     specimen's kinetic/strain energy at half the peak is in the summary (``kinetic_ratio``) and
     warns above ``MAX_KINETIC_RATIO``.
@@ -88,16 +98,19 @@ def compression(material, width: float, height: float, h: float, confinement: fl
     summary peak_stress [Pa], peak_strain, young [Pa], poisson (tangent at 50 % of the peak,
     corrected for the plane condition, see :func:`~taichi_fdem.lab.results.elastic_constants`),
     young_initial, poisson_initial (the same over 5–30 % of the peak),
-    plane_modulus E', plane_poisson ν', confinement, peak_mc (joints' Mohr–Coulomb), broken.
+    plane_modulus E', plane_poisson ν', confinement, peak_mc (joints' Mohr–Coulomb), peak_jaeger
+    (slip on the weak bedding planes, :func:`~taichi_fdem.lab.specimens.jaeger_peak`; NaN without a
+    spaced bedding), broken, bedding_angle (NaN without).
     """
     o = _compression_options(material, width, height, h, confinement, fracture, mesh, rate_transits,
-                             penalty_factor, check, f"lab.{test}")
+                             penalty_factor, check, f"lab.{test}", bedding_angle)
     _compression_loading(o, height, confinement, plane, max_strain, settle_transits, rate_transits)
     spec, top, bot, sim = _compression_specimen(o, width, confinement, plane, platen, groups, joint_sets, safety,
                                                 quasi_static, handover_damage)
     rec, kin, wall = _compression_run(o, sim, spec, top, bot, width, height, confinement, samples, stop_drop,
                                       history, frame, video)
     summary, curve = _compression_measure(o, sim, rec, kin, confinement, plane, rate_transits, wall)
+    summary["bedding_angle"] = math.nan if bedding_angle is None else float(bedding_angle)
     first, pf = o.first, o.pf
     settings = dict(quasi_static=quasi_static_alpha(quasi_static), damping=float(first.damping),
                     rate_transits=float(rate_transits), strain_rate=float(o.rate), safety=float(safety),
@@ -112,7 +125,8 @@ def compression(material, width: float, height: float, h: float, confinement: fl
         kw = dict(plane=plane, fracture=o.fracture, mesh=mesh, groups=groups, platen=platen,
                   rate_transits=rate_transits, settle_transits=settle_transits, max_strain=o.max_strain,
                   samples=samples, stop_drop=stop_drop, safety=safety, quasi_static=quasi_static,
-                  handover_damage=handover_damage, penalty_factor=o.factor, joint_sets=joint_sets, test=test)
+                  handover_damage=handover_damage, penalty_factor=o.factor, joint_sets=joint_sets,
+                  bedding_angle=bedding_angle, test=test)
         runs = {}
         if "rate" in o.reruns:
             runs["rate"] = compression(material, width, height, h, confinement,
@@ -124,10 +138,13 @@ def compression(material, width: float, height: float, h: float, confinement: fl
 
 
 def _compression_options(material, width, height, h, confinement, fracture, mesh, rate_transits, penalty_factor,
-                         check, where) -> SimpleNamespace:
+                         check, where, bedding_angle=None) -> SimpleNamespace:
     """The checked arguments of :func:`compression` and the specimen's materials: where, reruns, fracture,
-    factor, material (the copy the test builds on), first (its first Material), pf (joint penalty [Pa/m],
-    NaN without fracture), raised, mesh (the given one or the default specimen)."""
+    factor, material (the copy the test builds on, its bedding turned to ``bedding_angle``), first (its
+    first Material), pf (joint penalty [Pa/m], NaN without fracture), raised, mesh (the given one or the
+    default specimen: along the bedding planes of a spaced bedding)."""
+    _first(material)
+    material = bedded_material(material, bedding_angle, where)
     first = _first(material)
     _positive(where, width=width, height=height, h=h)
     if not (math.isfinite(confinement) and confinement >= 0):
@@ -142,23 +159,41 @@ def _compression_options(material, width, height, h, confinement, fracture, mesh
     if fracture:
         material, pf, raised = lab_materials(material, factor, where)
         first = _first(material)
-    if mesh is None:
+    spaced = spaced_bedding(material)
+    if mesh is None and spaced is not None:
+        mesh = bedded_rectangle(width, height, h, spaced)
+    elif mesh is None:
         mesh = jointed_specimen_mesh(width, height, h) if fracture else _mesh.rectangle(width, height, h)
     return SimpleNamespace(where=where, reruns=reruns, fracture=fracture, factor=factor, material=material,
                            first=first, pf=pf, raised=raised, mesh=mesh)
 
 
+def _planes_properties(material, bedding) -> tuple:
+    """The joint properties (f_t, c, tan φ, G_I, G_II, p_f) of ``material``'s weak bedding planes."""
+    from ..discontinuity import bedding_strength
+    return tuple(bedding_strength(np.array([material.joint_properties()]), bedding, np.zeros(1))[0])
+
+
 def _compression_loading(o, height, confinement, plane, max_strain, settle_transits, rate_transits):
     """The loading chosen from the material and the specimen, set on ``o``: transit (H/c_p [s]), peak_mc
-    (joints' Mohr–Coulomb peak [Pa], NaN without fracture), eps_peak (expected peak strain), max_strain,
+    (joints' Mohr–Coulomb peak [Pa], NaN without fracture), peak_jaeger (slip on the weak bedding planes
+    of a spaced bedding, :func:`jaeger_peak`, NaN without; the expected peak is the lower of the two),
+    eps_peak (expected peak strain), max_strain,
     settle (transits), t1 (end of the confinement's settling [s]), rate (nominal strain rate [1/s])."""
     first = o.first
     cp = first.p_wave_speed(plane)
     o.transit = height / cp
+    o.peak_jaeger = math.nan
     if o.fracture:
         c = first.cohesion if first.cohesion is not None else first.tensile_strength
         o.peak_mc = mohr_coulomb_peak(confinement, c, first.friction_angle)
-        o.eps_peak = o.peak_mc / (0.5 * first.young)
+        expected = o.peak_mc
+        bed = spaced_bedding(o.material)
+        if bed is not None and not callable(bed.angle):      # slip on the weak planes (σ1 along y)
+            _, cw, tw, _, _, _ = _planes_properties(first, bed)
+            o.peak_jaeger = jaeger_peak(confinement, cw, math.degrees(math.atan(tw)), float(bed.angle))
+            expected = min(expected, o.peak_jaeger)
+        o.eps_peak = expected / (0.5 * first.young)
         o.max_strain = 2.5 * o.eps_peak if max_strain is None else max_strain
     else:
         o.peak_mc = math.nan
@@ -245,7 +280,8 @@ def _compression_measure(o, sim, rec, kin, confinement, plane, rate_transits, wa
     warn_kinetic(kinetic_ratio, o.where, stacklevel=4)
     summary = dict(peak_stress=float(sig[k]), peak_strain=float(eps[k]), young=young, poisson=poisson,
                    young_initial=young0, poisson_initial=poisson0, plane_modulus=e_p, plane_poisson=nu_p,
-                   confinement=float(confinement), peak_mc=o.peak_mc, broken=sim.cracks.broken_count,
+                   confinement=float(confinement), peak_mc=o.peak_mc, peak_jaeger=o.peak_jaeger,
+                   broken=sim.cracks.broken_count,
                    kinetic_ratio=kinetic_ratio, rate_transits=float(rate_transits), strain_rate=float(o.rate),
                    wall=wall, build=o.build, steps=sim.step_count, dt=sim.dt)
     curve = dict(time_s=times, axial_strain=eps, axial_stress_Pa=sig, lateral_strain=lat)
@@ -258,8 +294,10 @@ def ucs(material, width: float, height: float, h: float, **kw) -> LabResult:
     ``.peak_stress`` [Pa] (the UCS, or the largest stress reached), ``.young`` [Pa] and
     ``.poisson`` (tangent at 50 % of the peak, lateral over axial strain, corrected for the
     plane condition: plane strain by default, E' = E/(1 − ν²), ν' = ν/(1 − ν)), ``.curve``.
-    An elastic specimen (no fracture) returns its material's E and ν.  Keywords: see
-    :func:`compression`.
+    An elastic specimen (no fracture) returns its material's E and ν.  ``bedding_angle``
+    [degrees]: the angle between the bedding planes and the loading direction (0: loading
+    parallel to the bedding, 90: across it; needs a material with a ``Bedding``), reported in
+    ``.bedding_angle``.  Keywords: see :func:`compression`.
     """
     return compression(material, width, height, h, 0.0, test="ucs", **kw)
 
@@ -268,5 +306,7 @@ def triaxial(material, width: float, height: float, h: float, confinement: float
     """Triaxial (biaxial, in 2D) compression at a lateral pressure ``confinement`` = σ3 [Pa] of a
     ``width`` × ``height`` [m] specimen, mesh size ``h`` [m].  Summary as :func:`ucs`, plus
     ``.confinement``.  Feed a list of results to :func:`~taichi_fdem.lab.fit_envelope`.
+    ``bedding_angle`` [degrees]: the angle between the bedding planes and σ1 (0: loading parallel
+    to the bedding, 90: across it; needs a material with a ``Bedding``; Jaeger's β = 90° − it).
     Keywords: see :func:`compression`."""
     return compression(material, width, height, h, confinement, test="triaxial", **kw)

@@ -2,6 +2,7 @@
 verification cases of :mod:`taichi_fdem.verification.rock` that run them)."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -31,8 +32,8 @@ def platen_scene(specimen_mesh: TriMesh, material: Material, platen_material: Ma
     The platens (as wide as 1.6 × the specimen, 1/10 of its height thick) have prescribed
     velocities ±v with v = ``strain_rate`` × H/2 [m/s] (nominal axial strain rate [1/s]), started
     by a linear ``Curve`` ramp over ``t_ramp`` seconds.  Contact between specimen and platens
-    uses ``platen_material`` (default: the specimen's material with no friction: frictionless
-    platens, a uniform uniaxial stress).  ``material`` may be a dict of Materials with ``groups``
+    uses ``platen_material`` (default: the specimen's material with no friction and no bedding:
+    frictionless platens, a uniform uniaxial stress).  ``material`` may be a dict of Materials with ``groups``
     (one label per triangle).  ``joint_sets``: (name, selector, Material) triples added to the
     specimen with :meth:`Scene.add_joint_set` (e.g. ``("grain_boundaries", "interfaces", weak)``).
     Returns (scene, specimen, top platen, bottom platen).
@@ -40,7 +41,11 @@ def platen_scene(specimen_mesh: TriMesh, material: Material, platen_material: Ma
     x0, y0, x1, y1 = specimen_mesh.bounding_box()
     W, H = x1 - x0, y1 - y0
     mats = list(material.values()) if isinstance(material, dict) else [material]
-    pm = platen_material or mats[0].with_(friction=0.0, name="platen")
+    pm = platen_material
+    if pm is None:                   # the specimen's material, frictionless, isotropic (no bedding)
+        pm = mats[0].with_(friction=0.0, name="platen")
+        if getattr(pm, "bedding", None) is not None:
+            pm = pm.with_(bedding=None)
     scene = Scene(gravity=gravity, plane=plane)
     spec = scene.add_body(specimen_mesh, material, fracture=fracture, name="specimen", groups=groups)
     for name, selector, m in check_joint_sets(joint_sets, "lab"):
@@ -79,6 +84,22 @@ def mohr_coulomb_peak(sigma3: float, cohesion: float, phi_deg: float) -> float:
     return sigma3 * (1 + s) / (1 - s) + 2 * cohesion * math.cos(math.radians(phi_deg)) / (1 - s)
 
 
+def jaeger_peak(sigma3: float, cohesion: float, phi_deg: float, beta_deg: float) -> float:
+    """σ1 at slip [Pa, compression positive] on a plane of weakness of cohesion c [Pa] and friction
+    angle φ [degrees] whose normal makes β [degrees] with σ1, at confinement σ3 (Jaeger 1960;
+    docs/theory/anisotropy.md, "Jaeger's plane of weakness"):
+    σ1 − σ3 = 2 (c + σ3 tan φ) / ((1 − tan φ cot β) sin 2β); inf where the plane cannot slip
+    (β ≤ φ or β ≥ 90°)."""
+    b = math.radians(beta_deg % 180.0)
+    if b > 0.5 * math.pi:
+        b = math.pi - b                                # a plane's normal is a line: β and 180° − β alike
+    t = math.tan(math.radians(phi_deg))
+    if b <= 0.0 or b >= 0.5 * math.pi - 1e-12:
+        return math.inf
+    k = (1.0 - t / math.tan(b)) * math.sin(2.0 * b)
+    return math.inf if k <= 0.0 else sigma3 + 2.0 * (cohesion + sigma3 * t) / k
+
+
 def jointed_specimen_mesh(width: float, height: float, h: float) -> TriMesh:
     """A ``width`` × ``height`` rectangle (centred on the origin) meshed on a triangular lattice:
     rows of nodes ``h``·√3/2 apart (adjusted to fit the height), every other row shifted by half
@@ -108,3 +129,64 @@ def jointed_specimen_mesh(width: float, height: float, h: float) -> TriMesh:
                 tris.append((a[i], b[k + 1], b[k]))
                 k += 1
     return TriMesh(pts, np.array(tris, dtype=np.int32))
+
+
+def bedded_material(material, bedding_angle, where: str):
+    """``material`` (a Material or a dict of them) with its bedding turned so that the bedding
+    planes make ``bedding_angle`` [degrees] with the loading direction (the y axis): 0 loads
+    parallel to the bedding, 90 across it (Tavallali & Vervoort 2010), i.e. a dip of
+    90° − ``bedding_angle`` from the x axis.  None returns ``material`` unchanged.  ValueError when
+    the angle is not a finite number or no material has a ``Bedding``."""
+    if bedding_angle is None:
+        return material
+    if isinstance(bedding_angle, bool) or not (isinstance(bedding_angle, (int, float)) and math.isfinite(bedding_angle)):
+        raise ValueError(f"{where}: bedding_angle must be a finite angle [degrees] or None, got {bedding_angle!r}")
+    mats = list(material.values()) if isinstance(material, dict) else [material]
+    if not any(getattr(m, "bedding", None) is not None for m in mats):
+        raise ValueError(f"{where}: bedding_angle={bedding_angle!r} needs a material with a bedding: "
+                         "fdem.Material(..., bedding=fdem.Bedding(...))")
+    dip = 90.0 - float(bedding_angle)
+
+    def turn(m):
+        b = getattr(m, "bedding", None)
+        return m if b is None else m.with_(bedding=dataclasses.replace(b, angle=dip))
+    return {k: turn(m) for k, m in material.items()} if isinstance(material, dict) else turn(material)
+
+
+def spaced_bedding(material):
+    """The first ``Bedding`` with a ``spacing`` among ``material`` (a Material or a dict), or None."""
+    mats = list(material.values()) if isinstance(material, dict) else [material]
+    for m in mats:
+        b = getattr(m, "bedding", None)
+        if b is not None and getattr(b, "spacing", None) is not None:
+            return b
+    return None
+
+
+def _with_planes(vertices: np.ndarray, h: float, bedding) -> TriMesh:
+    """The polygon ``vertices`` meshed at ``h`` with the bedding planes of ``bedding`` (its angle
+    and spacing, one plane through the origin) as embedded lines."""
+    if callable(bedding.angle):
+        raise ValueError("lab: Bedding(spacing=...) needs a constant angle (or give bedding_angle=)")
+    lines = mesh.bedding_lines(vertices, float(bedding.angle), float(bedding.spacing))
+    return mesh.polygon(vertices, h, lines=[lines] if lines is not None else None)
+
+
+def bedded_rectangle(width: float, height: float, h: float, bedding) -> TriMesh:
+    """A ``width`` × ``height`` specimen centred on the origin, meshed at ``h`` with its bedding
+    planes (``bedding.spacing`` apart at ``bedding.angle``, one through the centre) as mesh edges."""
+    X, Y = 0.5 * width, 0.5 * height
+    return _with_planes(np.array([[-X, -Y], [X, -Y], [X, Y], [-X, Y]]), h, bedding)
+
+
+def bedded_disc(radius: float, h: float, alpha_deg: float, bedding) -> TriMesh:
+    """A disc of ``radius`` centred on the origin with its caps flat over ±``alpha_deg`` from the
+    y axis (|y| ≤ R cos α, boundary nodes at about ``h`` on the arcs, one at each end of a flat),
+    meshed at ``h`` with its bedding planes as mesh edges (the Brazilian disc of a spaced bedding)."""
+    a = math.radians(alpha_deg)
+    span = math.pi - 2.0 * a                                   # each side arc, from −(90° − α) to 90° − α
+    n = max(2, int(math.ceil(span * radius / h)))
+    t = -0.5 * span + span * np.arange(n + 1) / n
+    right = np.column_stack([radius * np.cos(t), radius * np.sin(t)])
+    left = -right
+    return _with_planes(np.concatenate([right, left]), h, bedding)

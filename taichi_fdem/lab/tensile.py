@@ -14,7 +14,7 @@ from .compressive import _first, _positive, video_frames
 from ..scene import quasi_static_alpha
 from .results import (JOINT_PENALTY_FACTOR, LabResult, check_keyword, check_rate, convergence, lab_materials,
                       specimen_kinetic, warn_kinetic)
-from .specimens import check_joint_sets
+from .specimens import bedded_disc, bedded_material, check_joint_sets, spaced_bedding
 
 
 #: Defaults of :func:`brazilian` (each a keyword): the loading to the expected peak lasts
@@ -66,7 +66,8 @@ def loading_arc(points, radius: float, alpha_deg: float | None):
 def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = None, load_time: float | None = None,
               samples: int = 240, safety: float | None = None, platen=None, strength=None, groups=None, mesh=None,
               plane: str = "strain", max_time: float = 3.0, joint_sets=(), video: str | None = None,
-              quasi_static=None, joint_penalty_factor: float | None = None, check=None) -> LabResult:
+              quasi_static=None, joint_penalty_factor: float | None = None, check=None,
+              bedding_angle: float | None = None) -> LabResult:
     """Brazilian test of a disc of ``diameter`` D [m], mesh size ``h`` [m], every interior edge
     a cohesive joint, between two platens closing at ±v.
 
@@ -118,6 +119,14 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
     ``max_time`` × the loading time (``peaked`` False, with a RuntimeWarning: the peak is then
     the last load reached, not the strength).
 
+    ``bedding_angle`` [degrees]: the angle between the bedding planes and the loading direction
+    (the diameter the platens load, the y axis): 0 loads parallel to the bedding, 90 across it
+    (the convention of Tavallali & Vervoort 2010); the material's ``Bedding`` is turned to a dip of
+    90° − ``bedding_angle`` from the x axis (ValueError without a Bedding); reported in
+    ``.bedding_angle`` and ``settings``.  With ``Bedding(spacing=s)`` the default disc is meshed
+    along the bedding planes every ``s`` (one through the centre), its caps flat over ±α.  The
+    crack pattern: ``result.sim.cracks.broken()`` (positions, modes, times of the broken joints).
+
     Similarity: the result depends on the dimensionless groups f_t/E, l_ch/D = E G_I/(f_t² D),
     c/f_t, φ, G_II/G_I, ν, p_f/E, the platens' E and penalty over the disc's E, h/D, α, β and
     ``load_time``; with all of them fixed, ``.peak_stress`` is proportional to f_t
@@ -129,13 +138,17 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
     broken_joints.  Summary: peak_stress [Pa], centre_stress [Pa], peak_load [N/m], hondros,
     central_fraction (share of the joints broken by shortly after the peak within ``|x|`` < 0.15 D:
     where the split runs), split_start ((x, y) [m] of the first joint broken in tension, mode
-    I: where the split starts; NaN if none), broken, fragments, kinetic_ratio, peaked.
+    I: where the split starts; NaN if none), broken, fragments, kinetic_ratio, peaked, bedding_angle
+    (NaN without).
     """
+    material = bedded_material(material, bedding_angle, "lab.brazilian")
     o = _brazilian_options(material, diameter, h, check, load_time, safety, quasi_static, joint_penalty_factor,
                            max_time)
     sim, bodies, p = _brazilian_specimen(o, diameter, h, alpha_deg, strength, platen, groups, mesh, plane, joint_sets)
     run = _brazilian_run(sim, bodies, p, diameter, samples, max_time, video)
     result = _brazilian_result(o, sim, bodies, p, run, diameter, max_time, mesh)
+    result.summary["bedding_angle"] = result.settings["bedding_angle"] = \
+        math.nan if bedding_angle is None else float(bedding_angle)
     if o.reruns:
         kw = dict(alpha_deg=alpha_deg, load_time=o.load_time, samples=samples, safety=o.safety, platen=platen,
                   strength=strength, groups=groups, mesh=mesh, plane=plane, max_time=max_time,
@@ -188,7 +201,13 @@ def _brazilian_specimen(o, diameter, h, alpha_deg, strength, platen, groups, mes
     """(sim, bodies, p) of the built disc between its platens (:func:`brazilian_scene`); sets ``o.alpha_deg``,
     ``o.arc_deg`` (:func:`loading_arc`) and ``o.build`` (wall time [s] of the build)."""
     t0 = _time.perf_counter()
-    disc = _mesh.disk(0.5 * diameter, h) if mesh is None else mesh
+    spaced = spaced_bedding(o.mat)
+    if mesh is None and spaced is not None:
+        disc = bedded_disc(0.5 * diameter, h, LOADING_ARC_DEG if alpha_deg is None else alpha_deg, spaced)
+        o.mesh_kind = "disc along the bedding planes"
+    else:
+        disc = _mesh.disk(0.5 * diameter, h) if mesh is None else mesh
+        o.mesh_kind = "given" if mesh is not None else "disk (symmetric)"
     o.alpha_deg, o.arc_deg = loading_arc(np.asarray(disc.points, dtype=np.float64), 0.5 * diameter, alpha_deg)
     sim, bodies, p = brazilian_scene(elements=o.elements, load_time=o.load_time, D=diameter, alpha_deg=o.alpha_deg,
                                      safety=o.safety, strength=strength, material=o.mat, platen=platen,
@@ -268,7 +287,7 @@ def _brazilian_result(o, sim, bodies, p, run, diameter, max_time, mesh) -> LabRe
                     joint_penalty_raised=o.raised, platen_young=float(pm.young),
                     platen_penalty=float(pm.contact_penalty), platen_friction=float(pm.friction),
                     alpha_deg=float(o.alpha_deg), loaded_arc_deg=o.arc_deg,
-                    mesh="given" if mesh is not None else "disk (symmetric)", elements=o.elements)
+                    mesh=o.mesh_kind, elements=o.elements)
     curve = dict(time_s=rec["t_P"], approach_m=rec["approach_P"], load_N_per_m=rec["P"],
                  load_instantaneous_N_per_m=rec["P_inst"], broken_joints=rec["broken"])
     return LabResult("brazilian", curve, summary, sim=sim, bodies=bodies, material=o.mat, settings=settings)

@@ -33,6 +33,7 @@ Modules (imports run downwards only, and never into the simulation, scene or ren
 
 * :mod:`.trimesh` -- the :class:`TriMesh` class, :func:`merge`, shared argument checks;
 * :mod:`.lines` -- :class:`Segments`, :class:`Polyline` (embedded lines, edge selectors);
+* :mod:`.bedding` -- :func:`bedding_lines` (the traces of bedding planes through a region);
 * :mod:`.arrangement` -- the planar graph of a polygon and its lines (private);
 * :mod:`.triangulate` -- the constrained Delaunay triangulator used by :func:`polygon`;
 * :mod:`.generators` -- :func:`rectangle`, :func:`disk`, :func:`annulus`, :func:`polygon`;
@@ -43,13 +44,14 @@ Modules (imports run downwards only, and never into the simulation, scene or ren
 from __future__ import annotations
 
 from .lines import Polyline, Segments
+from .bedding import bedding_lines
 from .generators import annulus, disk, plate_with_hole, polygon, rectangle
 from .loaders import GROUP_KEYS, load, load_groups, load_tagged, scene_from_groups
 from .grains import GrainLabels, voronoi_grains
 from .trimesh import DEGENERACY_TOL, MAX_GENERATED_TRIANGLES, TriMesh, merge
 
 __all__ = ["TriMesh", "rectangle", "disk", "annulus", "polygon", "plate_with_hole", "load", "load_groups", "load_tagged", "scene_from_groups",
-           "merge", "Segments", "Polyline", "voronoi_grains", "GrainLabels"]
+           "merge", "Segments", "Polyline", "bedding_lines", "voronoi_grains", "GrainLabels"]
 
 # Pickles (checkpoints hold the scene's meshes) name the class taichi_fdem.mesh.TriMesh, the
 # name checkpoint files of every format version use for it.
