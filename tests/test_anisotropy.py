@@ -200,6 +200,7 @@ def test_the_time_step_follows_the_stiffest_direction():
 def _plate(mat, plane, held: bool):
     scene = fdem.Scene(plane=plane, gravity=(0.0, 0.0))
     scene.add_body(fdem.mesh.rectangle(1.0, 1.0, h=0.25, origin=(0.0, 0.0)), mat)
+    scene.set_temperature(0.0)                  # a scene with heat: the triangles take a thermal strain
     if held:
         scene.fix_nodes(lambda x, y: np.ones_like(x, bool))
     return scene.build(strategy="serial", quasi_static=not held)
@@ -215,7 +216,7 @@ def test_a_held_plate_carries_minus_c_thermal_strain():
     """Isotropic plane strain, ε* = α(1 + ν)ΔT in both directions: σ = −E α ΔT/(1 − 2ν), from the
     kernels' nodal forces and from sim.stresses(); a bedded plate gives σ = −C:ε* in its frame."""
     E, nu, alpha, dT = 20e9, 0.25, 1e-5, 0.01
-    mat = fdem.Material(density=2500.0, young=E, poisson=nu, expansion=alpha)
+    mat = fdem.Material(density=2500.0, young=E, poisson=nu, expansion=alpha, conductivity=3.0, heat_capacity=800.0)
     sim = _plate(mat, "strain", held=True)
     assert sim.model.heat and sim.solver.features().heat
     a1, a2 = mat.thermal_expansion_2d("strain")
@@ -230,7 +231,7 @@ def test_a_held_plate_carries_minus_c_thermal_strain():
     right = sim.model.node_rest[:, 0] > 1.0 - 1e-9
     assert f[right, 0].sum() == pytest.approx(-want * 1.0, rel=1e-6)
     # bedded at 30°: σ in the bedding frame = −C (ε*₁, ε*₂, 0)
-    bed = fdem.Material(density=2500.0, young=E1, poisson=NU1, expansion=alpha,
+    bed = fdem.Material(density=2500.0, young=E1, poisson=NU1, expansion=alpha, conductivity=3.0, heat_capacity=800.0,
                         bedding=fdem.Bedding(30.0, E2, NU21, G2, expansion_normal=3 * alpha))
     sim = _plate(bed, "strain", held=True)
     a1, a2 = bed.thermal_expansion_2d("strain")
@@ -262,10 +263,10 @@ def test_a_free_plate_expands_by_the_thermal_strain_without_stress(bedded):
     and no stress."""
     alpha, dT = 1e-5, 0.5
     if bedded:
-        mat = fdem.Material(density=2500.0, young=E1, poisson=NU1, expansion=alpha,
+        mat = fdem.Material(density=2500.0, young=E1, poisson=NU1, expansion=alpha, conductivity=3.0, heat_capacity=800.0,
                             bedding=fdem.Bedding(-20.0, E2, NU21, G2, expansion_normal=2 * alpha))
     else:
-        mat = fdem.Material(density=2500.0, young=20e9, poisson=0.25, expansion=alpha)
+        mat = fdem.Material(density=2500.0, young=20e9, poisson=0.25, expansion=alpha, conductivity=3.0, heat_capacity=800.0)
     sim = _plate(mat, "stress", held=False)
     eps = np.array([[3e-6, 1e-6], [1e-6, -2e-6]]) if bedded else np.eye(2) * alpha * dT
     _write_thermal(sim, (eps[0, 0], eps[1, 1], eps[0, 1]))
@@ -282,10 +283,12 @@ def test_a_free_plate_expands_by_the_thermal_strain_without_stress(bedded):
 # ---- energy balance and strategies ---------------------------------------------------------------
 def _bedded_scene(thermal: bool):
     fold = lambda x, y: 40.0 * np.sin(3.0 * x) - 25.0 * y          # noqa: E731
-    mat = fdem.Material(density=1000.0, young=E1, poisson=NU1, expansion=1e-5 if thermal else 0.0,
+    mat = fdem.Material(density=1000.0, young=E1, poisson=NU1, expansion=1e-5 if thermal else 0.0, conductivity=3.0, heat_capacity=800.0,
                         bedding=fdem.Bedding(fold, E2, NU21, G2))
     scene = fdem.Scene(gravity=(0.0, -9.81))
     scene.add_body(fdem.mesh.rectangle(1.0, 0.4, h=0.1, origin=(0.0, 0.0)), mat)
+    if thermal:
+        scene.set_temperature(0.0)
     scene.fix_nodes(lambda x, y: x < 1e-9)
     scene.apply_traction(lambda x, y: x > 1.0 - 1e-9, (2e4, 1e4))
     return scene
