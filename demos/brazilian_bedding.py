@@ -122,26 +122,6 @@ def run_angle(mat, beta, h, load_time, frames_dir, size, every):
                 triangles=r.sim.model.tri_count, warnings=[str(w.message) for w in caught])
 
 
-def hatch(image, dip, spacing, view, radius):
-    """``image`` with the bedding planes (dip [°], ``spacing`` [m], one through the origin) blended
-    in white inside the disc of ``radius`` [m]; ``view`` the (xmin, xmax, ymin, ymax) of the image."""
-    import numpy as np
-    H, W = image.shape[:2]
-    x0, x1, y0, y1 = view
-    px = (x1 - x0) / W
-    xs = x0 + (np.arange(W) + 0.5) * px
-    ys = y1 - (np.arange(H) + 0.5) * (y1 - y0) / H
-    X, Y = np.meshgrid(xs, ys)
-    n = (-math.sin(math.radians(dip)), math.cos(math.radians(dip)))
-    d = X * n[0] + Y * n[1]
-    near = np.abs(d - spacing * np.round(d / spacing)) < 0.6 * px
-    near &= np.hypot(X, Y) < radius
-    near &= np.any(image != np.round(255.0 * np.asarray(CRACK)).astype(np.uint8), axis=-1)   # keep the cracks
-    out = image.astype(np.float32)
-    out[near] = 0.45 * out[near] + 0.55 * 255.0
-    return out.astype(np.uint8)
-
-
 def compose(rows, dirs, spacing, view, out_path, fps, max_frames):
     """The discs side by side, each advancing through its own frames; a label per disc."""
     import imageio.v3 as iio
@@ -155,7 +135,8 @@ def compose(rows, dirs, spacing, view, out_path, fps, max_frames):
             panels = []
             for row, files in zip(rows, stacks):
                 k = min(len(files) - 1, round(min(i, n - 1) * (len(files) - 1) / max(1, n - 1)))
-                img = hatch(iio.imread(files[k])[..., :3], row["dip"], spacing, view, 0.5 * D)
+                img = _common.hatch_bedding(iio.imread(files[k])[..., :3], row["dip"], spacing, view, keep=CRACK,
+                                            inside=lambda x, y: x * x + y * y < 0.25 * D * D)
                 text = f"beta = {row['beta']:.0f} deg"
                 if i >= n - 1:
                     text += f"  {row['sigma_t'] / 1e6:.1f} MPa"
