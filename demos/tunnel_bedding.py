@@ -186,7 +186,8 @@ def check(bed, iso, effect) -> None:
         f"the bedded mass failed {f['count']} joints, the isotropic one {iso['failed']['count']}"
     assert effect["extra_along"] > 0.75, f"only {effect['extra_along']:.0%} of the added failures along the bedding"
     gap = line_gap(effect["extra_direction"], DIP)
-    assert gap < 10.0, f"the added failures' mean direction {effect['extra_direction']:.1f}° is {gap:.1f}° off the bedding"
+    assert gap < 10.0, \
+        f"the added failures' mean direction {effect['extra_direction']:.1f}° is {gap:.1f}° off the bedding"
     tangent = DIP + 90.0 - 180.0
     assert tangent < effect["position_from_sidewall"] < 10.0, \
         f"the bedding-parallel failures centre {effect['position_from_sidewall']:.0f}° from the sidewall, not " \
