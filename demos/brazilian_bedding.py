@@ -193,7 +193,7 @@ def main(argv=None) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         for beta in angles:
             dirs.append(os.path.join(tmp, f"beta{beta:03.0f}"))
-            rows.append(run_angle(mat, beta, h, load_time, dirs[-1], 200 if args.short else 360,
+            rows.append(run_angle(mat, beta, h, load_time, dirs[-1], 180 if args.short else 360,
                                   1 if args.short else 2))
             r = rows[-1]
             print(f"  β = {beta:4.0f}°: σ_t = {r['sigma_t'] / 1e6:5.2f} MPa, {r['broken']:3d} broken joints "
@@ -202,7 +202,7 @@ def main(argv=None) -> dict:
                   f"(bedding {r['dip']:.0f}°), {r['triangles']} triangles", flush=True)
         os.makedirs(os.path.dirname(os.path.abspath(args.out)) or ".", exist_ok=True)
         frames = compose(rows, dirs, spacing, VIEW, args.out, fps=10 if args.short else 15,
-                         max_frames=36 if args.short else 120)
+                         max_frames=30 if args.short else 120)
     csv_path = os.path.join(os.path.dirname(os.path.abspath(args.out)), f"{NAME}.csv")
     write_csv(csv_path, rows)
     print("  β [°]   σ_t [MPa]   σ_t/σ_t(90°)   broken   on bedding   mean direction [°]   bedding dip [°]")
