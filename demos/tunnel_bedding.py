@@ -12,7 +12,7 @@ E1 = 100 MPa along the bedding, E2 = 50 MPa across it (E1/E2 = 2), ν1 = 0.25, �
 G2 = 25 MPa.  The matrix's joints: f_t = 0.2 MPa, c = 0.3 MPa, φ = 30° (an unconfined strength
 2c cos φ/(1 − sin φ) = 1.04 MPa, above the elastic hoop stress 3σv − σh = 0.75 MPa at the sidewalls);
 the bedding's: f_t = 0.07 MPa, c = 0.1 MPa (1/3 of the matrix's), φ = 20°, and weak bedding planes
-every 0.25 m (0.15 m in the full mode), one through the tunnel's axis, meshed as edges.
+every 0.2 m (0.12 m in the full mode), one through the tunnel's axis, meshed as edges.
 
 The same excavation in an isotropic rock of the matrix's elasticity and strength (same mesh) is
 the comparison.  Printed and returned: the joints that failed (damage > 0.5 or broken), their share
