@@ -48,3 +48,24 @@ def video_frames(path) -> int:
 def fmt_vec(v) -> str:
     v = np.asarray(v, dtype=float)
     return "(" + ", ".join(f"{c:+.4g}" for c in v) + ")"
+
+
+def hatch_bedding(image, dip, spacing, view, keep=None, inside=None):
+    """``image`` (H, W, 3 uint8, the world box ``view`` = (xmin, xmax, ymin, ymax) [m] drawn on it)
+    with bedding planes of ``dip`` [° from the x axis], ``spacing`` [m] apart (one through the
+    origin), blended in white, one pixel wide.  ``keep``: an RGB colour in [0, 1] left untouched
+    (the drawn cracks); ``inside(x, y)``: where to draw (NumPy arrays of world coordinates [m])."""
+    import math
+    H, W = image.shape[:2]
+    x0, x1, y0, y1 = view
+    px = (x1 - x0) / W
+    X, Y = np.meshgrid(x0 + (np.arange(W) + 0.5) * px, y1 - (np.arange(H) + 0.5) * (y1 - y0) / H)
+    d = -X * math.sin(math.radians(dip)) + Y * math.cos(math.radians(dip))
+    near = np.abs(d - spacing * np.round(d / spacing)) < 0.6 * px
+    if inside is not None:
+        near &= inside(X, Y)
+    if keep is not None:
+        near &= np.any(image != np.round(255.0 * np.asarray(keep)).astype(np.uint8), axis=-1)
+    out = image.astype(np.float32)
+    out[near] = 0.45 * out[near] + 0.55 * 255.0
+    return out.astype(np.uint8)

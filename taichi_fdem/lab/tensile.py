@@ -66,7 +66,8 @@ def loading_arc(points, radius: float, alpha_deg: float | None):
 def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = None, load_time: float | None = None,
               samples: int = 240, safety: float | None = None, platen=None, strength=None, groups=None, mesh=None,
               plane: str = "strain", max_time: float = 3.0, joint_sets=(), video: str | None = None,
-              quasi_static=None, joint_penalty_factor: float | None = None, check=None, bedding_angle=None) -> LabResult:
+              quasi_static=None, joint_penalty_factor: float | None = None, check=None, bedding_angle=None,
+              frame=None) -> LabResult:
     """Brazilian test of a disc of ``diameter`` D [m], mesh size ``h`` [m], every interior edge
     a cohesive joint, between two platens closing at ±v.
 
@@ -119,6 +120,7 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
     the last load reached, not the strength).
 
     ``bedding_angle`` [°]: bedding to loaded diameter, 0 parallel, 90 across (docs/guide/anisotropy.md).
+    ``frame``: a callable ``frame(sim)`` called at each of the ``samples`` (e.g. to draw a video).
 
     Similarity: the result depends on the dimensionless groups f_t/E, l_ch/D = E G_I/(f_t² D),
     c/f_t, φ, G_II/G_I, ν, p_f/E, the platens' E and penalty over the disc's E, h/D, α, β and
@@ -136,7 +138,7 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
     o = _brazilian_options(material, diameter, h, check, load_time, safety, quasi_static, joint_penalty_factor,
                            max_time, bedding_angle)
     sim, bodies, p = _brazilian_specimen(o, diameter, h, alpha_deg, strength, platen, groups, mesh, plane, joint_sets)
-    run = _brazilian_run(sim, bodies, p, diameter, samples, max_time, video)
+    run = _brazilian_run(sim, bodies, p, diameter, samples, max_time, video, frame)
     result = _brazilian_result(o, sim, bodies, p, run, diameter, max_time, mesh)
     result.convergence = _brazilian_check(result, material, diameter, h, o.reruns, dict(   # {} without reruns
         alpha_deg=alpha_deg, load_time=o.load_time, samples=samples, safety=o.safety, platen=platen, strength=strength,
@@ -210,7 +212,7 @@ def _brazilian_specimen(o, diameter, h, alpha_deg, strength, platen, groups, mes
     return sim, bodies, p
 
 
-def _brazilian_run(sim, bodies, p, diameter, samples, max_time, video):
+def _brazilian_run(sim, bodies, p, diameter, samples, max_time, video, user_frame=None):
     """Load the disc (:func:`brazilian_load`) until the split's window has passed: (rec, kin, split, wall) with
     kin the disc's kinetic/strain energy per sample, split [time of the first central tension break] (empty
     without one) and wall the run's wall time [s]."""
@@ -223,6 +225,8 @@ def _brazilian_run(sim, bodies, p, diameter, samples, max_time, video):
         kin.append(specimen_kinetic(s, bodies[0]) / max(en["strain"], 1e-300))
         if draw is not None:
             draw(s)
+        if user_frame is not None:
+            user_frame(s)
     split = []                       # the time of the first central tension break
     window = SPLIT_WINDOW * diameter / p["cp"]
 
