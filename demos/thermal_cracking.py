@@ -1,6 +1,6 @@
 """Thermal cracking of a grain-based granite heated slowly to several hundred °C (docs/theory/heat.md §16.5).
 
-    python demos/thermal_cracking.py          # 20 mm specimen to 500 °C -> out/thermal_cracking.mp4, _cracks.csv, .png
+    python demos/thermal_cracking.py          # 15 mm specimen to 500 °C -> out/thermal_cracking.mp4, _cracks.csv, .png
     python demos/thermal_cracking.py --short  # 10 mm specimen to 320 °C (used by tests/test_demos_heat.py)
 
 A free square specimen of Voronoi grains (``fdem.mesh.voronoi_grains``, seed 1) of quartz,
@@ -20,7 +20,7 @@ in three crystalline rocks", J. Geophys. Res. 91(B12), 12743–12764).  Conducti
 
 Heating: every node is held at a uniform temperature ramped by a ``fdem.Curve`` from 20 °C
 (stress-free) to the final temperature (``scene.heat(everywhere, temperature=..., curve=ramp)``),
-over 100 (short) or 300 P-wave transits of the specimen with ``quasi_static=True``: the stresses
+over 100 (short) or 200 P-wave transits of the specimen with ``quasi_static=True``: the stresses
 are those of the grains' expansion mismatch alone, with no thermal gradient and no conduction
 time scale.  A crack is a joint whose stress has reached its strength (damage D > 0, softening
 begun); broken joints (D = 1) are counted too.
@@ -55,7 +55,7 @@ GRAIN = {"young": 70.05e9, "poisson": 0.236, "tensile_strength": 6.46e6, "cohesi
 PHI, G_I, INTRA, PENALTY = 35.0, 20.0, 2.0, 13.0      # °, J/m², intra-grain × boundary, × E_g
 T0 = 20.0                                              # °C, stress-free
 SIZE = {True: dict(width=0.01, grain=0.0025, h=0.001, T1=320.0, transits=100.0, samples=100, frames=25),
-        False: dict(width=0.02, grain=0.002, h=0.0006, T1=500.0, transits=300.0, samples=240, frames=80)}
+        False: dict(width=0.015, grain=0.002, h=0.00075, T1=500.0, transits=200.0, samples=200, frames=80)}
 SLOW = (0.4, 40.0)                   # the first 40 K of the heating take 40 % of its time
 FIRST = 10                           # the first cracks checked to lie on grain boundaries
 SEED = 1
