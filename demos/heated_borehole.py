@@ -48,6 +48,7 @@ FIRST_COOLING = 6.0                   # K: the wall's cooling in the elastic fir
 # elastic stage and at the end, the samples (video frames) of the two stages
 SIZE = {True: dict(L=0.6, h=0.025, depths=(0.03, 0.05), samples=(4, 16)),
         False: dict(L=1.0, h=0.0125, depths=(0.04, 0.08), samples=(10, 50))}
+EULER_GAMMA = 0.5772156649015329
 PROFILE_TOL = 0.06                    # of the wall's cooling
 
 
@@ -68,7 +69,8 @@ def radial_conduction(r, t: float, a: float = A, kappa: float | None = None):
 
         v/V = 1 + (2/π) ∫₀^∞ exp(−κu²t) [J₀(ur)Y₀(ua) − Y₀(ur)J₀(ua)] / [J₀²(ua) + Y₀²(ua)] du/u,
 
-    integrated over s = ln(ua) with ``scipy.integrate.quad``."""
+    integrated over s = ln(ua) with ``scipy.integrate.quad`` down to s = −40 and analytically
+    below (the small-argument forms of J₀ and Y₀)."""
     import numpy as np
     from scipy import integrate, special
     kappa = diffusivity() if kappa is None else kappa
@@ -82,8 +84,10 @@ def radial_conduction(r, t: float, a: float = A, kappa: float | None = None):
             x = math.exp(s)
             num = special.j0(x * rho) * special.y0(x) - special.y0(x * rho) * special.j0(x)
             return math.exp(-tau * x * x) * num / (special.j0(x) ** 2 + special.y0(x) ** 2)
-        hi = 0.5 * math.log(50.0 / tau)                 # exp(−τx²) < e⁻⁵⁰ beyond
-        val, _ = integrate.quad(f, -40.0, hi, limit=400)
+        lo, hi = -40.0, 0.5 * math.log(50.0 / tau)      # exp(−τx²) < e⁻⁵⁰ beyond hi
+        val, _ = integrate.quad(f, lo, hi, limit=400)
+        # below lo (x → 0): J₀ → 1, Y₀ → (2/π)(ln(x/2) + γ), f → −(π/2) ln ρ / (s + γ − ln 2)²
+        val -= 0.5 * math.pi * math.log(rho) / abs(lo + EULER_GAMMA - math.log(2.0))
         return 1.0 + 2.0 / math.pi * val
     return np.array([one(float(x) / a) for x in np.atleast_1d(r)])
 

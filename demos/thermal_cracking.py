@@ -203,7 +203,7 @@ def main(argv=None) -> dict:
           f"({gb.mean():.0%} of the joints); {rows[-1][1]} cracked, {rows[-1][5]} broken at {rows[-1][0]:.0f} °C")
     out = dict(r, rows=rows, csv=csv_path, png=png, video=os.path.abspath(args.out), triangles=sim.model.tri_count,
                joints=int(sim.model.joint_count), grain_boundary_joints=int(gb.sum()), final_C=rows[-1][0],
-               cracked=rows[-1][1], broken=rows[-1][5], steps=sim.step_count, wall_s=clock())
+               cracked=rows[-1][1], broken=rows[-1][5], steps=sim.step_count, energies=sim.energies(), wall_s=clock())
     print(f"  wrote {args.out}, {csv_path}" + (f" and {png}" if png else " (no plot: matplotlib is not installed)")
           + f"; {out['wall_s']:.1f} s wall time")
     return out
