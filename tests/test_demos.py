@@ -141,6 +141,14 @@ def _readme_figures(name, r):
         # docs/guide/demos.md: within 6 % of every Lac du Bonnet target after 50 evaluations
         assert r["evaluations"] == 50 and r["failed"] == 0
         assert all(abs(e) < 0.06 for e in r["errors"].values()), r["errors"]
+    elif name == "thermal_cracking":
+        # docs/guide/demos.md: 911 triangles, 1,320 joints (320 on grain boundaries); the first crack
+        # at ΔT = 7.5 K (estimate 6.8 K), the first ten on grain boundaries; 792 cracked and 71
+        # broken at 500 °C (counts of a cracking aggregate: ranges)
+        assert r["triangles"] == 911 and r["joints"] == 1320 and r["grain_boundary_joints"] == 320
+        assert r["first_crack_dT"] == pytest.approx(7.5, abs=1.0)
+        assert r["first_on_grain_boundaries"] == 1.0
+        assert 740 <= r["cracked"] <= 840 and 50 <= r["broken"] <= 95
     elif name == "incline":
         t = r["time"]
         s = 0.5 * G * (math.sin(math.radians(30.0)) - 0.3 * math.cos(math.radians(30.0))) * t * t
