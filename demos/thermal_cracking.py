@@ -12,11 +12,12 @@ Linear expansion coefficients α [1/K]: quartz 2.4e-5 (its mean up to 500 °C: q
 anisotropically, about 1.4e-5 along a and 0.8e-5 along c at room temperature, and faster
 towards the α–β transition at 573 °C), plagioclase 0.5e-5, K-feldspar 0.8e-5, biotite 1.2e-5:
 representative values of the mineral data compiled by Skinner (1966, "Thermal expansion", in
-Handbook of Physical Constants, Geol. Soc. Am. Memoir 97, 75–96), the data behind the
-thermal-cracking analysis of Fredrich & Wong (1986, "Micromechanics of thermally induced cracking
-in three crystalline rocks", J. Geophys. Res. 91(B12), 12743–12764).  Conductivities 7.7, 2.3,
-2.3, 2.0 W/(m·K) and heat capacities 740, 710, 700, 770 J/(kg·K) (Clauser & Huenges 1995,
-"Thermal conductivity of rocks and minerals", AGU Reference Shelf 3, 105–126).
+Handbook of Physical Constants, Geol. Soc. Am. Memoir 97, 75–96); Fredrich & Wong (1986,
+"Micromechanics of thermally induced cracking in three crystalline rocks", J. Geophys. Res.
+91(B12), 12743–12764) analyse the thermal cracking of granite from such mismatches.
+Conductivities 7.7, 2.3, 2.3, 2.0 W/(m·K) (Clauser & Huenges 1995, "Thermal conductivity of
+rocks and minerals", AGU Reference Shelf 3, 105–126) and heat capacities 700–770 J/(kg·K),
+typical of silicate minerals at room temperature (they set the heat stored, not the stresses).
 
 Heating: every node is held at a uniform temperature ramped by a ``fdem.Curve`` from 20 °C
 (stress-free) to the final temperature (``scene.heat(everywhere, temperature=..., curve=ramp)``),
