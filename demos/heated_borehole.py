@@ -3,29 +3,32 @@
     python demos/heated_borehole.py          # writes out/heated_borehole.mp4, _profile.csv, _history.csv
     python demos/heated_borehole.py --short  # a coarser, shorter version (used by tests/test_demos_heat.py)
 
-A borehole of radius a = 0.1 m in a 1 × 1 m block of granite at the reservoir temperature
-T₀ = 200 °C (stress-free), meshed by ``fdem.mesh.plate_with_hole`` (fine at the wall, coarser
-outwards), every interior edge a cohesive joint (``fracture=True``: f_t = 8 MPa, c = 30 MPa,
-φ = 35°, G_I = 50 J/m²); E = 60 GPa, ν = 0.25, ρ = 2650 kg/m³, c = 800 J/(kg·K), α = 8e-6 1/K,
-plane strain; the outer edges on rollers.  At t = 0 the wall is held at T_w = 60 °C, the
-temperature of the injected water (``scene.heat(wall, temperature=60)``), and the rock cools by
-conduction from the wall.
+A borehole of radius a = 0.1 m in a block of granite (1 × 1 m; 0.6 × 0.6 m with ``--short``) at
+the reservoir temperature T₀ = 200 °C (stress-free), meshed by ``fdem.mesh.plate_with_hole``
+(fine at the wall, coarser outwards), every interior edge a cohesive joint (``fracture=True``:
+f_t = 8 MPa, c = 30 MPa, φ = 35°, G_I = 50 J/m²); E = 60 GPa, ν = 0.25, ρ = 2650 kg/m³,
+c = 800 J/(kg·K), α = 8e-6 1/K, plane strain; the outer edges on rollers.  The wall is held
+at T₀ − 6 K from t = 0 (an elastic first stage: below ΔT_c), then, from t₁, at T_w = 60 °C, the
+temperature of the injected water (``scene.heat(wall, temperature=60, curve=...)``); the rock
+cools by conduction from the wall.
 
-Time scaling: the conductivity is k = S × 3 W/(m·K) with S = ``TIME_SCALE`` (6e5), so that the
-cooled zone grows to about the borehole radius within some tens of P-wave transits of the block
-(a quasi-static mechanical response): one simulated second stands for S seconds of the real rock
-(diffusivity κ = k/(ρc), the cooled depth ~ √(κt)).  The thermal stresses depend on E, ν, α and
-the temperature field only, so the scaling changes the time axis and nothing else.
+Time scaling: the conductivity is k = S × 3 W/(m·K) with S = ``TIME_SCALE`` (2 × 10⁶), so that
+the cooled depth √(κt) (κ = k/(ρc)) reaches half the borehole radius (0.8 of it in the full
+run) within a few thousand mechanical steps, tens of P-wave transits of the cooled zone (a
+quasi-static mechanical response): one simulated second stands for S seconds of the real rock.
+The thermal stresses depend on E, ν, α and the temperature field only, so the scaling changes
+the time axis and nothing else.
 
-The cooled rock contracts; near the free wall of a long cylinder in plane strain the hoop stress is
-σ_θ = E α (T₀ − T) / (1 − ν) (tension), so radial cracks open at the wall once the cooling exceeds
-ΔT_c = f_t (1 − ν) / (E α) and grow into the cooled zone.  The video shows the temperature (left)
-and the joint damage (right), broken joints in red.  ``check``: while the joints are intact (the
-first sample before any damage over 0.5), the nodes' temperatures within 3 √(κt) of the wall
-agree with the radial conduction from a cylinder whose surface is held at T_w in an infinite
-medium (Carslaw & Jaeger 1959, §13.5, eq. 8, evaluated by quadrature) within 6 % of T₀ − T_w;
-cracks open at the wall; every joint damaged over 0.5 lies where the rock has cooled by more
-than ΔT_c / 2.
+The cooled rock contracts; at the free wall of a long cylinder in plane strain the hoop stress
+is σ_θ = E α (T₀ − T) / (1 − ν) (tension), so radial cracks open at the wall once the cooling
+exceeds ΔT_c = f_t (1 − ν) / (E α) and grow into the cooled zone.  The video shows the
+temperature (left) and the joint damage (right), broken joints in red.  ``check``: at the end
+of the elastic stage no joint is damaged and the nodes' temperatures within 3 √(κt) of the
+wall agree with the radial conduction from a cylinder whose surface is held at its temperature
+in an infinite medium (Carslaw & Jaeger 1959, §13.5, eq. 8, evaluated by quadrature) within
+6 % of the wall's cooling; cracks open at the wall; every joint damaged over 0.5 lies where the
+rock has cooled by more than ΔT_c / 2.  The profile at the end (the two steps superposed) goes
+to ``NAME_profile.csv``, the history with the heat account to ``NAME_history.csv``.
 """
 from __future__ import annotations
 
