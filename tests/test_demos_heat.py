@@ -93,8 +93,8 @@ def test_heated_borehole_short(tmp_path):
     at the end agree with a 1D radial Crank–Nicolson solution written here within 6 % of the
     cooling (and the demo's Carslaw & Jaeger quadrature with it within 0.2 %); no joint damaged in
     the elastic stage, whose wall hoop stress E α ΔT/(1 − ν) stays under f_t; radial cracks at the
-    wall, none beyond 3 √(κt) and nine in ten or more where the rock cooled by over ΔT_c/2; the heat account of the history
-    closes."""
+    wall, none beyond 3 √(κt), nine in ten or more where the rock cooled by over ΔT_c/2; the heat
+    account of the history closes."""
     mod = _load("heated_borehole")
     r = _run("heated_borehole", tmp_path)
     E, nu, alpha, ft = 60e9, 0.25, 8e-6, 8e6
