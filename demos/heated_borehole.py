@@ -166,7 +166,8 @@ def main(argv=None) -> dict:
     kappa, dtc = diffusivity(), crack_onset()
     print(f"{NAME}: {sim.model.tri_count} triangles, {sim.model.joint_count} joints, dt = {sim.dt:.3g} s, "
           f"heat step {sim.model.dt_heat:.3g} s; κ = {kappa:.3g} m²/s (× {TIME_SCALE:g}); the wall cooled by "
-          f"{FIRST_COOLING:.0f} K until {t1:.3g} s (√(κt) = {math.sqrt(kappa * t1) * 1e3:.0f} mm), then to {TW:.0f} °C "
+          f"{FIRST_COOLING:.0f} K until {t1:.3g} s (√(κt) = {math.sqrt(kappa * t1) * 1e3:.0f} mm), "
+          f"then to {TW:.0f} °C "
           f"until {t_end:.3g} s (√(κt) = {math.sqrt(kappa * t_end) * 1e3:.0f} mm); crack onset ΔT_c = {dtc:.1f} K",
           flush=True)
     size = (320, 240) if args.short else (640, 480)

@@ -79,7 +79,8 @@ def onset_reference() -> float:
     plagioclase (plane-strain circular inclusion) reaches the grain-boundary f_t."""
     E = GRAIN["young"]
     Eq, Ep, nu = STIFFNESS["quartz"] * E, STIFFNESS["plagioclase"] * E, GRAIN["poisson"]
-    return GRAIN["tensile_strength"] * (1.0 / Ep + (1.0 - 2.0 * nu) / Eq) / (EXPANSION["quartz"] - EXPANSION["plagioclase"])
+    dalpha = EXPANSION["quartz"] - EXPANSION["plagioclase"]
+    return GRAIN["tensile_strength"] * (1.0 / Ep + (1.0 - 2.0 * nu) / Eq) / dalpha
 
 
 def build(short: bool):
@@ -164,7 +165,8 @@ def main(argv=None) -> dict:
 
     s = SIZE[args.short]
     sim, lab, t_ramp = build(args.short)
-    gb = np.asarray(sim.model.joint_set_np)[: sim.model.joint_count] == sim.model.joint_set_names.index("grain_boundaries")
+    md = sim.model
+    gb = np.asarray(md.joint_set_np)[: md.joint_count] == md.joint_set_names.index("grain_boundaries")
     dtc = onset_reference()
     print(f"  built in {clock():.1f} s")
     print(f"{NAME}: {sim.model.tri_count} triangles, {lab.grain_count} grains, {sim.model.joint_count} joints "
