@@ -149,6 +149,13 @@ def _readme_figures(name, r):
         assert r["first_crack_dT"] == pytest.approx(7.5, abs=1.0)
         assert r["first_on_grain_boundaries"] == 1.0
         assert 740 <= r["cracked"] <= 840 and 50 <= r["broken"] <= 95
+    elif name == "heated_borehole":
+        # docs/guide/demos.md: 1,248 triangles; the profile within 0.1 % (elastic stage) and 0.6 %
+        # (end) of the cooling; 129 joints over 0.5, 83 broken, 98 % where the rock cooled by over ΔT_c/2
+        assert r["triangles"] == 1248 and r["damage_elastic"] == 0.0
+        assert r["profile_error_elastic"] < 0.005 and r["profile_error_end"] < 0.01
+        assert 100 <= r["failed"] <= 160 and 60 <= r["broken"] <= 105
+        assert r["failed_in_cooled_zone"] >= 0.95
     elif name == "incline":
         t = r["time"]
         s = 0.5 * G * (math.sin(math.radians(30.0)) - 0.3 * math.cos(math.radians(30.0))) * t * t
