@@ -29,7 +29,8 @@ in an infinite medium (Carslaw & Jaeger 1959, §13.5, eq. 8, evaluated by quadra
 6 % of the wall's cooling; cracks open at the wall; of the joints damaged over 0.5, at least 90 % lie
 where the rock has cooled by more than ΔT_c / 2 (the tips of the radial cracks run ahead into
 less cooled rock) and all within 3 √(κt) of the wall.  The profile at the end (the two steps superposed) goes
-to ``NAME_profile.csv``, the history with the heat account to ``NAME_history.csv``.
+to ``NAME_profile.csv`` (and, with matplotlib, ``NAME_profile.png``), the history with the heat
+account to ``NAME_history.csv``.
 """
 from __future__ import annotations
 
@@ -145,6 +146,31 @@ def profile_error(sim, t1: float):
     return float(np.max(np.abs(T - ref)) / scale), r[near], T, ref
 
 
+def plot_profile(r, T, ref, t: float, path: str) -> bool:
+    """The nodes' temperatures against the radial conduction reference at time t [s]; False
+    without matplotlib."""
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return False
+    import numpy as np
+    order = np.argsort(r)
+    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    ax.plot(1e3 * (r[order] - A), ref[order], "k-", label="Carslaw & Jaeger §13.5 (two steps superposed)")
+    ax.plot(1e3 * (r - A), T, "o", ms=3, mfc="none", label="nodes of the simulation")
+    ax.set_xlabel("distance from the wall [mm]")
+    ax.set_ylabel("temperature [°C]")
+    depth = 1e3 * math.sqrt(diffusivity() * t)
+    ax.set_title(f"cooled well wall: temperature at t = {t:.3g} s (√(κt) = {depth:.0f} mm)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return True
+
+
 def joint_fields(sim):
     """(radius of each joint's midpoint [m], its mean node temperature, its damage)."""
     import numpy as np
@@ -203,7 +229,11 @@ def main(argv=None) -> dict:
         w.writerow(["radius_m", "temperature_C", "reference_C"])
         for i in order.tolist():
             w.writerow([f"{rr[i]:.6g}", f"{Tn[i]:.6g}", f"{ref[i]:.6g}"])
-    out = dict(t1=t1, profile_error_elastic=err_el, damage_elastic=damage_el, profile_error_end=err_end,
+    png = base + "_profile.png"
+    if not plot_profile(rr, Tn, ref, sim.solver.heat.time, png):
+        png = None
+    out = dict(t1=t1, profile_png=png, profile_error_elastic=err_el, damage_elastic=damage_el,
+               profile_error_end=err_end,
                t_end=sim.solver.heat.time, kappa=kappa, crack_onset_dT=dtc, damaged=int((D > 0).sum()),
                failed=int(failed.sum()), broken=sim.cracks.broken_count,
                failed_in_cooled_zone=float(np.mean(cooled[failed])) if failed.any() else 0.0,
