@@ -66,8 +66,7 @@ def loading_arc(points, radius: float, alpha_deg: float | None):
 def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = None, load_time: float | None = None,
               samples: int = 240, safety: float | None = None, platen=None, strength=None, groups=None, mesh=None,
               plane: str = "strain", max_time: float = 3.0, joint_sets=(), video: str | None = None,
-              quasi_static=None, joint_penalty_factor: float | None = None, check=None, bedding_angle=None,
-              frame=None) -> LabResult:
+              quasi_static=None, joint_penalty_factor=None, check=None, bedding_angle=None, frame=None) -> LabResult:
     """Brazilian test of a disc of ``diameter`` D [m], mesh size ``h`` [m], every interior edge
     a cohesive joint, between two platens closing at ±v.
 
@@ -119,8 +118,7 @@ def brazilian(material, diameter: float, h: float, *, alpha_deg: float | None = 
     ``max_time`` × the loading time (``peaked`` False, with a RuntimeWarning: the peak is then
     the last load reached, not the strength).
 
-    ``bedding_angle`` [°]: bedding to loaded diameter, 0 parallel, 90 across (docs/guide/anisotropy.md).
-    ``frame``: a callable ``frame(sim)`` called at each of the ``samples`` (e.g. to draw a video).
+    ``bedding_angle`` [°]: bedding to loaded diameter, 0 parallel, 90 across; ``frame(sim)`` runs at each sample.
 
     Similarity: the result depends on the dimensionless groups f_t/E, l_ch/D = E G_I/(f_t² D),
     c/f_t, φ, G_II/G_I, ν, p_f/E, the platens' E and penalty over the disc's E, h/D, α, β and
