@@ -202,7 +202,7 @@ def bedded_rectangle(width: float, height: float, h: float, bedding) -> TriMesh:
 
 def bedded_disc(radius: float, h: float, alpha_deg: float, bedding) -> TriMesh:
     """A disc of ``radius`` centred on the origin with its caps flat over ±``alpha_deg`` from the
-    y axis (|y| ≤ R cos α, boundary nodes at about ``h`` on the arcs, one at each end of a flat),
+    y axis (abs(y) ≤ R cos α, boundary nodes at about ``h`` on the arcs, one at each end of a flat),
     meshed at ``h`` with its bedding planes as mesh edges (the Brazilian disc of a spaced bedding)."""
     a = math.radians(alpha_deg)
     span = math.pi - 2.0 * a                                   # each side arc, from −(90° − α) to 90° − α
