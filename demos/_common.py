@@ -69,3 +69,15 @@ def hatch_bedding(image, dip, spacing, view, keep=None, inside=None):
     out = image.astype(np.float32)
     out[near] = 0.45 * out[near] + 0.55 * 255.0
     return out.astype(np.uint8)
+
+
+def sidewall_closure(sim, rock, radius: float) -> float:
+    """Horizontal closure [m] of the two sidewall points (x = ±radius, y = 0) of a circular tunnel
+    centred on the origin: the mean x displacement of the three rock nodes nearest each point (on
+    the rock side of the wall: excavated nodes are held still once orphaned), left minus right."""
+    X = sim.model.node_rest[rock.nodes]
+    u = sim.node_displacements(rock)
+    outside = np.hypot(X[:, 0], X[:, 1]) >= radius
+    d = (np.where(outside, np.hypot(X[:, 0] - radius, X[:, 1]), np.inf),
+         np.where(outside, np.hypot(X[:, 0] + radius, X[:, 1]), np.inf))
+    return float(u[np.argsort(d[1])[:3], 0].mean() - u[np.argsort(d[0])[:3], 0].mean())

@@ -85,13 +85,7 @@ def build(short: bool, bedded: bool):
 
 def sidewalls(sim, rock):
     """Horizontal closure [m] of the two sidewall points (x = ±A, y = 0) of the tunnel."""
-    import numpy as np
-    X = sim.model.node_rest[rock.nodes]
-    u = sim.node_displacements(rock)
-    outside = np.hypot(X[:, 0], X[:, 1]) >= A
-    d = (np.where(outside, np.hypot(X[:, 0] - A, X[:, 1]), np.inf),
-         np.where(outside, np.hypot(X[:, 0] + A, X[:, 1]), np.inf))
-    return float(u[np.argsort(d[1])[:3], 0].mean() - u[np.argsort(d[0])[:3], 0].mean())
+    return _common.sidewall_closure(sim, rock, A)
 
 
 def axial_mean(deg):
