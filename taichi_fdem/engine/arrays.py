@@ -104,6 +104,7 @@ SIZES = {
     "fluid": "switch: the scene has a fluid in its fracture network",
     "bedding": "switch: some material has a bedding (transversely isotropic elasticity)",
     "heat": "switch: the scene conducts heat (scene.set_temperature or scene.heat): temperatures and thermal strains",
+    "heat_contact": "switch: the scene conducts heat and has contact: contacts conduct (engine.heat)",
     "blocks": "switch: the parallel strategy with force blocks (the CPU default)",
     "slots": "switch: the parallel strategy with force slots",
 }
@@ -253,14 +254,15 @@ ARRAYS: tuple = (
        "the fluid's parameters, counters and sources (engine.fluid: F_K, ...)"),
     # ---- heat conduction (engine.heat, docs/theory/heat.md) ----------------------------------
     _a("heat_temp", "heat", STATE, "real", ["N if heat else 1"], "K", "temperature of each node"),
-    _a("heat_node", "heat", MODEL, "real vec2", ["N if heat else 1"], "J/(m·K), K",
-       "lumped heat capacity C_i = Σ ρ c A/3 and initial (stress-free) temperature of each node"),
+    _a("heat_node", "heat", MODEL, "real vec3", ["N if heat else 1"], "J/(m·K), K, W/(m·K)",
+       "lumped heat capacity C_i = Σ ρ c A/3, initial (stress-free) temperature, and Σ_j |K_ij| of the "
+       "triangles and joints (the stable heat step's bound) of each node"),
     _a("heat_supply", "heat", STATE, "real vec2", ["N if heat else 1"], "J/m",
        "heat supplied to each node so far: through fluxes, through its held temperature"),
     _a("heat_next", "heat", SCRATCH, "real", ["N if heat else 1"], "K", "the temperatures of the next heat step"),
-    _a("heat_tri", "heat", MODEL, "real vec9", ["E if heat else 1"], "W/(m·K), -",
-       "conduction matrix K_e (00, 11, 22, 01, 12, 20) of each triangle, then its effective expansion tensor "
-       "(xx, yy, xy) per kelvin"),
+    _a("heat_tri", "heat", MODEL, "real vec11", ["E if heat else 1"], "W/(m·K), 1/K, W/(m·K), m",
+       "conduction matrix K_e (00, 11, 22, 01, 12, 20) of each triangle, its effective expansion tensor "
+       "(xx, yy, xy) per kelvin, its conductivity k and its smallest rest altitude h"),
     _a("heat_tri_work", "heat", STATE, "real", ["E if heat else 1"], "J/m",
        "thermal work on each triangle: the change of its strain energy as its thermal strain changed"),
     _a("heat_adj", "heat", MODEL, "i32", ["N + 1 + HA if heat else 1"], "-",
@@ -272,8 +274,18 @@ ARRAYS: tuple = (
        "heat boundary rows: kind (0 held temperature, 1 flux), node i, node j, curve start, curve count"),
     _a("heat_row_val", "heat", MODEL, "real vec2", ["HR"], "K or W/m², m",
        "the rows' values: held temperature or flux, and the length each node of a flux edge takes"),
-    _a("heat_real", "heat", STATE, "real", ["4"], "s, s, -, -",
-       "time of the last heat update, heat step, sub-steps per mechanical step, mechanical steps per update"),
+    _a("heat_real", "heat", STATE, "real", ["5"], "s, s, -, -, s",
+       "time of the last heat update, heat step, sub-steps per update, mechanical steps per update, stable heat "
+       "step with the contacts of the last update"),
+    _a("heat_cpl", "heat", SCRATCH, "real vec7", ["C if heat_contact else 1"], "W/(m·K), -",
+       "contact conductance G of each couple and the weights of its contact point on the nodes of its two "
+       "triangles (engine.heat.contact_conductance)"),
+    _a("heat_cpl_tri", "heat", SCRATCH, "i32 vec2", ["C if heat_contact else 1"], "-",
+       "the two triangles of each couple, as the heat's contact lists read them"),
+    _a("heat_ct", "heat", SCRATCH, "i32", ["2 * E + 1 + 2 * C if heat_contact else 1"], "-",
+       "each triangle's list of conducting contacts: E + 1 starts, E cursors, then the entries 2 c + side"),
+    _a("heat_tri_q", "heat", SCRATCH, "real vec3", ["E if heat_contact else 1"], "W/m",
+       "heat flowing through contacts into each triangle's nodes over the current heat step"),
     _a("heat_int", "heat", STATE, "i32", ["2"], "-", "mechanical steps since the last heat update, heat updates"),
     # ---- host arrays of the model (NumPy) ---------------------------------------------------
     _a("node_rest", "", HOST, "f64", ["N", "2"], "m", "rest (initial) node positions X"),

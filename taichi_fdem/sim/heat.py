@@ -13,20 +13,11 @@ import math
 
 import numpy as np
 
-from ..engine.heat import ADJ_FLUX, ADJ_HELD, ADJ_JOINT, ADJ_TRI, ROW_FLUX, ROW_TEMPERATURE
+from ..engine.heat import (ADJ_FLUX, ADJ_HELD, ADJ_JOINT, ADJ_TRI, CONTACT_OVERLAP_REF, JOINT_CONDUCTANCE_FACTOR,
+                           ROW_FLUX, ROW_TEMPERATURE)
 
 __all__ = ["build_heat", "heat_state_values", "JOINT_CONDUCTANCE_FACTOR", "CONTACT_OVERLAP_REF",
            "effective_expansion"]
-
-#: conductance of an intact joint per unit length, in units of k̄ / h̄ (k̄ the harmonic mean of
-#: the conductivities of its two triangles, h̄ the smaller of their smallest altitudes): large
-#: against the elements' own, so an intact joint's thermal resistance is about 1 % of theirs
-#: (docs/theory/heat.md §16.4)
-JOINT_CONDUCTANCE_FACTOR = 100.0
-#: overlap of the faces of a broken joint, in units of its rest length, at which it conducts as
-#: an intact one (docs/theory/heat.md §16.4)
-CONTACT_OVERLAP_REF = 1.0e-3
-
 
 def _thermal_fields(materials, where: str) -> tuple:
     """(conductivity, heat capacity, expansion) per material; ValueError naming a material
@@ -189,7 +180,7 @@ def build_heat(md, scene, X, tris, materials, tri_mat, area0, altitude, joints, 
     md.heat = bool(getattr(scene, "_temperature", None) is not None or getattr(scene, "_heat", []))
     md.heat_row_count, md.heat_adj_count, md.dt_heat = 0, 0, math.inf
     if not md.heat:
-        return {"heat_node": np.zeros((1, 2)), "heat_tri": np.zeros((1, 9)), "heat_adj": np.zeros(1, np.int32),
+        return {"heat_node": np.zeros((1, 3)), "heat_tri": np.zeros((1, 11)), "heat_adj": np.zeros(1, np.int32),
                 "heat_joint": np.zeros((1, 2)), "heat_rows": np.zeros((1, 5), np.int32),
                 "heat_row_val": np.zeros((1, 2))}
     N = len(X)
@@ -206,18 +197,22 @@ def build_heat(md, scene, X, tris, materials, tri_mat, area0, altitude, joints, 
     rows, vals = _heat_rows(scene, md.bodies, X, curves, boundary_edges)
     md.heat_rows_list = rows
     md.heat_temp0, md.heat_capacity_np, md.heat_conductivity_np = T0, cap, kt
-    md.dt_heat = _stable_heat_step(N, tris, Ke, cap, joint_nodes[: md.joint_count] if md.fracture else None, G)
+    row = _row_sums(N, tris, Ke, joint_nodes[: md.joint_count] if md.fracture else None, G)
+    ok = row > 0
+    md.dt_heat = float(np.min(cap[ok] / row[ok])) if np.any(ok) else math.inf
     adj = _node_lists(N, tris, joint_nodes[: md.joint_count] if md.fracture else np.zeros((0, 4), np.int32), rows)
     md.heat_adj_count = len(adj) - N - 1
     md.heat_row_count = len(rows)
     table, val = _row_table(rows, vals, curves)
-    return {"heat_node": np.stack([cap, T0], axis=1),
-            "heat_tri": np.concatenate([Ke, _expansion_tensors(md, scene, materials, tri_mat)], axis=1),
+    return {"heat_node": np.stack([cap, T0, row], axis=1),
+            "heat_tri": np.concatenate([Ke, _expansion_tensors(md, scene, materials, tri_mat), kt[:, None],
+                                        altitude[:, None]], axis=1),
             "heat_adj": adj, "heat_joint": G, "heat_rows": table, "heat_row_val": val}
 
 
-def _stable_heat_step(N, tris, Ke, cap, joint_nodes, G) -> float:
-    """Δt_h = min_i C_i / Σ_j |K_ij| (Gershgorin, docs/theory/heat.md §16.3), joints at G₀."""
+def _row_sums(N, tris, Ke, joint_nodes, G) -> np.ndarray:
+    """Σ_j |K_ij| of each node over its triangles and joints (joints at G₀): the stable heat
+    step is Δt_h = min_i C_i / Σ_j |K_ij| (Gershgorin, docs/theory/heat.md §16.3)."""
     row = np.zeros(N)
     full = np.abs(np.stack([Ke[:, 0], Ke[:, 3], Ke[:, 5], Ke[:, 3], Ke[:, 1], Ke[:, 4], Ke[:, 5], Ke[:, 4],
                             Ke[:, 2]], axis=1)).reshape(-1, 3, 3).sum(axis=2)
@@ -225,8 +220,7 @@ def _stable_heat_step(N, tris, Ke, cap, joint_nodes, G) -> float:
     if joint_nodes is not None and len(joint_nodes):
         g = np.repeat(2.0 * G[: len(joint_nodes), 0], 4)       # |G| on the diagonal and off it
         np.add.at(row, joint_nodes.ravel(), g)
-    ok = row > 0
-    return float(np.min(cap[ok] / row[ok])) if np.any(ok) else math.inf
+    return row
 
 
 def heat_state_values(md) -> dict:

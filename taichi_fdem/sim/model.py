@@ -349,6 +349,7 @@ def _model_sizes(md, values: dict, materials: int, groups: int) -> dict:
             "R": len(md.fluid_real0), "bc": md.has_bc, "damping": md.damping, "prestress": md.prestress,
             "joint_prestress": md.joint_prestress, "contact": md.contact, "friction": md.friction,
             "fracture": md.fracture, "fluid": md.fluid, "bedding": md.bedding, "heat": md.heat,
+            "heat_contact": md.heat and md.contact,
             "HA": max(md.heat_adj_count, 1), "HR": max(md.heat_row_count, 1)}
 
 

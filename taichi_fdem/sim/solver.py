@@ -30,7 +30,7 @@ import numpy as np
 
 from ..engine import heat as heat_kernels, step as kernels
 from ..engine.groups import DETECTIONS, DT, FORCE_BLOCKS, FOUND, MAX_FORCE_BLOCKS, REBALANCE, TIME
-from ..engine.heat import H_DT, H_EVERY, H_SINCE, H_SUB, H_TIME, H_UPDATES
+from ..engine.heat import H_DT, H_DT_CONTACT, H_EVERY, H_SINCE, H_SUB, H_TIME, H_UPDATES
 from . import guards
 from .model import counter, set_counter
 from .team import TeamScheduler
@@ -111,24 +111,36 @@ class HeatCoupling:
 
     def update(self) -> None:
         """Advance the temperatures over the mechanical steps since the last update, then write
-        the triangles' thermal strains."""
+        the triangles' thermal strains.  With contact, the conducting contacts are found first
+        at the current positions, and the heat steps are short enough for them too."""
         sim = self._sim
         st, md = sim.state, sim.model
         hi = st.heat_int.to_numpy()
         dt_mech = counter(st.step_real, DT)
         span = int(hi[H_SINCE]) * dt_mech
         if span > 0.0:
-            m = max(1, int(math.ceil(span / md.dt_heat * (1.0 + 1e-12)))) if math.isfinite(md.dt_heat) else 1
+            p = sim._packs
+            contact = bool(md.contact)
+            if contact:
+                sim._launch_cached("heat_contacts", heat_kernels.heat_contacts, p["nodes"], p["tris"], p["contact"],
+                                   p["step"], p["heat"])
             hr = st.heat_real.to_numpy()
+            dt_heat = md.dt_heat
+            if contact and hr[H_DT_CONTACT] > 0.0:
+                dt_heat = min(dt_heat, float(hr[H_DT_CONTACT]))
+            m = max(1, int(math.ceil(span / dt_heat * (1.0 + 1e-12)))) if math.isfinite(dt_heat) else 1
             hr[H_TIME] = counter(st.step_real, TIME) - span
             hr[H_DT] = span / m
             hr[H_SUB] = m
             hr[H_EVERY] = hi[H_SINCE]
             st.heat_real.from_numpy(hr)
-            p = sim._packs
-            for _ in range(m):
+            k = heat_kernels.HEAT_STEPS_PER_LAUNCH
+            for _ in range(m // k):
+                sim._launch_cached("heat_substeps", heat_kernels.heat_substeps, p["nodes"], p["tris"], p["joints"],
+                                   p["heat"], contact)
+            for _ in range(m % k):
                 sim._launch_cached("heat_substep", heat_kernels.heat_substep, p["nodes"], p["tris"], p["joints"],
-                                   p["heat"])
+                                   p["heat"], contact)
             self.thermal_strain()
         hi[H_SINCE] = 0
         hi[H_UPDATES] += 1

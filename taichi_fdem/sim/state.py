@@ -137,7 +137,7 @@ def allocate_scratch(md: Model, st: State, parallel: bool = False, blocks: bool 
 def size_couple_scratch(md: Model, st: State, sw: Scratch) -> None:
     """Reallocate (zero) the scratch sized by the couple buffer: the certificates, the
     previous-couple copies that carry friction history over, and the assembly arrays."""
-    allocate(sw, SCRATCH, scratch_sizes(md, st, sw), names=("couple_skip", "det_old_b", "det_old_hist"))
+    allocate(sw, SCRATCH, scratch_sizes(md, st, sw), names=("couple_skip", "det_old_b", "det_old_hist", "heat_cpl", "heat_cpl_tri", "heat_ct"))
     size_assembly(md, st, sw)
 
 
