@@ -17,7 +17,7 @@ LAYERS = [
     ("guards", "energies", "cracks", "ae", "results", "recorders", "outputs", "settings", "profiling", "excavation", "team",
      "solver",
      "simulation"),
-    ("scene",),
+    ("records", "scene"),
     ("render", "io", "cli", "sweep", "verification", "lab", "__init__"),
 ]
 
