@@ -13,11 +13,11 @@ PKG = pathlib.Path(__file__).resolve().parent.parent / "taichi_fdem"
 LAYERS = [
     ("backend", "material", "elasticity", "mesh", "discontinuity"),
     ("engine",),
-    ("timestep", "arrays", "views", "fluid", "heat", "topology", "model", "state", "motion"),
+    ("timestep", "arrays", "views", "selection", "fluid", "heat", "topology", "model", "state", "motion"),
     ("guards", "energies", "cracks", "ae", "results", "recorders", "outputs", "settings", "profiling", "excavation", "team",
      "solver",
      "simulation"),
-    ("scene",),
+    ("records", "scene"),
     ("render", "io", "cli", "sweep", "verification", "lab", "__init__"),
 ]
 

@@ -278,3 +278,44 @@ def test_checkpoint_without_parameter_slots_loads(tmp_path):
     a.step(50)
     b.step(50)
     np.testing.assert_array_equal(a.state.node_x.to_numpy(), b.state.node_x.to_numpy())
+
+
+def test_checkpoint_naming_the_records_under_scene_loads(tmp_path, monkeypatch):
+    """Checkpoints pickled Body, Curve and the records of constraints, loads, initial stress, fluid
+    and heat under ``taichi_fdem.scene`` before they moved to ``taichi_fdem.records``; such a
+    checkpoint loads (scene.py re-exports them) and continues as the saved run."""
+    from taichi_fdem import records
+    floor = fdem.Material(density=1000.0, young=2e7, poisson=0.3, friction=0.5)
+    scene = fdem.Scene(gravity=(0.0, -9.81))
+    fl = scene.add_body(fdem.mesh.rectangle(0.4, 0.05, 0.05), floor, position=(0.0, -0.025), name="floor")
+    scene.add_body(fdem.mesh.rectangle(0.1, 0.1, 0.05), floor, position=(0.0, 0.0501), name="block")
+    scene.fix_nodes(lambda x, y: y < -0.049, body=fl, curve=fdem.Curve.ramp(1e-3))
+    scene.apply_force(lambda x, y: y > 0.1, (0.0, -5.0), curve=fdem.Curve([0.0, 1e-3], [1.0, 2.0], name="up"))
+    a = scene.build(strategy="serial")
+    a.step(60)
+    path, old = tmp_path / "new.ckpt", tmp_path / "old.ckpt"
+    a.save(path)
+    with np.load(path) as z:
+        data = {k: z[k] for k in z.files}
+    assert b"taichi_fdem.records" in data["scene"].tobytes()
+    bundle = pickle.loads(data["scene"].tobytes())
+    extra = [records._HeatSpec(None, None, 20.0, None, fdem.Curve.ramp(1.0)),
+             records._FluidSpec(fdem.Fluid(bulk_modulus=1e8), 1e-5, None, 0.0, "broken"),
+             records._Injection(None, 1e-3, None), records._InitialStress(None, np.ones(3), np.zeros(3), 0.0)]
+    moved = [c for c in vars(records).values() if isinstance(c, type) and c.__module__ == records.__name__]
+    assert {c.__name__ for c in moved} >= {"Body", "Curve", "_NodeConstraint", "_Load", "_HeatSpec", "_FluidSpec"}
+    with monkeypatch.context() as m:                # pickle them as the earlier versions did
+        for c in moved:
+            m.setattr(c, "__module__", "taichi_fdem.scene")
+        data["scene"] = np.frombuffer(pickle.dumps(bundle, protocol=pickle.HIGHEST_PROTOCOL), dtype=np.uint8)
+        extra_bytes = pickle.dumps(extra)
+    assert b"taichi_fdem.records" not in data["scene"].tobytes() + extra_bytes
+    assert [type(r) for r in pickle.loads(extra_bytes)] == [type(r) for r in extra]
+    assert pickle.loads(extra_bytes)[0].curve == extra[0].curve
+    with open(old, "wb") as fh:
+        np.savez(fh, **data)
+    b = fdem.Simulation.load(old)
+    assert type(b.bodies[0]) is records.Body and b.scene._loads[0].curve.name == "up"
+    a.step(40)
+    b.step(40)
+    np.testing.assert_array_equal(a.state.node_x.to_numpy(), b.state.node_x.to_numpy())

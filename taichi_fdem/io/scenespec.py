@@ -142,7 +142,7 @@ class SceneSpec:
     _checker: Any = field(default=None, repr=False)
 
     def curve(self, name: str | None):
-        """The :class:`~taichi_fdem.scene.Curve` of ``[curves.NAME]`` (None for None)."""
+        """The :class:`~taichi_fdem.records.Curve` of ``[curves.NAME]`` (None for None)."""
         if name is None:
             return None
         from ..scene import Curve

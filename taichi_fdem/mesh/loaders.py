@@ -347,7 +347,7 @@ def scene_from_groups(scene, path, materials, key: str | None = None, **add_body
 
     Returns
     -------
-    dict group -> :class:`~taichi_fdem.scene.Body`, in increasing tag order.
+    dict group -> :class:`~taichi_fdem.records.Body`, in increasing tag order.
     """
     from ..material import Material
 

@@ -127,7 +127,7 @@ class RendererImage(_Overlays):
     stamp : bool
         Write ``t = 0.0123 s  step 4567`` at the top-left.
     follow : Body or None
-        A :class:`~taichi_fdem.scene.Body`; the camera is centred on the body's node
+        A :class:`~taichi_fdem.records.Body`; the camera is centred on the body's node
         centroid every frame and shows ``follow_width`` metres horizontally (overrides
         ``view``).
     follow_width : float or None

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..engine.heat import (ADJ_FLUX, ADJ_HELD, ADJ_JOINT, ADJ_TRI, CONTACT_OVERLAP_REF, JOINT_CONDUCTANCE_FACTOR,
                            ROW_FLUX, ROW_TEMPERATURE)
+from .selection import select
 
 __all__ = ["build_heat", "heat_state_values", "JOINT_CONDUCTANCE_FACTOR", "CONTACT_OVERLAP_REF",
            "effective_expansion"]
@@ -91,33 +92,17 @@ def _heat_rows(scene, bodies, X, curves, boundary_edges) -> tuple:
     ``boundary_edges(body)``: (local triangle, local edge) of its boundary edges."""
     rows, vals = [], []
     for k, spec in enumerate(getattr(scene, "_heat", [])):
-        what = f"Scene.heat #{k}"
-        sel = np.asarray(spec.where(X[:, 0].copy(), X[:, 1].copy()), dtype=bool)
-        if sel.shape != (len(X),):
-            raise ValueError(f"{what}: where(x, y) must return a boolean array of shape ({len(X)},)")
+        held = spec.temperature is not None
+        picked = select(spec.where, spec.body, bodies, X, f"Scene.heat #{k}", None if held else boundary_edges)
         c = curves.add(spec.curve)
-        n0 = len(rows)
-        for b in bodies:
-            if spec.body is not None and spec.body.index != b.index:
+        for _, ni, nj, _ in picked:
+            if held:
+                rows += [(ROW_TEMPERATURE, int(i), -1, c) for i in ni]
+                vals += [(spec.temperature, 0.0)] * len(ni)
                 continue
-            if spec.temperature is not None:
-                nodes = np.nonzero(sel[b.nodes])[0] + b.node_start
-                rows += [(ROW_TEMPERATURE, int(i), -1, c) for i in nodes]
-                vals += [(spec.temperature, 0.0)] * len(nodes)
-                continue
-            t, e = boundary_edges(b)
-            tri = b.mesh.triangles
-            ni = tri[t, e] + b.node_start
-            nj = tri[t, (e + 1) % 3] + b.node_start
-            on = sel[ni] & sel[nj]
-            for i, j in zip(ni[on], nj[on]):
+            for i, j in zip(ni, nj):
                 rows.append((ROW_FLUX, int(i), int(j), c))
                 vals.append((spec.flux, 0.5 * float(np.linalg.norm(X[j] - X[i]))))
-        if len(rows) == n0:
-            raise ValueError(f"{what}: the predicate selects no {'node' if spec.temperature is not None else 'boundary edge'}"
-                             f"{' of ' + spec.body.name if spec.body is not None else ''}"
-                             f"{'' if spec.temperature is not None else ' (an edge needs both its nodes selected)'}"
-                             " (initial coordinates)")
     return rows, vals
 
 

@@ -28,6 +28,7 @@ from . import fluid as fluid_net, heat, timestep
 from .arrays import Counters, allocate, check_host, counter, host_write, set_counter
 from ..engine.arrays import MODEL, SCRATCH, STATE, declared
 from .topology import bonds
+from .selection import select
 from ..engine.joints import HANDOVER_DAMAGE
 from ..engine.loads import LOAD_ABSORB, LOAD_FORCE, LOAD_PRESSURE, LOAD_TRACTION, LOAD_VELOCITY
 
@@ -500,26 +501,15 @@ def _load_table(scene, bodies, X, mass, dt, curves, free, vbc_raw, vcurve):
     dash = np.zeros(len(X))                     # Σ ρ c_p L/2 of the dashpots at each node
     for k, ld in enumerate(getattr(scene, "_loads", [])):
         what = f"Scene.{'absorbing_boundary' if ld.kind == 'absorbing' else 'apply_' + ld.kind} #{k}"
-        sel = np.asarray(ld.where(X[:, 0].copy(), X[:, 1].copy()), dtype=bool)
-        if sel.shape != (len(X),):
-            raise ValueError(f"{what}: where(x, y) must return a boolean array of shape ({len(X)},)")
-        c = curves.add(ld.curve)
         kind = kinds[ld.kind]
+        picked = select(ld.where, ld.body, bodies, X, what, None if kind == LOAD_FORCE else _boundary_edges)
+        c = curves.add(ld.curve)
         n0 = len(rows)
-        for b in bodies:
-            if ld.body is not None and ld.body.index != b.index:
-                continue
+        for b, ni, nj, t in picked:
             if kind == LOAD_FORCE:
-                nodes = np.nonzero(sel[b.nodes])[0] + b.node_start
-                rows += [(kind, int(i), -1, c) for i in nodes]
-                vals += [(ld.value[0], ld.value[1], 0.0, 0.0)] * len(nodes)
+                rows += [(kind, int(i), -1, c) for i in ni]
+                vals += [(ld.value[0], ld.value[1], 0.0, 0.0)] * len(ni)
                 continue
-            t, e = _boundary_edges(b)
-            tri = b.mesh.triangles
-            ni = tri[t, e] + b.node_start
-            nj = tri[t, (e + 1) % 3] + b.node_start
-            on = sel[ni] & sel[nj]
-            ni, nj, t = ni[on], nj[on], t[on]
             L0 = np.linalg.norm(X[nj] - X[ni], axis=1)
             bmats, tmat = _body_materials(b), _tri_material(b)
             for i, j, l0, te in zip(ni, nj, L0, t):
@@ -534,11 +524,6 @@ def _load_table(scene, bodies, X, mass, dt, curves, free, vbc_raw, vcurve):
                     vals.append((zp, math.sqrt(m.shear_modulus * m.density), 0.0, 0.0))
                     dash[i] += 0.5 * zp * l0
                     dash[j] += 0.5 * zp * l0
-        if len(rows) == n0:
-            raise ValueError(f"{what}: the predicate selects no {'node' if kind == LOAD_FORCE else 'boundary edge'}"
-                             f"{' of ' + ld.body.name if ld.body is not None else ''}"
-                             f"{'' if kind == LOAD_FORCE else ' (an edge needs both its nodes selected)'}"
-                             " (initial coordinates)")
         if not np.all(np.isfinite(vals[n0:])):
             raise ValueError(f"{what}: the load is not finite")
     md_dash = float(np.max(dash / mass)) if np.any(dash > 0) else 0.0
