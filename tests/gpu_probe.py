@@ -82,12 +82,18 @@ def _top_edge(x, y):
     return y > 0.1 - 1e-9
 
 
+def _warm_block(x, y):
+    return np.where(x > 0.1 + 1e-6, 120.0, 20.0)
+
+
 def heat_scene():
     rock = fdem.Material(density=2700.0, young=1e8, poisson=0.25, tensile_strength=3e5, cohesion=9e5,
                          fracture_energy=1.0, conductivity=3.0, heat_capacity=800.0, expansion=1e-5)
     scene = fdem.Scene(gravity=(0.0, 0.0))
-    scene.add_body(fdem.mesh.rectangle(0.2, 0.2, 0.05), rock, fracture=True)
-    scene.set_temperature(20.0)
+    scene.add_body(fdem.mesh.rectangle(0.2, 0.2, 0.05), rock, fracture=True, velocity=(2.0, 0.0))
+    # a warm block the rock runs into: contact conduction
+    scene.add_body(fdem.mesh.rectangle(0.05, 0.2, 0.05, origin=(0.1, -0.1)), rock, fixed=True)
+    scene.set_temperature(_warm_block)
     scene.heat(_hot_edge, temperature=220.0, curve=fdem.Curve.ramp(1e-4))
     scene.heat(_top_edge, flux=1e6)
     return scene
