@@ -71,6 +71,13 @@ SERIAL_FLUID_MEMBERS = (NODE_MEMBERS + TRI_MEMBERS + MAT_MEMBERS + CONTACT_MEMBE
                         + STEP_MEMBERS + FLUID_MEMBERS)
 SerialFluidGroup = _group(*SERIAL_FLUID_MEMBERS)
 
+# The heat's kernels (engine.heat: the heat steps and the contacts' conductances) take the few
+# arrays of the other groups they read and the heat group as ONE argpack, passed as each group:
+# a launch's cost grows with its arrays, and the heat steps are launched often
+HEAT_STEP_MEMBERS = ("node_x", "curve_points", "tri_nodes", "tri_intact", "couple_a", "couple_b", "joint_nodes",
+                     "joint_state", "joint_zmax", "step_int") + HEAT_MEMBERS
+HeatStepGroup = _group(*HEAT_STEP_MEMBERS)
+
 # The team launch of the parallel strategy (engine.step.run_steps_blocks) takes every group but
 # the slot lists of the assembly, detection included, as ONE argpack: seven argpacks would cost
 # seven leaves more than the 64 Taichi allows (LEAVES_TEAM).  Its members keep their names, so

@@ -35,7 +35,7 @@ import taichi as ti
 from .contact import barycentric, boxes_overlap, edge_integrals
 from .elastic import tri_strain_energy
 from .groups import COUPLES, NB_PAIRS
-from .groups import ContactGroup, HeatGroup, JointGroup, MaterialGroup, NodeGroup, StepGroup, TriGroup
+from .groups import HeatGroup, HeatStepGroup, MaterialGroup, NodeGroup, StepGroup, TriGroup
 from .loads import curve_value
 from .tiutil import vec2, vec3
 
@@ -157,22 +157,17 @@ def heat_step(nodes: ti.template(), tris: ti.template(), joints: ti.template(), 
         heat.heat_real[H_TIME] = heat.heat_real[H_TIME] + heat.heat_real[H_DT]
 
 
-@ti.kernel
-def heat_substep(nodes: NodeGroup, tris: TriGroup, joints: JointGroup, heat: HeatGroup, contact: ti.template()):
-    """One heat step (:func:`heat_step`), its loops in parallel."""
-    heat_step(nodes, tris, joints, heat, contact)
-
-
-#: heat steps per launch of :func:`heat_substeps`
+#: the most heat steps one launch of :func:`heat_substeps` runs
 HEAT_STEPS_PER_LAUNCH = 8
 
 
 @ti.kernel
-def heat_substeps(nodes: NodeGroup, tris: TriGroup, joints: JointGroup, heat: HeatGroup, contact: ti.template()):
-    """:data:`HEAT_STEPS_PER_LAUNCH` heat steps (:func:`heat_step`) in one launch: the loops of each
-    are the same parallel loops as :func:`heat_substep`'s, hence the same bits, for fewer launches."""
-    for _ in ti.static(range(HEAT_STEPS_PER_LAUNCH)):
-        heat_step(nodes, tris, joints, heat, contact)
+def heat_substeps(h: HeatStepGroup, contact: ti.template(), k: ti.template()):
+    """``k`` heat steps (:func:`heat_step`) in one launch, ``h`` serving as every group: the loops
+    of each are the same parallel loops whatever ``k``, hence the same bits for any split of the
+    steps into launches (k = 1, 2, 4, :data:`HEAT_STEPS_PER_LAUNCH`)."""
+    for _ in ti.static(range(k)):
+        heat_step(h, h, h, h, contact)
 
 
 @ti.func
@@ -347,8 +342,9 @@ def contact_row(i, tris: ti.template(), heat: ti.template()):
     return row
 
 
-@ti.kernel
-def heat_contacts(nodes: NodeGroup, tris: TriGroup, contact: ContactGroup, step: StepGroup, heat: HeatGroup):
+@ti.func
+def find_contacts(nodes: ti.template(), tris: ti.template(), contact: ti.template(), step: ti.template(),
+                  heat: ti.template()):
     """The conducting contacts at the current positions (module docstring): each couple's
     conductance and contact point (:func:`contact_conductance`; none for the neighbour pairs,
     which conduct through their joints, nor for excavated triangles), each triangle's sorted
@@ -392,3 +388,10 @@ def heat_contacts(nodes: NodeGroup, tris: TriGroup, contact: ContactGroup, step:
             if d > 0.0 and (dt < 0.0 or d < dt):
                 dt = d
         heat.heat_real[H_DT_CONTACT] = dt
+
+
+@ti.kernel
+def heat_contacts(h: HeatStepGroup):
+    """The conducting contacts and the stable heat step with them (:func:`find_contacts`); ``h``
+    serves as every group."""
+    find_contacts(h, h, h, h, h)

@@ -65,6 +65,14 @@ class FluidCoupling:
         return (packs["fluid"],)
 
 
+def _heat_launches(m: int) -> list:
+    """The heat steps of each launch for ``m`` steps: :data:`~taichi_fdem.engine.heat.HEAT_STEPS_PER_LAUNCH`
+    while at least that many remain, then the binary digits of the rest (13 → 8, 4, 1)."""
+    k = heat_kernels.HEAT_STEPS_PER_LAUNCH
+    rest = m % k
+    return [k] * (m // k) + [b for b in (4, 2, 1) if b < k and rest & b]
+
+
 class HeatCoupling:
     """Heat conduction as a sub-solver between mechanical launches (:mod:`taichi_fdem.engine.heat`,
     docs/theory/heat.md §16): every n = :meth:`every` mechanical steps it advances the temperatures over
@@ -80,12 +88,12 @@ class HeatCoupling:
     @property
     def time(self) -> float:
         """The time [s] the temperatures are at: the end of the last heat update."""
-        return float(self._sim.state.heat_real.to_numpy()[H_TIME])
+        return counter(self._sim.state.heat_real, H_TIME)
 
     @property
     def updates(self) -> int:
         """Heat updates so far."""
-        return int(self._sim.state.heat_int.to_numpy()[H_UPDATES])
+        return counter(self._sim.state.heat_int, H_UPDATES)
 
     def every(self) -> int:
         """Mechanical steps per heat update: ⌊Δt_h / Δt⌋, at least 1 and at most
@@ -97,54 +105,45 @@ class HeatCoupling:
 
     def steps_to_update(self) -> int:
         """Mechanical steps until the next heat update (at least 1)."""
-        since = int(self._sim.state.heat_int.to_numpy()[H_SINCE])
-        return max(1, self.every() - since)
+        return max(1, self.every() - counter(self._sim.state.heat_int, H_SINCE))
 
     def after_steps(self, k: int) -> None:
         """Book ``k`` mechanical steps; update the heat when an interval is complete."""
-        st = self._sim.state
-        hi = st.heat_int.to_numpy()
-        hi[H_SINCE] += k
-        st.heat_int.from_numpy(hi)
-        if hi[H_SINCE] >= self.every():
+        hi = self._sim.state.heat_int
+        since = counter(hi, H_SINCE) + k
+        set_counter(hi, H_SINCE, since)
+        if since >= self.every():
             self.update()
 
     def update(self) -> None:
         """Advance the temperatures over the mechanical steps since the last update, then write
         the triangles' thermal strains.  With contact, the conducting contacts are found first
-        at the current positions, and the heat steps are short enough for them too."""
+        at the current positions, and the heat steps are short enough for them too.  (The
+        schedule's counters are read and written element by element: a whole-array copy costs
+        a launch.)"""
         sim = self._sim
         st, md = sim.state, sim.model
-        hi = st.heat_int.to_numpy()
-        dt_mech = counter(st.step_real, DT)
-        span = int(hi[H_SINCE]) * dt_mech
+        since = counter(st.heat_int, H_SINCE)
+        span = since * counter(st.step_real, DT)
         if span > 0.0:
             p = sim._packs
             contact = bool(md.contact)
-            if contact:
-                sim._launch_cached("heat_contacts", heat_kernels.heat_contacts, p["nodes"], p["tris"], p["contact"],
-                                   p["step"], p["heat"])
-            hr = st.heat_real.to_numpy()
             dt_heat = md.dt_heat
-            if contact and hr[H_DT_CONTACT] > 0.0:
-                dt_heat = min(dt_heat, float(hr[H_DT_CONTACT]))
+            if contact:
+                sim._launch_cached("heat_contacts", heat_kernels.heat_contacts, p["heat_step"])
+                dt_contact = counter(st.heat_real, H_DT_CONTACT)
+                if dt_contact > 0.0:
+                    dt_heat = min(dt_heat, dt_contact)
             m = max(1, int(math.ceil(span / dt_heat * (1.0 + 1e-12)))) if math.isfinite(dt_heat) else 1
-            hr[H_TIME] = counter(st.step_real, TIME) - span
-            hr[H_DT] = span / m
-            hr[H_SUB] = m
-            hr[H_EVERY] = hi[H_SINCE]
-            st.heat_real.from_numpy(hr)
-            k = heat_kernels.HEAT_STEPS_PER_LAUNCH
-            for _ in range(m // k):
-                sim._launch_cached("heat_substeps", heat_kernels.heat_substeps, p["nodes"], p["tris"], p["joints"],
-                                   p["heat"], contact)
-            for _ in range(m % k):
-                sim._launch_cached("heat_substep", heat_kernels.heat_substep, p["nodes"], p["tris"], p["joints"],
-                                   p["heat"], contact)
+            hr = st.heat_real
+            for slot, value in ((H_TIME, counter(st.step_real, TIME) - span), (H_DT, span / m), (H_SUB, m),
+                                (H_EVERY, since)):
+                set_counter(hr, slot, value)
+            for k in _heat_launches(m):
+                sim._launch_cached("heat_substeps", heat_kernels.heat_substeps, p["heat_step"], contact, k)
             self.thermal_strain()
-        hi[H_SINCE] = 0
-        hi[H_UPDATES] += 1
-        st.heat_int.from_numpy(hi)
+        set_counter(st.heat_int, H_SINCE, 0)
+        set_counter(st.heat_int, H_UPDATES, counter(st.heat_int, H_UPDATES) + 1)
 
     def thermal_strain(self) -> None:
         """Write each triangle's thermal strain from the temperatures (engine.heat), and book the

@@ -13,9 +13,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..engine.arrays import SCRATCH, STATE
-from ..engine.groups import (ASSEMBLY_MEMBERS, DACC_FORCE, FORCE_BLOCKS, GROUPS, SERIAL_FLUID_MEMBERS, SWITCH_BC,
-                             SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING, SWITCH_PRESTRESS, TEAM_CHUNK,
-                             TEAM_MEMBERS, SerialFluidGroup, TeamGroup)
+from ..engine.groups import (ASSEMBLY_MEMBERS, DACC_FORCE, FORCE_BLOCKS, GROUPS, HEAT_STEP_MEMBERS,
+                             SERIAL_FLUID_MEMBERS, SWITCH_BC, SWITCH_BC_WORK, SWITCH_CDAMPING, SWITCH_DAMPING,
+                             SWITCH_PRESTRESS, TEAM_CHUNK, TEAM_MEMBERS, HeatStepGroup, SerialFluidGroup, TeamGroup)
 from .arrays import allocate
 from .fluid import fluid_state_values
 from .heat import heat_state_values
@@ -172,6 +172,8 @@ def pack_groups(md: Model, st: State, sw: Scratch) -> dict:
             arrays[name] = arr
         packs[group] = ptype(**{name: arrays[name] for name in names})
     packs["team"] = TeamGroup(**{name: arrays[name] for name in TEAM_MEMBERS})
+    if getattr(md, "heat", False):
+        packs["heat_step"] = HeatStepGroup(**{name: arrays[name] for name in HEAT_STEP_MEMBERS})
     if getattr(md, "fluid", False):
         for name in SERIAL_FLUID_MEMBERS:
             if name not in arrays:
