@@ -10,11 +10,17 @@ of ``demos/calibrate_granite.py`` at its calibrated micro-parameters (grain modu
 c = 78 MPa, φ = 35°, G_I = 20 J/m², the joints inside the grains twice as strong; plane strain).
 Linear expansion coefficients α [1/K]: quartz 2.4e-5 (its mean up to 500 °C: quartz expands
 anisotropically, about 1.4e-5 along a and 0.8e-5 along c at room temperature, and faster
-towards the α–β transition at 573 °C), plagioclase 0.5e-5, K-feldspar 0.8e-5, biotite 1.2e-5:
-representative values of the mineral data compiled by Skinner (1966, "Thermal expansion", in
-Handbook of Physical Constants, Geol. Soc. Am. Memoir 97, 75–96); Fredrich & Wong (1986,
-"Micromechanics of thermally induced cracking in three crystalline rocks", J. Geophys. Res.
-91(B12), 12743–12764) analyse the thermal cracking of granite from such mismatches.
+towards the α–β transition at 573 °C: 1.365e-5 and 0.750e-5 at 25 °C in the review of
+Kosinski et al. 1992, "Thermoelasticity in quartz", ESA SP-340, 397),
+plagioclase 0.5e-5, K-feldspar 0.8e-5, biotite 1.2e-5, after the mineral data compiled by Skinner
+(1966, "Thermal expansion", in S.P. Clark (ed.), Handbook of Physical Constants, Geol. Soc. Am.
+Memoir 97, 75–96). The plagioclase value lies below the measurements of Tribaudino et al. (2010,
+"Thermal expansion of plagioclase feldspars", Contrib. Mineral. Petrol. 160, 899–908), whose
+volume expansion over 25–660 °C gives a mean linear 0.55e-5 (anorthite) to 0.97e-5 (albite),
+about 0.7e-5 for the An30 plagioclase of a granite: the demo's quartz–plagioclase mismatch is the
+larger for it. Fredrich & Wong (1986, "Micromechanics of thermally induced cracking in three crustal
+rocks", J. Geophys. Res. 91(B12), 12743–12764) analyse the thermal cracking of granite from such
+mismatches.
 Conductivities 7.7, 2.3, 2.3, 2.0 W/(m·K) (Clauser & Huenges 1995, "Thermal conductivity of
 rocks and minerals", AGU Reference Shelf 3, 105–126) and heat capacities 700–770 J/(kg·K),
 typical of silicate minerals at room temperature (they set the heat stored, not the stresses).
