@@ -35,6 +35,8 @@ H, W = 10.0, 24.0                       # slope height, base length [m]
 FACE, DIP1, DIP2 = 65.0, 40.0, 78.0     # face angle, J1 dip (out of the face), J2 dip (into the slope) [°]
 S1, S2 = 2.5, 3.0                       # joint spacings (normal to the joints) [m]
 MOVED = 0.1                             # displacement of a "moved" triangle [m]
+SIZE = {True: dict(h=1.2, duration=1.2, frames=12),     # element size [m], simulated time [s], video frames
+        False: dict(h=0.8, duration=3.0, frames=90)}
 
 
 def profile():
@@ -156,7 +158,7 @@ def build(short: bool):
     import taichi_fdem as fdem
     poly = profile()
     j1, j2, gap = joint_sets(poly)
-    h = 1.2 if short else 0.8
+    h = SIZE[short]["h"]
     lines = [fdem.mesh.Polyline(s, name=f"J1_{i}") for i, s in enumerate(j1)] + \
             [fdem.mesh.Polyline(s, name=f"J2_{i}") for i, s in enumerate(j2)]
     mesh = fdem.mesh.polygon(poly, h, lines=lines)
@@ -207,8 +209,7 @@ def main(argv=None) -> dict:
                              vmin=0.0, vmax=1.0 if args.short else 2.0, colorbar=not args.short, stamp=not args.short,
                              cracks=True, edge_width=0.5)
     e0 = sim.energies()
-    duration = 2.0 if args.short else 3.0
-    frames = 15 if args.short else 90
+    duration, frames = SIZE[args.short]["duration"], SIZE[args.short]["frames"]
     with VideoWriter(args.out, fps=10 if args.short else 30) as video:
         video.append(renderer.render_sim(sim))
         for _ in range(frames):
