@@ -210,10 +210,11 @@ def main(argv=None) -> dict:
                              cracks=True, edge_width=0.5)
     e0 = sim.energies()
     duration, frames = SIZE[args.short]["duration"], SIZE[args.short]["frames"]
+    every = max(1, round(duration / sim.dt / 200))                 # about 200 history rows over the run
     with VideoWriter(args.out, fps=10 if args.short else 30) as video:
         video.append(renderer.render_sim(sim))
         for _ in range(frames):
-            sim.run(duration / frames, record=[fdem.History(csv_path), fdem.CrackEvents(cracks_path)])
+            sim.run(duration / frames, record=[fdem.History(csv_path, every=every), fdem.CrackEvents(cracks_path)])
             video.append(renderer.render_sim(sim))
     e1 = sim.energies()
     released = e0["gravity"] - e1["gravity"]

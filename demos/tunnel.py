@@ -82,16 +82,17 @@ def main(argv=None) -> dict:
     frames = s["frames"]
     with VideoWriter(args.out, fps=10 if args.short else 30) as video:
         t_settle = p["t_ramp"] + s["settle"] * p["transit"]
+        t_after = s["after"] * p["transit"]
+        every = max(1, round((t_settle + t_after) / sim.dt / 200))     # about 200 history rows over the run
         for _ in range(frames // 2):
-            sim.run(t_settle / (frames // 2), record=[fdem.History(csv_path)])
+            sim.run(t_settle / (frames // 2), record=[fdem.History(csv_path, every=every)])
             video.append(renderer.render_sim(sim))
         broken_before = sim.cracks.broken_count
         damaged_before = int((sim.cracks.joint_damage() > 0.5).sum())
         u0 = sidewalls(sim, rock)
         removed = sim.remove(where=lambda x, y: x * x + y * y < A * A)
-        t_after = s["after"] * p["transit"]
         for _ in range(frames):
-            sim.run(t_after / frames, record=[fdem.History(csv_path)])
+            sim.run(t_after / frames, record=[fdem.History(csv_path, every=every)])
             video.append(renderer.render_sim(sim))
     closure = sidewalls(sim, rock) - u0
     mat = p["material"]
