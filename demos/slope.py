@@ -180,7 +180,7 @@ def build(short: bool):
     # friction springs stiffen those faces in shear, and the wedge's release depends on it: with
     # the default "joint" (the joints carry the contact's share of compression and strength,
     # not that stiffness) the joints spread their damage wider and the wedge stays on its
-    # partly damaged joints (short mode: 3 triangles moved, 15 joints broken, instead of 34 and
+    # partly damaged joints (2 s on the short mesh: 3 triangles moved, 15 joints broken, instead of 34 and
     # 21; measured)
     sim = scene.build(quasi_static=True, joined_pairs="contact")
     return sim, body, dict(poly=poly, j1=j1, j2=j2, h=h, mesh=mesh, gap=gap)
