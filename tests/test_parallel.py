@@ -54,28 +54,19 @@ def test_parallel_is_bit_identical_across_thread_counts(assembly, blocks):
     assert one == two
 
 
-def _fragment_run(strategy: str, assembly: str = "blocks"):
-    """(positions, broken joints, energies) of the fragmenting impact after 3 ms."""
-    from taichi_fdem.verification import fragment_plate_scene
-    sim, _ = fragment_plate_scene(h_plate=0.025, h_ball=0.02, friction=0.5)
-    sim = sim.scene.build(strategy=strategy)
-    sim.solver.assembly = assembly
-    sim.run(0.003, progress=False)
-    return sim.node_positions(), sim.cracks.broken_count, sim.energies()
-
-
-@pytest.fixture(scope="module")
-def serial_fragment_run():
-    """The serial strategy's run (the assembly is a setting of the parallel strategy only)."""
-    return _fragment_run("serial")
-
-
 @pytest.mark.parametrize("assembly", ["blocks", "slots"])
-def test_parallel_agrees_with_serial(assembly, serial_fragment_run):
+def test_parallel_agrees_with_serial(assembly):
     """Same fragmenting scene, both strategies: the same joints break, positions agree to
     round-off amplified by the fragmentation (a missing or doubled force would be O(1)), and so
     do the energy terms, friction work included (booked per block, or per couple)."""
-    out = {"serial": serial_fragment_run, "parallel": _fragment_run("parallel", assembly)}
+    out = {}
+    for strategy in ("serial", "parallel"):
+        from taichi_fdem.verification import fragment_plate_scene
+        sim, _ = fragment_plate_scene(h_plate=0.025, h_ball=0.02, friction=0.5)
+        sim = sim.scene.build(strategy=strategy)
+        sim.solver.assembly = assembly
+        sim.run(0.003, progress=False)
+        out[strategy] = (sim.node_positions(), sim.cracks.broken_count, sim.energies())
     xs, xp = out["serial"][0], out["parallel"][0]
     assert out["serial"][1] == out["parallel"][1]
     assert np.abs(xs - xp).max() <= 1e-5 * np.abs(xs).max()
