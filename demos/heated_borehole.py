@@ -208,10 +208,11 @@ def main(argv=None) -> dict:
     if os.path.exists(hist_path):
         os.remove(hist_path)
     rows = []
+    every = max(1, round(t_end / sim.dt / 200))          # about 200 history rows over the whole run
     with VideoWriter(args.out, fps=6 if args.short else 15) as video:
         for k, (n, t_a, t_b) in enumerate(((s["samples"][0], 0.0, t1), (s["samples"][1], t1, t_end))):
             for _ in range(n):
-                sim.run((t_b - t_a) / n, record=[fdem.History(hist_path)])
+                sim.run((t_b - t_a) / n, record=[fdem.History(hist_path, every=every)])
                 rj, Tj, D = joint_fields(sim)
                 rows.append((sim.time, int((D > 0).sum()), int((D > 0.5).sum()), sim.cracks.broken_count))
                 video.append(np.concatenate([r_T.render_sim(sim), r_D.render_sim(sim)], axis=1))

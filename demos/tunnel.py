@@ -28,20 +28,25 @@ import _common  # noqa: E402
 NAME = "tunnel"
 L, A = 2.0, 0.3                       # block size, tunnel radius [m]
 SV, SH = 0.15e6, 0.075e6              # in-situ stress [Pa, compression positive]
+# element size h [m], joint penalty [× E], the in-situ ramp, the settling after it and the run after
+# the excavation [P-wave transits of the block], video frames
+SIZE = {True: dict(h=0.2, penalty=30, ramp=4, settle=2, after=6, frames=20),
+        False: dict(h=0.08, penalty=10, ramp=10, settle=5, after=40, frames=60)}
 
 
 def build(short: bool):
     import numpy as np
     import taichi_fdem as fdem
     from taichi_fdem.verification import TRIAXIAL_MATERIAL, jointed_specimen_mesh
+    s = SIZE[short]
     mat = fdem.Material(**dict(TRIAXIAL_MATERIAL, fracture_energy=5.0, fracture_energy_shear=25.0,
-                               joint_penalty=(30 if short else 10) * TRIAXIAL_MATERIAL["young"]))
-    h = 0.2 if short else 0.08
+                               joint_penalty=s["penalty"] * TRIAXIAL_MATERIAL["young"]))
+    h = s["h"]
     scene = fdem.Scene(gravity=(0.0, 0.0))
     rock = scene.add_body(jointed_specimen_mesh(L, L, h), mat, fracture=True, name="rock")
     tol = 1e-6
     cp = mat.p_wave_speed("strain")
-    t_ramp = 10 * L / cp
+    t_ramp = s["ramp"] * L / cp
     ramp = fdem.Curve.ramp(t_ramp, name="in_situ")
     scene.fix_nodes(lambda x, y: x < -0.5 * L + tol, body=rock, velocity=(0.0, None))
     scene.fix_nodes(lambda x, y: y < -0.5 * L + tol, body=rock, velocity=(None, 0.0))
@@ -73,19 +78,21 @@ def main(argv=None) -> dict:
     os.makedirs(os.path.dirname(csv_path), exist_ok=True)
     if os.path.exists(csv_path):
         os.remove(csv_path)
-    frames = 20 if args.short else 60
+    s = SIZE[args.short]
+    frames = s["frames"]
     with VideoWriter(args.out, fps=10 if args.short else 30) as video:
-        t_settle = p["t_ramp"] + 5 * p["transit"]
+        t_settle = p["t_ramp"] + s["settle"] * p["transit"]
+        t_after = s["after"] * p["transit"]
+        every = max(1, round((t_settle + t_after) / sim.dt / 200))     # about 200 history rows over the run
         for _ in range(frames // 2):
-            sim.run(t_settle / (frames // 2), record=[fdem.History(csv_path)])
+            sim.run(t_settle / (frames // 2), record=[fdem.History(csv_path, every=every)])
             video.append(renderer.render_sim(sim))
         broken_before = sim.cracks.broken_count
         damaged_before = int((sim.cracks.joint_damage() > 0.5).sum())
         u0 = sidewalls(sim, rock)
         removed = sim.remove(where=lambda x, y: x * x + y * y < A * A)
-        t_after = (15 if args.short else 40) * p["transit"]
         for _ in range(frames):
-            sim.run(t_after / frames, record=[fdem.History(csv_path)])
+            sim.run(t_after / frames, record=[fdem.History(csv_path, every=every)])
             video.append(renderer.render_sim(sim))
     closure = sidewalls(sim, rock) - u0
     mat = p["material"]

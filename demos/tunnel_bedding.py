@@ -55,6 +55,10 @@ BEDDING = dict(tensile_strength=0.07e6, cohesion=0.1e6, friction_angle=20.0, fra
                fracture_energy_shear=15.0)
 CRACK = (0.85, 0.1, 0.1)              # colour of the broken joints
 VIEW = (-1.05, 1.05, -1.05, 1.05)
+# element size h and bedding-plane spacing [m], joint penalty [× E1], the in-situ ramp, the settling
+# after it and the run after the excavation [P-wave transits of the block], video frames
+SIZE = {True: dict(h=0.12, spacing=0.2, penalty=30, ramp=4, settle=2, after=6, frames=20),
+        False: dict(h=0.06, spacing=0.12, penalty=10, ramp=10, settle=5, after=40, frames=60)}
 
 
 def build(short: bool, bedded: bool):
@@ -62,10 +66,10 @@ def build(short: bool, bedded: bool):
     rock of the matrix's elasticity and strength on the same mesh."""
     import numpy as np
     import taichi_fdem as fdem
-    h = 0.12 if short else 0.06
-    spacing = 0.2 if short else 0.12
+    s = SIZE[short]
+    h, spacing = s["h"], s["spacing"]
     bed = fdem.Bedding(DIP, young_normal=E2, poisson_normal=NU21, shear_modulus=G2, spacing=spacing, **BEDDING)
-    mat = fdem.Material(**dict(MATRIX, joint_penalty=(30 if short else 10) * E1), bedding=bed if bedded else None)
+    mat = fdem.Material(**dict(MATRIX, joint_penalty=s["penalty"] * E1), bedding=bed if bedded else None)
     X = 0.5 * L
     outline = np.array([[-X, -X], [X, -X], [X, X], [-X, X]])
     mesh = fdem.mesh.polygon(outline, h, lines=[fdem.mesh.bedding_lines(outline, DIP, spacing)])
@@ -73,7 +77,7 @@ def build(short: bool, bedded: bool):
     rock = scene.add_body(mesh, mat, fracture=True, name="rock")
     tol = 1e-6
     cp = mat.p_wave_speed("strain")
-    t_ramp = 10 * L / cp
+    t_ramp = s["ramp"] * L / cp
     ramp = fdem.Curve.ramp(t_ramp, name="in_situ")
     scene.fix_nodes(lambda x, y: x < -X + tol, body=rock, velocity=(0.0, None))
     scene.fix_nodes(lambda x, y: y < -X + tol, body=rock, velocity=(None, 0.0))
@@ -126,8 +130,9 @@ def failed_joints(sim, rock) -> dict:
 def excavate(sim, rock, p, short, draw=None) -> dict:
     """Settle, excavate, relax: the numbers of one case; ``draw(sim)`` called at each frame."""
     import numpy as np
-    frames = 20 if short else 60
-    t_settle = p["t_ramp"] + 5 * p["transit"]
+    s = SIZE[short]
+    frames = s["frames"]
+    t_settle = p["t_ramp"] + s["settle"] * p["transit"]
     for _ in range(frames // 2):
         sim.run(t_settle / (frames // 2))
         if draw is not None:
@@ -135,7 +140,7 @@ def excavate(sim, rock, p, short, draw=None) -> dict:
     damaged_before = int((sim.cracks.joint_damage() > 0.5).sum())
     u0 = sidewalls(sim, rock)
     removed = sim.remove(where=lambda x, y: x * x + y * y < A * A)
-    t_after = (15 if short else 40) * p["transit"]
+    t_after = s["after"] * p["transit"]
     for _ in range(frames):
         sim.run(t_after / frames)
         if draw is not None:

@@ -19,6 +19,13 @@ import pytest
 import taichi_fdem as fdem
 from taichi_fdem.mesh import TriMesh
 
+# Taichi's offline cache keeps 100 MB of compiled kernels by default and evicts the least
+# recently used quarter beyond that.  The suite's kernels (every feature set, both strategies,
+# f32 and f64) can exceed that, and a run then recompiles what the previous one evicted: the
+# suite raises the limit to 1 GiB (Taichi reads any ti.init setting from TI_<NAME>; a value set
+# in the environment is kept, and the processes the tests start inherit it).
+os.environ.setdefault("TI_OFFLINE_CACHE_MAX_SIZE_OF_FILES", str(1 << 30))
+
 
 @pytest.fixture(scope="session", autouse=True)
 def fdem_session():

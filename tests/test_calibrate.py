@@ -230,17 +230,20 @@ def _rock(ft, c):
                              friction_angle=35.0, fracture_energy=LCH * ft * ft / 20e9)
 
 
-def _bts(ft, c):
-    """Brazilian strength (centre stress) of a 50 mm disc, 20 elements across, lab defaults."""
+def _bts(ft, c, across=20, samples=240):
+    """Brazilian strength (centre stress) of a 50 mm disc, ``across`` elements across, ``samples``
+    load samples (``fdem.lab.brazilian``'s setting), the other settings the lab defaults."""
     import warnings
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        return fdem.lab.brazilian(_rock(ft, c), 0.05, 0.05 / 20).centre_stress
+        return fdem.lab.brazilian(_rock(ft, c), 0.05, 0.05 / across, samples=samples).centre_stress
 
 
 def bts_of_ft(p):
+    """The Brazilian strength of a disc 16 elements across, the load sampled 80 times, at
+    f_t = p["tensile_strength"], c = 3 f_t."""
     ft = p["tensile_strength"]
-    return {"bts": _bts(ft, 3.0 * ft)}
+    return {"bts": _bts(ft, 3.0 * ft, across=16, samples=80)}
 
 
 def bts_and_ucs(p):
