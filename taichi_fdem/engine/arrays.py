@@ -255,7 +255,7 @@ ARRAYS: tuple = (
     # ---- heat conduction (engine.heat, docs/theory/heat.md) ----------------------------------
     _a("heat_temp", "heat", STATE, "real", ["N if heat else 1"], "K", "temperature of each node"),
     _a("heat_node", "heat", MODEL, "real vec3", ["N if heat else 1"], "J/(m·K), K, W/(m·K)",
-       "lumped heat capacity C_i = Σ ρ c A/3, initial (stress-free) temperature, and Σ_j |K_ij| of the "
+       "lumped heat capacity C_i = Σ ρ c A/3, initial (stress-free) temperature, and Σ_j abs(K_ij) of the "
        "triangles and joints (the stable heat step's bound) of each node"),
     _a("heat_supply", "heat", STATE, "real vec2", ["N if heat else 1"], "J/m",
        "heat supplied to each node so far: through fluxes, through its held temperature"),

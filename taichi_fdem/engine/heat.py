@@ -329,7 +329,7 @@ def sort_contacts(e, heat: ti.template()):
 
 @ti.func
 def contact_row(i, tris: ti.template(), heat: ti.template()):
-    """Σ_j |K_ij| of node i's contact terms: 2 G_c w_i,c over the contacts of its triangles."""
+    """Σ_j abs(K_ij) of node i's contact terms: 2 G_c w_i,c over the contacts of its triangles."""
     row = 0.0
     for k in range(heat.heat_adj[i], heat.heat_adj[i + 1]):
         code = heat.heat_adj[k]
@@ -349,7 +349,7 @@ def find_contacts(nodes: ti.template(), tris: ti.template(), contact: ti.templat
     conductance and contact point (:func:`contact_conductance`; none for the neighbour pairs,
     which conduct through their joints, nor for excavated triangles), each triangle's sorted
     list of the couples with G_c > 0 (heat_ct), and the stable heat step with them,
-    min_i C_i / (Σ_j |K_ij| + contact terms), into heat_real[H_DT_CONTACT]."""
+    min_i C_i / (Σ_j abs(K_ij) + contact terms), into heat_real[H_DT_CONTACT]."""
     E = tris.tri_nodes.shape[0]
     for e in range(E):
         heat.heat_ct[e] = 0

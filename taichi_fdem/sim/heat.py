@@ -196,8 +196,8 @@ def build_heat(md, scene, X, tris, materials, tri_mat, area0, altitude, joints, 
 
 
 def _row_sums(N, tris, Ke, joint_nodes, G) -> np.ndarray:
-    """Σ_j |K_ij| of each node over its triangles and joints (joints at G₀): the stable heat
-    step is Δt_h = min_i C_i / Σ_j |K_ij| (Gershgorin, docs/theory/heat.md §16.3)."""
+    """Σ_j abs(K_ij) of each node over its triangles and joints (joints at G₀): the stable heat
+    step is Δt_h = min_i C_i / Σ_j abs(K_ij) (Gershgorin, docs/theory/heat.md §16.3)."""
     row = np.zeros(N)
     full = np.abs(np.stack([Ke[:, 0], Ke[:, 3], Ke[:, 5], Ke[:, 3], Ke[:, 1], Ke[:, 4], Ke[:, 5], Ke[:, 4],
                             Ke[:, 2]], axis=1)).reshape(-1, 3, 3).sum(axis=2)
